@@ -1,0 +1,84 @@
+#include "core/atomic_file.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace bareskin {
+
+AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
+  const fs::path path(target_);
+  fs::path dir = path.parent_path();
+  if (dir.empty()) dir = ".";
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    throw IoError(target_, "output directory '" + dir.string() + "' does not exist", "create it or choose another output");
+  }
+  if (access(dir.c_str(), W_OK) != 0) {
+    throw IoError(target_, "output directory '" + dir.string() + "' is not writable", "check its permissions");
+  }
+  std::random_device rd;
+  temp_ = (dir / ("." + path.stem().string() + ".tmp" + std::to_string(getpid()) + "-" + std::to_string(rd() % 100000) +
+                  path.extension().string()))
+              .string();
+}
+
+AtomicFile::~AtomicFile() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove(temp_, ec);
+  }
+}
+
+void AtomicFile::commit() {
+  const int fd = ::open(temp_.c_str(), O_RDONLY);
+  if (fd < 0) throw IoError(target_, "the writer produced no file", "see the message before this one");
+  const bool synced = ::fsync(fd) == 0;
+  const int sync_errno = errno;
+  ::close(fd);
+  if (!synced) throw IoError(target_, std::string("cannot flush to disk: ") + std::strerror(sync_errno), "check free space");
+  if (std::rename(temp_.c_str(), target_.c_str()) != 0) {
+    throw IoError(target_, std::string("cannot rename temporary file into place: ") + std::strerror(errno), "");
+  }
+  committed_ = true;
+}
+
+void write_file_atomic(const std::string& path, const std::string& bytes) {
+  AtomicFile file(path);
+  {
+    std::ofstream out(file.temp_path(), std::ios::binary);
+    out.write(bytes.data(), std::streamsize(bytes.size()));
+    out.flush();
+    if (!out) throw IoError(path, "write failed", "check free disk space and permissions");
+  }
+  file.commit();
+}
+
+std::string read_file(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw IoError(path, "no such file", "check the path");
+  if (fs::is_directory(path, ec)) throw IoError(path, "is a directory, expected a file", "name a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path, std::string("cannot open: ") + std::strerror(errno), "check its permissions");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void make_directories(const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw IoError(dir, "cannot create directory: " + ec.message(), "check the path and permissions");
+}
+
+}  // namespace bareskin

@@ -1,0 +1,35 @@
+// Atomic output: write to a temporary file beside the target, then rename over it. A crash or an exception leaves
+// either the old file or nothing, never a partial one.
+#pragma once
+#include <string>
+
+namespace bareskin {
+
+class AtomicFile {
+ public:
+  // Checks that the target's directory exists and is writable (IoError otherwise). The temporary keeps the target's
+  // extension, so writers that pick a format by extension (OpenImageIO, OpenMesh) work on it.
+  explicit AtomicFile(std::string target);
+  ~AtomicFile();  // removes the temporary unless commit() succeeded
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  const std::string& temp_path() const { return temp_; }
+  const std::string& target() const { return target_; }
+  // fsyncs the temporary and renames it to the target (IoError on failure, e.g. disk full).
+  void commit();
+
+ private:
+  std::string target_, temp_;
+  bool committed_ = false;
+};
+
+// Writes `bytes` to `path` atomically.
+void write_file_atomic(const std::string& path, const std::string& bytes);
+// Reads a whole file (IoError if missing/unreadable).
+std::string read_file(const std::string& path);
+
+// Creates a directory and its parents (IoError when not possible).
+void make_directories(const std::string& dir);
+
+}  // namespace bareskin

@@ -1,0 +1,38 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/test_util.h"
+
+namespace bareskin {
+namespace {
+
+TEST(AtomicFile, ReplacesOnlyOnCommit) {
+  const std::string dir = testing::temp_dir(), path = dir + "/out.txt";
+  write_file_atomic(path, "old");
+  {
+    AtomicFile f(path);
+    std::ofstream(f.temp_path()) << "new, unfinished";
+    // no commit: an exception or crash here must leave the old content
+  }
+  EXPECT_EQ(read_file(path), "old");
+  EXPECT_EQ(testing::count_files(dir), 1u) << "temporary removed";
+  {
+    AtomicFile f(path);
+    EXPECT_EQ(f.temp_path().substr(f.temp_path().size() - 4), ".txt") << "keeps the extension for format sniffing";
+    std::ofstream(f.temp_path()) << "new";
+    f.commit();
+  }
+  EXPECT_EQ(read_file(path), "new");
+}
+
+TEST(AtomicFile, MissingOrReadOnlyDirectoryIsIoError) {
+  EXPECT_THROW(AtomicFile("/nonexistent_dir/a.txt"), IoError);
+  EXPECT_THROW(read_file("/nonexistent_dir/a.txt"), IoError);
+  EXPECT_THROW(read_file("/"), IoError);
+}
+
+}  // namespace
+}  // namespace bareskin

@@ -1,0 +1,59 @@
+#include "core/image.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace bareskin {
+
+const char* to_string(ColorSpace space) {
+  switch (space) {
+    case ColorSpace::Linear: return "linear";
+    case ColorSpace::sRGB: return "sRGB";
+    case ColorSpace::Data: return "data";
+  }
+  return "?";
+}
+
+const char* to_string(PixelType type) {
+  switch (type) {
+    case PixelType::UInt8: return "uint8";
+    case PixelType::UInt16: return "uint16";
+    case PixelType::Half: return "half";
+    case PixelType::Float: return "float";
+  }
+  return "?";
+}
+
+Image::Image(int w, int h, int c, ColorSpace space, float fill)
+    : width(w), height(h), channels(c), color_space(space), pixels(size_t(w) * h * c, fill) {}
+
+float srgb_to_linear(float v) {
+  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+float linear_to_srgb(float v) {
+  return v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+}
+
+namespace {
+Image convert(const Image& image, ColorSpace target, float (*transfer)(float)) {
+  if (image.color_space == ColorSpace::Data) {
+    throw InvalidInput("", "cannot convert a data image (normals, roughness, masks) between colour spaces",
+                       "only colour images have an sRGB encoding");
+  }
+  Image out = image;
+  if (image.color_space == target) return out;
+  out.color_space = target;
+  const int colour_channels = image.channels == 4 ? 3 : image.channels;
+  for (size_t p = 0; p < out.pixels.size(); p += image.channels) {
+    for (int c = 0; c < colour_channels; ++c) out.pixels[p + c] = transfer(out.pixels[p + c]);
+  }
+  return out;
+}
+}  // namespace
+
+Image to_linear(const Image& image) { return convert(image, ColorSpace::Linear, srgb_to_linear); }
+Image to_srgb(const Image& image) { return convert(image, ColorSpace::sRGB, linear_to_srgb); }
+
+}  // namespace bareskin

@@ -1,0 +1,186 @@
+#include "core/image_io.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace bareskin {
+namespace {
+
+PixelType pixel_type(OIIO::TypeDesc t) {
+  switch (t.basetype) {
+    case OIIO::TypeDesc::UINT8:
+    case OIIO::TypeDesc::INT8: return PixelType::UInt8;
+    case OIIO::TypeDesc::UINT16:
+    case OIIO::TypeDesc::INT16: return PixelType::UInt16;
+    case OIIO::TypeDesc::HALF: return PixelType::Half;
+    default: return PixelType::Float;
+  }
+}
+
+OIIO::TypeDesc oiio_type(PixelType t) {
+  switch (t) {
+    case PixelType::UInt8: return OIIO::TypeDesc::UINT8;
+    case PixelType::UInt16: return OIIO::TypeDesc::UINT16;
+    case PixelType::Half: return OIIO::TypeDesc::HALF;
+    case PixelType::Float: return OIIO::TypeDesc::FLOAT;
+  }
+  return OIIO::TypeDesc::FLOAT;
+}
+
+ColorSpace color_space_of(const OIIO::ImageSpec& spec) {
+  const std::string tag = spec.get_string_attribute("oiio:ColorSpace");
+  if (OIIO::Strutil::iequals(tag, "srgb")) return ColorSpace::sRGB;
+  if (OIIO::Strutil::iequals(tag, "raw") || OIIO::Strutil::iequals(tag, "data")) return ColorSpace::Data;
+  if (OIIO::Strutil::iequals(tag, "linear") || OIIO::Strutil::istarts_with(tag, "lin")) return ColorSpace::Linear;
+  return pixel_type(spec.format) == PixelType::UInt8 || pixel_type(spec.format) == PixelType::UInt16 ? ColorSpace::sRGB
+                                                                                                     : ColorSpace::Linear;
+}
+
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw IoError(path, "no such file", "check the path");
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    const std::string why = OIIO::geterror();
+    throw InvalidInput(path, "cannot read image" + (why.empty() ? std::string() : " (" + why + ")"),
+                       "the file is truncated, corrupt or not an image");
+  }
+  return in;
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+// 2x box downsample for mip levels (odd sizes round down, at least 1).
+Image half_size(const Image& in) {
+  Image out(std::max(1, in.width / 2), std::max(1, in.height / 2), in.channels, in.color_space);
+  for (int y = 0; y < out.height; ++y) {
+    for (int x = 0; x < out.width; ++x) {
+      for (int c = 0; c < in.channels; ++c) {
+        float sum = 0;
+        int n = 0;
+        for (int dy = 0; dy < 2; ++dy) {
+          for (int dx = 0; dx < 2; ++dx) {
+            const int sx = std::min(in.width - 1, 2 * x + dx), sy = std::min(in.height - 1, 2 * y + dy);
+            sum += in.at(sx, sy, c);
+            ++n;
+          }
+        }
+        out.at(x, y, c) = sum / n;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+ImageFileInfo probe_image(const std::string& path) {
+  auto in = open_input(path);
+  const OIIO::ImageSpec& spec = in->spec();
+  ImageFileInfo info;
+  info.width = spec.width;
+  info.height = spec.height;
+  info.channels = spec.nchannels;
+  info.type = pixel_type(spec.format);
+  info.color_space = color_space_of(spec);
+  info.tiled = spec.tile_width > 0;
+  info.format = in->format_name();
+  while (in->seek_subimage(0, info.mip_levels)) ++info.mip_levels;
+  return info;
+}
+
+Image read_image(const std::string& path, std::optional<ColorSpace> assume) {
+  auto in = open_input(path);
+  const OIIO::ImageSpec spec = in->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+    throw InvalidInput(path, "image has no pixels", "the file is corrupt");
+  }
+  if (int64_t(spec.width) * spec.height * spec.nchannels > (int64_t(1) << 34)) {
+    throw InvalidInput(path, "image too large to hold in memory (" + std::to_string(spec.width) + "x" +
+                                 std::to_string(spec.height) + ")",
+                       "use the tiled/out-of-core tools (uvtools bake) for such images");
+  }
+  Image image(spec.width, spec.height, spec.nchannels, assume ? *assume : color_space_of(spec));
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data())) {
+    throw InvalidInput(path, "cannot decode pixels (" + in->geterror() + ")", "the file is truncated or corrupt");
+  }
+  in->close();
+  for (float v : image.pixels) {
+    if (!std::isfinite(v)) {
+      throw InvalidInput(path, "image holds NaN or infinite values", "repair the image (e.g. oiiotool --fixnan box3)");
+    }
+  }
+  return image;
+}
+
+void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options) {
+  if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
+      image.pixels.size() != size_t(image.width) * image.height * image.channels) {
+    throw InternalError(path + ": write_image called with an inconsistent image");
+  }
+  const std::string ext = lower_extension(path);
+  PixelType type = PixelType::UInt8;
+  if (options.type) {
+    type = *options.type;
+  } else if (ext == ".exr") {
+    type = PixelType::Half;
+  } else if (ext == ".tif" || ext == ".tiff") {
+    type = PixelType::UInt16;
+  }
+  AtomicFile file(path);
+  auto out = OIIO::ImageOutput::create(file.temp_path());
+  if (!out) throw InvalidInput(path, "unsupported image format '" + ext + "'", "use .png, .jpg, .tif or .exr");
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, oiio_type(type));
+  spec.attribute("oiio:ColorSpace", image.color_space == ColorSpace::sRGB    ? "sRGB"
+                                    : image.color_space == ColorSpace::Data ? "Raw"
+                                                                            : "Linear");
+  if (!options.compression.empty()) {
+    spec.attribute("compression", options.compression);
+  } else if (ext == ".exr") {
+    spec.attribute("compression", "zip");
+  }
+  if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", "jpeg:" + std::to_string(options.jpeg_quality));
+  const bool mipmap = options.mipmap;
+  if (options.tiled || mipmap) {
+    if (!out->supports("tiles")) throw InvalidInput(path, "format cannot store tiles", "write .exr or .tif");
+    spec.tile_width = spec.tile_height = 64;
+  }
+  if (mipmap && !out->supports("mipmap")) throw InvalidInput(path, "format cannot store mip levels", "write .exr or .tif");
+  if (mipmap) {
+    spec.attribute("textureformat", "Plain Texture");
+    spec.attribute("openexr:levelmode", 1);  // MIPMAP_LEVELS: OpenEXR must know at open time
+  }
+  const auto fail = [&](const std::string& why) {
+    throw IoError(path, "cannot write image (" + why + ")", "check free disk space and permissions");
+  };
+  if (!out->open(file.temp_path(), spec, OIIO::ImageOutput::Create)) {
+    fail(out->geterror());
+  }
+  Image level = image;
+  for (;;) {
+    if (!out->write_image(OIIO::TypeDesc::FLOAT, level.pixels.data())) fail(out->geterror());
+    if (!mipmap || (level.width == 1 && level.height == 1)) break;
+    // Filter colour in linear light; store the level in the image's own encoding.
+    Image next = level.color_space == ColorSpace::sRGB ? to_srgb(half_size(to_linear(level))) : half_size(level);
+    level = std::move(next);
+    OIIO::ImageSpec level_spec = spec;
+    level_spec.width = level_spec.full_width = level.width;
+    level_spec.height = level_spec.full_height = level.height;
+    if (!out->open(file.temp_path(), level_spec, OIIO::ImageOutput::AppendMIPLevel)) fail(out->geterror());
+  }
+  if (!out->close()) fail(out->geterror());
+  out.reset();
+  file.commit();
+}
+
+}  // namespace bareskin

@@ -1,0 +1,39 @@
+// Image files through OpenImageIO: PNG, JPEG, TIFF (8/16-bit), EXR (half/float, scanline or tiled, with mip levels).
+#pragma once
+#include <optional>
+#include <string>
+
+#include "core/image.h"
+
+namespace bareskin {
+
+struct ImageFileInfo {
+  int width = 0, height = 0, channels = 0;
+  PixelType type = PixelType::UInt8;
+  ColorSpace color_space = ColorSpace::sRGB;
+  bool tiled = false;
+  int mip_levels = 1;
+  std::string format;  // "png", "openexr", ...
+};
+
+// Header only: size, storage type, colour space. IoError/InvalidInput like read_image.
+ImageFileInfo probe_image(const std::string& path);
+
+// Reads the top mip level as float. Integer files are scaled to [0,1]. The colour space comes from the file's tag
+// (8/16-bit files without one are sRGB, float files linear) unless `assume` overrides it, e.g. Data for normal maps.
+// Throws IoError (missing/unreadable) or InvalidInput (truncated, corrupt, not an image), naming the file.
+Image read_image(const std::string& path, std::optional<ColorSpace> assume = std::nullopt);
+
+struct ImageWriteOptions {
+  std::optional<PixelType> type;  // default: uint8 for PNG/JPEG, uint16 for TIFF, half for EXR
+  bool tiled = false;             // EXR/TIFF: 64x64 tiles
+  bool mipmap = false;            // EXR/TIFF: full mip chain (implies tiled)
+  std::string compression;        // e.g. "zip", "piz", "dwaa"; empty: the format's default (EXR: zip)
+  int jpeg_quality = 95;
+};
+
+// Writes atomically; pixel values are stored as given (convert with to_srgb/to_linear first) and the file is tagged
+// with the image's colour space. Integer outputs clamp to [0,1].
+void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options = {});
+
+}  // namespace bareskin

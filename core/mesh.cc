@@ -1,0 +1,109 @@
+#include "core/mesh.h"
+
+#include <Eigen/Geometry>
+#include <map>
+#include <utility>
+
+#include "core/error.h"
+
+namespace bareskin {
+
+void validate(const Mesh& m, const std::string& source) {
+  const auto where = [&](const char* what, Eigen::Index i) { return std::string(what) + " " + std::to_string(i); };
+  for (Eigen::Index i = 0; i < m.V.rows(); ++i) {
+    if (!m.V.row(i).allFinite()) {
+      throw InvalidInput(source, where("vertex", i) + " is NaN or infinite", "repair or remove that vertex");
+    }
+  }
+  const Eigen::Index nv = m.V.rows();
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      if (m.F(f, c) < 0 || m.F(f, c) >= nv) {
+        throw InvalidInput(source, where("face", f) + " refers to vertex " + std::to_string(m.F(f, c)) + " but there are " +
+                                       std::to_string(nv) + " vertices",
+                           "the file is truncated or corrupt");
+      }
+    }
+    if (m.F(f, 0) == m.F(f, 1) || m.F(f, 1) == m.F(f, 2) || m.F(f, 0) == m.F(f, 2)) {
+      throw InvalidInput(source, where("face", f) + " uses one vertex twice", "remove degenerate faces");
+    }
+  }
+  if (m.UV.rows() > 0 || m.FUV.rows() > 0) {
+    if (m.FUV.rows() != m.F.rows()) {
+      throw InvalidInput(source, "has UVs for " + std::to_string(m.FUV.rows()) + " faces but " + std::to_string(m.F.rows()) +
+                                     " faces",
+                         "give every face UVs or none");
+    }
+    for (Eigen::Index i = 0; i < m.UV.rows(); ++i) {
+      if (!m.UV.row(i).allFinite()) throw InvalidInput(source, where("texture coordinate", i) + " is NaN or infinite", "");
+    }
+    for (Eigen::Index f = 0; f < m.FUV.rows(); ++f) {
+      for (int c = 0; c < 3; ++c) {
+        if (m.FUV(f, c) < 0 || m.FUV(f, c) >= m.UV.rows()) {
+          throw InvalidInput(source, where("face", f) + " refers to texture coordinate " + std::to_string(m.FUV(f, c)) +
+                                         " but there are " + std::to_string(m.UV.rows()),
+                             "the file is truncated or corrupt");
+        }
+      }
+    }
+  }
+  if (m.N.rows() > 0 && m.N.rows() != m.V.rows()) {
+    throw InvalidInput(source, "has " + std::to_string(m.N.rows()) + " normals for " + std::to_string(nv) + " vertices", "");
+  }
+}
+
+Eigen::MatrixX3d face_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Eigen::MatrixX3d N(F.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const Eigen::Vector3d n = (b - a).cross(c - a);
+    const double len = n.norm();
+    N.row(f) = len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::Zero();
+  }
+  return N;
+}
+
+Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  Eigen::MatrixX3d N = Eigen::MatrixX3d::Zero(V.rows(), 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    const Eigen::RowVector3d n = (b - a).cross(c - a).transpose();  // length = 2 * area: area weighting
+    for (int k = 0; k < 3; ++k) N.row(F(f, k)) += n;
+  }
+  for (Eigen::Index i = 0; i < N.rows(); ++i) {
+    const double len = N.row(i).norm();
+    if (len > 0) N.row(i) /= len;
+  }
+  return N;
+}
+
+Eigen::MatrixX2i boundary_edges(const Eigen::MatrixX3i& F) {
+  std::map<std::pair<int, int>, int> count;  // undirected edge -> faces using it
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      ++count[{std::min(a, b), std::max(a, b)}];
+    }
+  }
+  std::vector<std::pair<int, int>> edges;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      if (count[{std::min(a, b), std::max(a, b)}] == 1) edges.emplace_back(a, b);
+    }
+  }
+  Eigen::MatrixX2i E(edges.size(), 2);
+  for (size_t i = 0; i < edges.size(); ++i) E.row(i) << edges[i].first, edges[i].second;
+  return E;
+}
+
+double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
+  double area = 0;
+  for (Eigen::Index f = 0; f < F.rows(); ++f) {
+    const Eigen::Vector3d a = V.row(F(f, 0)), b = V.row(F(f, 1)), c = V.row(F(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return area;
+}
+
+}  // namespace bareskin

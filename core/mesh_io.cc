@@ -1,0 +1,258 @@
+#include "core/mesh_io.h"
+
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <iostream>
+#include <sstream>
+#include <vector>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace bareskin {
+namespace {
+
+struct DoubleTraits : public OpenMesh::DefaultTraits {
+  typedef OpenMesh::Vec3d Point;
+  typedef OpenMesh::Vec3d Normal;
+  typedef OpenMesh::Vec2d TexCoord2D;
+};
+using OmMesh = OpenMesh::PolyMesh_ArrayKernelT<DoubleTraits>;
+
+// OpenMesh reports problems (non-manifold faces it drops, unreadable lines) on its own log streams and carries on.
+// We capture them so that a dropped face becomes an error instead of a silently different mesh.
+class CapturedOpenMeshLog {
+ public:
+  CapturedOpenMeshLog() : lock_(mutex()) {
+    for (OpenMesh::mostream* s : streams()) {
+      std::vector<bool> had;
+      for (std::ostream* o : defaults()) had.push_back(s->disconnect(*o));
+      had_.push_back(had);
+      s->connect(buffer_);
+    }
+  }
+  ~CapturedOpenMeshLog() {
+    for (size_t i = 0; i < streams().size(); ++i) {
+      streams()[i]->disconnect(buffer_);
+      for (size_t k = 0; k < defaults().size(); ++k) {
+        if (had_[i][k]) streams()[i]->connect(*defaults()[k]);
+      }
+    }
+  }
+  std::string text() {
+    for (OpenMesh::mostream* s : streams()) s->flush();
+    return buffer_.str();
+  }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static const std::vector<OpenMesh::mostream*>& streams() {
+    static const std::vector<OpenMesh::mostream*> s{&omerr(), &omlog(), &omout()};
+    return s;
+  }
+  static const std::vector<std::ostream*>& defaults() {
+    static const std::vector<std::ostream*> d{&std::cerr, &std::clog, &std::cout};
+    return d;
+  }
+  std::unique_lock<std::mutex> lock_;
+  std::ostringstream buffer_;
+  std::vector<std::vector<bool>> had_;
+};
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+void check_extension(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (ext != ".obj" && ext != ".ply") {
+    throw InvalidInput(path, "unsupported mesh format '" + ext + "'", "use .obj or .ply");
+  }
+}
+
+std::string first_problem(const std::string& log) {
+  static const char* markers[] = {"complex", "Could not", "could not", "Error", "error", "invalid", "Invalid", "Warning"};
+  std::istringstream lines(log);
+  std::string line;
+  while (std::getline(lines, line)) {
+    for (const char* m : markers) {
+      if (line.find(m) != std::string::npos) return line;
+    }
+  }
+  return {};
+}
+
+// OpenMesh's PLY reader loops forever on a header without end_header, so the header is checked here first.
+void check_ply_header(const std::string& path, const std::string& bytes) {
+  if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) {
+    throw InvalidInput(path, "does not start with 'ply'", "the file is not a PLY mesh");
+  }
+  const size_t end = bytes.find("end_header");
+  if (end == std::string::npos || end > (1u << 20)) {
+    throw InvalidInput(path, "PLY header has no end_header line", "the file is truncated or corrupt");
+  }
+}
+
+// OpenMesh skips an OBJ vertex it cannot parse ("nan", "inf") and later reports a bad face index; name the real fault.
+void check_obj_vertices(const std::string& path, const std::string& bytes) {
+  size_t line = 1;
+  for (size_t pos = 0; pos < bytes.size(); ++line) {
+    size_t end = bytes.find('\n', pos);
+    if (end == std::string::npos) end = bytes.size();
+    if (end - pos > 2 && bytes[pos] == 'v' && (bytes[pos + 1] == ' ' || bytes[pos + 1] == '\t')) {
+      for (size_t i = pos + 2; i < end; ++i) {
+        const char c = char(std::tolower(static_cast<unsigned char>(bytes[i])));
+        if (c == 'n' || c == 'i') {
+          throw InvalidInput(path, "line " + std::to_string(line) + ": vertex coordinate is NaN or infinite",
+                             "repair or remove that vertex");
+        }
+      }
+    }
+    pos = end + 1;
+  }
+}
+
+}  // namespace
+
+Mesh read_mesh(const std::string& path) {
+  check_extension(path);
+  const std::string bytes = read_file(path);  // IoError with a clear message when missing or unreadable
+  if (lower_extension(path) == ".ply") check_ply_header(path, bytes);
+  if (lower_extension(path) == ".obj") check_obj_vertices(path, bytes);
+  OmMesh om;
+  om.request_vertex_texcoords2D();
+  om.request_halfedge_texcoords2D();
+  om.request_vertex_normals();
+  OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
+                              OpenMesh::IO::Options::VertexNormal;
+  bool ok;
+  std::string log;
+  {
+    CapturedOpenMeshLog capture;
+    ok = OpenMesh::IO::read_mesh(om, path, opt);
+    log = capture.text();
+  }
+  if (!ok) {
+    const std::string why = first_problem(log);
+    throw InvalidInput(path, "cannot parse mesh" + (why.empty() ? std::string() : " (" + why + ")"),
+                       "the file is truncated, corrupt or not a mesh");
+  }
+  if (const std::string why = first_problem(log); !why.empty()) {
+    throw InvalidInput(path, "mesh reader rejected part of the file: " + why,
+                       "repair the mesh (non-manifold or degenerate faces) before using it");
+  }
+  if (om.n_faces() == 0) throw InvalidInput(path, "has no faces", "the file is truncated or not a triangle mesh");
+
+  Mesh mesh;
+  mesh.V.resize(om.n_vertices(), 3);
+  for (auto v : om.vertices()) {
+    const auto p = om.point(v);
+    mesh.V.row(v.idx()) << p[0], p[1], p[2];
+  }
+  mesh.F.resize(om.n_faces(), 3);
+  const bool corner_uv = opt.face_has_texcoord(), vertex_uv = !corner_uv && opt.vertex_has_texcoord();
+  if (corner_uv) mesh.FUV.resize(om.n_faces(), 3);
+  std::map<std::pair<double, double>, int> uv_index;  // OpenMesh keeps UVs per halfedge; index equal values once
+  std::vector<std::pair<double, double>> uvs;
+  for (auto f : om.faces()) {
+    if (om.valence(f) != 3) {
+      throw InvalidInput(path, "face " + std::to_string(f.idx()) + " has " + std::to_string(om.valence(f)) + " corners",
+                         "triangulate the mesh first");
+    }
+    int corner = 0;
+    for (auto h : om.fh_range(f)) {
+      mesh.F(f.idx(), corner) = om.to_vertex_handle(h).idx();
+      if (corner_uv) {
+        const auto t = om.texcoord2D(h);
+        auto [it, inserted] = uv_index.try_emplace({t[0], t[1]}, int(uvs.size()));
+        if (inserted) uvs.emplace_back(t[0], t[1]);
+        mesh.FUV(f.idx(), corner) = it->second;
+      }
+      ++corner;
+    }
+  }
+  if (corner_uv) {
+    mesh.UV.resize(uvs.size(), 2);
+    for (size_t i = 0; i < uvs.size(); ++i) mesh.UV.row(i) << uvs[i].first, uvs[i].second;
+  } else if (vertex_uv) {
+    mesh.UV.resize(om.n_vertices(), 2);
+    for (auto v : om.vertices()) mesh.UV.row(v.idx()) << om.texcoord2D(v)[0], om.texcoord2D(v)[1];
+    mesh.FUV = mesh.F;
+  }
+  if (opt.vertex_has_normal()) {
+    mesh.N.resize(om.n_vertices(), 3);
+    for (auto v : om.vertices()) mesh.N.row(v.idx()) << om.normal(v)[0], om.normal(v)[1], om.normal(v)[2];
+  }
+  validate(mesh, path);
+  return mesh;
+}
+
+void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options) {
+  check_extension(path);
+  validate(mesh, path);
+  const bool ply = lower_extension(path) == ".ply";
+  if (ply && mesh.has_uv() && mesh.FUV != mesh.F) {
+    throw InvalidInput(path, "PLY holds one texture coordinate per vertex but this mesh has UV seams",
+                       "write an .obj instead");
+  }
+  OmMesh om;
+  OpenMesh::IO::Options opt;
+  const bool normals = options.write_normals && mesh.has_normals();
+  if (normals) {
+    om.request_vertex_normals();
+    opt += OpenMesh::IO::Options::VertexNormal;
+  }
+  if (mesh.has_uv()) {
+    if (ply) {
+      om.request_vertex_texcoords2D();
+      opt += OpenMesh::IO::Options::VertexTexCoord;
+    } else {
+      om.request_halfedge_texcoords2D();
+      opt += OpenMesh::IO::Options::FaceTexCoord;
+    }
+  }
+  if (ply && options.binary) opt += OpenMesh::IO::Options::Binary;
+  std::vector<OmMesh::VertexHandle> vh(mesh.V.rows());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+    vh[i] = om.add_vertex(OmMesh::Point(mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2)));
+    if (normals) om.set_normal(vh[i], OmMesh::Normal(mesh.N(i, 0), mesh.N(i, 1), mesh.N(i, 2)));
+    if (ply && mesh.has_uv()) om.set_texcoord2D(vh[i], OmMesh::TexCoord2D(mesh.UV(i, 0), mesh.UV(i, 1)));
+  }
+  {
+    CapturedOpenMeshLog capture;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+      const auto fh = om.add_face(vh[mesh.F(f, 0)], vh[mesh.F(f, 1)], vh[mesh.F(f, 2)]);
+      if (!fh.is_valid()) {
+        throw InvalidInput(path, "face " + std::to_string(f) + " makes the mesh non-manifold",
+                           "repair the mesh before writing it");
+      }
+      if (mesh.has_uv() && !ply) {
+        int corner = 0;
+        for (auto h : om.fh_range(fh)) {
+          const int uv = mesh.FUV(f, corner++);
+          om.set_texcoord2D(h, OmMesh::TexCoord2D(mesh.UV(uv, 0), mesh.UV(uv, 1)));
+        }
+      }
+    }
+  }
+  AtomicFile out(path);
+  bool ok;
+  {
+    CapturedOpenMeshLog capture;
+    ok = OpenMesh::IO::write_mesh(om, out.temp_path(), opt, options.precision);
+  }
+  if (!ok) throw IoError(path, "cannot write mesh", "check free disk space and permissions");
+  out.commit();
+}
+
+}  // namespace bareskin

@@ -1,0 +1,145 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/mesh.h"
+#include "core/mesh_io.h"
+#include "core/test_util.h"
+
+namespace bareskin {
+namespace {
+
+// A unit cube's six faces, each quad split in two, with a UV seam: every face has its own UV square, so the UV
+// indices differ from the vertex indices.
+Mesh seamed_cube() {
+  Mesh m;
+  m.V.resize(8, 3);
+  for (int i = 0; i < 8; ++i) m.V.row(i) << (i & 1), (i >> 1) & 1, (i >> 2) & 1;
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  m.F.resize(12, 3);
+  m.FUV.resize(12, 3);
+  m.UV.resize(24, 2);
+  for (int q = 0; q < 6; ++q) {
+    const double u0 = q / 6.0 + 0.01, u1 = (q + 1) / 6.0 - 0.01;  // islands with gutters
+    m.UV.row(4 * q + 0) << u0, 0;
+    m.UV.row(4 * q + 1) << u1, 0;
+    m.UV.row(4 * q + 2) << u1, 1;
+    m.UV.row(4 * q + 3) << u0, 1;
+    m.F.row(2 * q) << quads[q][0], quads[q][1], quads[q][2];
+    m.F.row(2 * q + 1) << quads[q][0], quads[q][2], quads[q][3];
+    m.FUV.row(2 * q) << 4 * q, 4 * q + 1, 4 * q + 2;
+    m.FUV.row(2 * q + 1) << 4 * q, 4 * q + 2, 4 * q + 3;
+  }
+  return m;
+}
+
+// Compares meshes corner by corner: same positions, and the same UV value at every face corner.
+void expect_same(const Mesh& a, const Mesh& b) {
+  ASSERT_EQ(a.V.rows(), b.V.rows());
+  ASSERT_EQ(a.F.rows(), b.F.rows());
+  EXPECT_LT((a.V - b.V).cwiseAbs().maxCoeff(), 1e-7);
+  for (Eigen::Index f = 0; f < a.F.rows(); ++f) {
+    // OpenMesh may start a face at another corner: align by the first vertex.
+    int shift = 0;
+    while (shift < 3 && b.F(f, shift) != a.F(f, 0)) ++shift;
+    ASSERT_LT(shift, 3) << "face " << f;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(a.F(f, c), b.F(f, (c + shift) % 3));
+      if (a.has_uv()) {
+        EXPECT_LT((a.UV.row(a.FUV(f, c)) - b.UV.row(b.FUV(f, (c + shift) % 3))).norm(), 1e-7);
+      }
+    }
+  }
+}
+
+TEST(Mesh, ObjRoundTripKeepsUvSeams) {
+  const std::string dir = testing::temp_dir();
+  const Mesh cube = seamed_cube();
+  write_mesh(dir + "/cube.obj", cube);
+  const Mesh back = read_mesh(dir + "/cube.obj");
+  expect_same(cube, back);
+  EXPECT_EQ(back.UV.rows(), 24);  // seams kept: 24 distinct UVs for 8 vertices
+  EXPECT_EQ(testing::count_files(dir), 1u) << "no temporary left behind";
+}
+
+TEST(Mesh, PlyRoundTripAsciiAndBinaryWithNormals) {
+  const std::string dir = testing::temp_dir();
+  Mesh cube = seamed_cube();
+  cube.UV = cube.V.leftCols<2>();  // one UV per vertex: PLY can hold it
+  cube.FUV = cube.F;
+  cube.N = vertex_normals(cube.V, cube.F);
+  for (bool binary : {true, false}) {
+    write_mesh(dir + "/cube.ply", cube, {binary, true, 12});
+    const Mesh back = read_mesh(dir + "/cube.ply");
+    expect_same(cube, back);
+    ASSERT_TRUE(back.has_normals());
+    EXPECT_LT((back.N - cube.N).cwiseAbs().maxCoeff(), 1e-6);
+  }
+}
+
+TEST(Mesh, PlyRefusesUvSeams) {
+  const std::string dir = testing::temp_dir();
+  EXPECT_THROW(write_mesh(dir + "/cube.ply", seamed_cube()), InvalidInput);
+  EXPECT_EQ(testing::count_files(dir), 0u);
+}
+
+TEST(Mesh, NormalsAndAreaOfCube) {
+  const Mesh cube = seamed_cube();
+  EXPECT_NEAR(surface_area(cube.V, cube.F), 6.0, 1e-12);
+  const Eigen::MatrixX3d N = vertex_normals(cube.V, cube.F);
+  // Corner (1,1,1) points along the diagonal, outward.
+  EXPECT_LT((N.row(7).transpose() - Eigen::Vector3d(1, 1, 1).normalized()).norm(), 0.2);
+  EXPECT_GT(N.row(7).dot(Eigen::RowVector3d(1, 1, 1)), 0.0);
+  EXPECT_EQ(boundary_edges(cube.F).rows(), 0);  // closed
+  Mesh open = cube;
+  open.F.conservativeResize(10, 3);
+  EXPECT_EQ(boundary_edges(open.F).rows(), 4);  // one quad removed
+}
+
+class MeshBadInput : public ::testing::Test {
+ protected:
+  std::string dir = testing::temp_dir();
+  std::string expect_invalid(const std::string& name, const std::string& text) {
+    const std::string path = dir + "/" + name;
+    testing::write_text(path, text);
+    try {
+      read_mesh(path);
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << "message names the file: " << e.what();
+      return e.what();
+    }
+    ADD_FAILURE() << name << " was accepted";
+    return {};
+  }
+};
+
+TEST_F(MeshBadInput, Rejected) {
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  EXPECT_NE(expect_invalid("nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").find("NaN"), std::string::npos);
+  EXPECT_NE(expect_invalid("inf.obj", "v 0 0 0\nv 1 -INF 0\nv 0 1 0\nf 1 2 3\n").find("line 2"), std::string::npos);
+  EXPECT_NE(expect_invalid("quad.obj", tri + "v 1 1 0\nf 1 2 4 3\n").find("corners"), std::string::npos);
+  expect_invalid("range.obj", tri + "f 1 2 7\n");
+  expect_invalid("uvrange.obj", tri + "vt 0 0\nf 1/1 2/2 3/3\n");
+  expect_invalid("empty.obj", "");
+  expect_invalid("garbage.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\n");
+  // A binary PLY cut in the middle of its vertex list.
+  Mesh cube = seamed_cube();
+  cube.UV.resize(0, 2);
+  cube.FUV.resize(0, 3);
+  write_mesh(dir + "/whole.ply", cube);
+  const std::string whole = read_file(dir + "/whole.ply");
+  expect_invalid("truncated.ply", whole.substr(0, whole.size() / 2));
+  // Non-manifold: three triangles on one edge.
+  expect_invalid("nonmanifold.obj", tri + "v 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
+  EXPECT_THROW(read_mesh(dir + "/missing.obj"), IoError);
+  EXPECT_THROW(read_mesh(dir + "/mesh.stl"), InvalidInput);
+}
+
+TEST(Mesh, UnwritableDirectoryIsIoErrorWithoutPartialFile) {
+  EXPECT_THROW(write_mesh("/nonexistent_dir/x.obj", seamed_cube()), IoError);
+}
+
+}  // namespace
+}  // namespace bareskin

@@ -1,0 +1,17 @@
+// A parallel-for over one process-wide thread pool. The pool size is set once from --threads (default: all cores).
+#pragma once
+#include <cstdint>
+#include <functional>
+
+namespace bareskin {
+
+// Sets the number of worker threads (>= 1). Takes effect for later parallel_for calls.
+void set_num_threads(int threads);
+int num_threads();
+
+// Calls body(chunk_begin, chunk_end) over [begin, end) split into chunks of at least `grain` items, on the pool.
+// Blocks until every chunk is done; the first exception thrown by a chunk is rethrown here (the others are dropped).
+// Called from inside a chunk it runs serially, so nesting never deadlocks.
+void parallel_for(int64_t begin, int64_t end, const std::function<void(int64_t, int64_t)>& body, int64_t grain = 1);
+
+}  // namespace bareskin
