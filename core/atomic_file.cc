@@ -53,6 +53,44 @@ void AtomicFile::commit() {
   committed_ = true;
 }
 
+AtomicDirectory::AtomicDirectory(std::string target) : target_(std::move(target)) {
+  fs::path path = fs::path(target_).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();
+  target_ = path.string();
+  const fs::path parent = path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  make_directories(parent.string());
+  if (access(parent.c_str(), W_OK) != 0) {
+    throw IoError(target_, "parent directory '" + parent.string() + "' is not writable", "check its permissions");
+  }
+  std::random_device rd;
+  temp_ = (parent / ("." + path.filename().string() + ".partial" + std::to_string(getpid()) + "-" +
+                     std::to_string(rd() % 100000)))
+              .string();
+  make_directories(temp_);
+}
+
+AtomicDirectory::~AtomicDirectory() {
+  std::error_code ec;
+  if (!committed_) fs::remove_all(temp_, ec);
+}
+
+void AtomicDirectory::commit() {
+  std::error_code ec;
+  const std::string old = temp_ + ".old";
+  const bool had_old = fs::exists(target_, ec);
+  if (had_old) {
+    fs::rename(target_, old, ec);
+    if (ec) throw IoError(target_, "cannot move the previous output aside: " + ec.message(), "");
+  }
+  fs::rename(temp_, target_, ec);
+  if (ec) {
+    if (had_old) fs::rename(old, target_, ec);
+    throw IoError(target_, "cannot move the new output into place: " + ec.message(), "");
+  }
+  if (had_old) fs::remove_all(old, ec);
+  committed_ = true;
+}
+
 void write_file_atomic(const std::string& path, const std::string& bytes) {
   AtomicFile file(path);
   {

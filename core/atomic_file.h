@@ -24,6 +24,22 @@ class AtomicFile {
   bool committed_ = false;
 };
 
+// A whole output directory made atomically: files are written into a hidden sibling directory, and commit() renames
+// it over the target (replacing an older one). Without commit() the partial directory is removed.
+class AtomicDirectory {
+ public:
+  explicit AtomicDirectory(std::string target);
+  ~AtomicDirectory();
+  AtomicDirectory(const AtomicDirectory&) = delete;
+  AtomicDirectory& operator=(const AtomicDirectory&) = delete;
+  const std::string& path() const { return temp_; }  // write here
+  void commit();
+
+ private:
+  std::string target_, temp_;
+  bool committed_ = false;
+};
+
 // Writes `bytes` to `path` atomically.
 void write_file_atomic(const std::string& path, const std::string& bytes);
 // Reads a whole file (IoError if missing/unreadable).

@@ -36,3 +36,27 @@ TEST(AtomicFile, MissingOrReadOnlyDirectoryIsIoError) {
 
 }  // namespace
 }  // namespace bareskin
+
+namespace bareskin {
+namespace {
+
+TEST(AtomicDirectory, AllOrNothing) {
+  const std::string root = testing::temp_dir(), target = root + "/out";
+  {
+    AtomicDirectory dir(target);
+    write_file_atomic(dir.path() + "/a.txt", "1");
+    // dropped without commit: as if the command failed half way
+  }
+  EXPECT_FALSE(std::filesystem::exists(target));
+  EXPECT_EQ(testing::count_files(root), 0u);
+  for (const char* content : {"first", "second"}) {
+    AtomicDirectory dir(target + "/");
+    write_file_atomic(dir.path() + "/a.txt", content);
+    dir.commit();
+  }
+  EXPECT_EQ(read_file(target + "/a.txt"), "second");
+  EXPECT_EQ(testing::count_files(root), 1u);
+}
+
+}  // namespace
+}  // namespace bareskin

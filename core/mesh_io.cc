@@ -245,6 +245,19 @@ void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOption
       }
     }
   }
+  if (mesh.has_uv() && !ply) {
+    // The OBJ writer lists the texcoords of every halfedge, boundary ones included; give those the UV of a face
+    // corner at the same vertex so they fold into an existing entry instead of writing uninitialised values.
+    for (auto h : om.halfedges()) {
+      if (!om.is_boundary(h)) continue;
+      for (auto in : om.vih_range(om.to_vertex_handle(h))) {
+        if (!om.is_boundary(in)) {
+          om.set_texcoord2D(h, om.texcoord2D(in));
+          break;
+        }
+      }
+    }
+  }
   AtomicFile out(path);
   bool ok;
   {

@@ -62,6 +62,12 @@ TEST(Mesh, ObjRoundTripKeepsUvSeams) {
   expect_same(cube, back);
   EXPECT_EQ(back.UV.rows(), 24);  // seams kept: 24 distinct UVs for 8 vertices
   EXPECT_EQ(testing::count_files(dir), 1u) << "no temporary left behind";
+  // An open mesh: boundary halfedges must not leak texcoords into the file.
+  Mesh open = cube;
+  open.F.conservativeResize(10, 3);
+  open.FUV.conservativeResize(10, 3);
+  write_mesh(dir + "/open.obj", open);
+  expect_same(open, read_mesh(dir + "/open.obj"));
 }
 
 TEST(Mesh, PlyRoundTripAsciiAndBinaryWithNormals) {

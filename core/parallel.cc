@@ -66,7 +66,10 @@ std::shared_ptr<ThreadPool> pool;
 
 std::shared_ptr<ThreadPool> get_pool() {
   std::lock_guard<std::mutex> lock(pool_mutex);
-  if (!pool) pool = std::make_shared<ThreadPool>(num_threads());
+  if (!pool) {
+    pool = std::make_shared<ThreadPool>(requested_threads > 0 ? requested_threads
+                                                              : int(std::max(1u, std::thread::hardware_concurrency())));
+  }
   return pool;
 }
 
@@ -74,8 +77,9 @@ std::shared_ptr<ThreadPool> get_pool() {
 
 void set_num_threads(int threads) {
   std::lock_guard<std::mutex> lock(pool_mutex);
-  requested_threads = std::max(1, threads);
-  if (pool && pool->size() != requested_threads) pool.reset();
+  requested_threads = std::max(0, threads);
+  const int wanted = requested_threads > 0 ? requested_threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  if (pool && pool->size() != wanted) pool.reset();
 }
 
 int num_threads() {

@@ -5,7 +5,7 @@
 
 namespace bareskin {
 
-// Sets the number of worker threads (>= 1). Takes effect for later parallel_for calls.
+// Sets the number of worker threads; 0 means one per core. Takes effect for later parallel_for calls.
 void set_num_threads(int threads);
 int num_threads();
 

@@ -1,0 +1,163 @@
+#include "apps/cli.h"
+
+#include <malloc.h>
+
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/parallel.h"
+
+#ifndef BARESKIN_VERSION
+#define BARESKIN_VERSION "unknown"
+#endif
+
+namespace bareskin::cli {
+namespace {
+
+bool is_internal_option(const CLI::Option* opt) {
+  const std::string name = opt->get_name(false, true);
+  return opt->get_lnames().empty() || name == "--help" || name == "--help-all" || name == "--version" ||
+         name == "--config";
+}
+
+nlohmann::json option_value(const CLI::Option* opt, bool default_also) {
+  std::vector<std::string> values = opt->results();
+  if (values.empty() && default_also && !opt->get_default_str().empty()) values = {opt->get_default_str()};
+  if (values.empty()) return nullptr;
+  const auto scalar = [&](const std::string& s) -> nlohmann::json {
+    if (opt->get_type_size() == 0) return s == "true" || s == "1" || s.empty();  // a flag
+    const auto parsed = nlohmann::json::parse(s, nullptr, false);
+    if (!parsed.is_discarded() && (parsed.is_number() || parsed.is_boolean())) return parsed;
+    return s;
+  };
+  if (values.size() == 1 && opt->get_expected_max() <= 1) return scalar(values.front());
+  nlohmann::json arr = nlohmann::json::array();
+  for (const auto& v : values) arr.push_back(scalar(v));
+  return arr;
+}
+
+nlohmann::json app_to_json(const CLI::App* app, bool default_also) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const CLI::Option* opt : app->get_options()) {
+    if (is_internal_option(opt)) continue;
+    nlohmann::json v = option_value(opt, default_also);
+    if (!v.is_null()) out[opt->get_lnames().front()] = v;
+  }
+  for (const CLI::App* sub : app->get_subcommands()) out[sub->get_name()] = app_to_json(sub, default_also);
+  return out;
+}
+
+void flatten(const nlohmann::json& j, std::vector<std::string> parents, std::vector<CLI::ConfigItem>& items) {
+  for (const auto& [key, value] : j.items()) {
+    if (value.is_object()) {
+      auto sub = parents;
+      sub.push_back(key);
+      flatten(value, sub, items);
+      continue;
+    }
+    CLI::ConfigItem item;
+    item.parents = parents;
+    item.name = key;
+    const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+    if (value.is_array()) {
+      for (const auto& v : value) item.inputs.push_back(text(v));
+    } else {
+      item.inputs.push_back(text(value));
+    }
+    items.push_back(item);
+  }
+}
+
+}  // namespace
+
+std::string JsonConfig::to_config(const CLI::App* app, bool default_also, bool, std::string) const {
+  return app_to_json(app, default_also).dump(2) + "\n";
+}
+
+std::vector<CLI::ConfigItem> JsonConfig::from_config(std::istream& input) const {
+  nlohmann::json j = nlohmann::json::parse(input, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) throw CLI::ConversionError("--config", "the file is not a JSON object");
+  std::vector<CLI::ConfigItem> items;
+  flatten(j, {}, items);
+  return items;
+}
+
+void Globals::apply() const {
+  init_logging(quiet_flag ? Verbosity::Quiet : verbose ? Verbosity::Verbose : Verbosity::Normal);
+  set_num_threads(threads > 0 ? threads : 0);
+}
+
+void Globals::write_resolved_config(const std::string& path) const {
+  write_file_atomic(path, root->config_to_str(true, false));
+}
+
+int run(int argc, char** argv) {
+  // Page faults are expensive on our VMs: keep large allocations in the heap instead of fresh mmaps (ENV.md).
+  mallopt(M_MMAP_MAX, 0);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+
+  // Multi-call: invoked as `uvtools ...` (a link to bareskin) means `bareskin uvtools ...`.
+  std::vector<char*> args(argv, argv + argc);
+  const std::string invoked = std::filesystem::path(argv[0]).filename().string();
+  std::string invoked_copy = invoked;
+  for (const Command& c : commands()) {
+    if (invoked == c.name) {
+      args.insert(args.begin() + 1, invoked_copy.data());
+      break;
+    }
+  }
+
+  CLI::App app("BareSkin toolkit: scans to a 3D morphable model, training data and relightable face textures.\n"
+               "Run 'bareskin COMMAND --help' for a command's flags; docs/cli.md lists them all.",
+               "bareskin");
+  Globals globals;
+  globals.root = &app;
+  app.set_version_flag("--version", std::string("bareskin ") + BARESKIN_VERSION);
+  app.require_subcommand(1);
+  app.fallthrough();
+  app.config_formatter(std::make_shared<JsonConfig>());
+  app.set_config("--config", "", "Read flags from a JSON file (flags on the command line win)")->group("Global");
+  app.add_flag("-v,--verbose", globals.verbose, "More log output")->group("Global");
+  app.add_flag("-q,--quiet", globals.quiet_flag, "Only warnings and errors; no progress bars")->group("Global");
+  app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber)->group("Global");
+  for (const Command& c : commands()) {
+    CLI::App* sub = app.add_subcommand(c.name, c.summary)->group(c.group);
+    sub->callback([&globals, run_command = c.setup(*sub, globals)] {
+      globals.apply();
+      run_command();
+    });
+  }
+  try {
+    app.parse(int(args.size()), args.data());
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "bareskin: " << e.what() << " (see --help)\n";
+    return kUsageError;
+  } catch (const InvalidInput& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kInvalidInput;
+  } catch (const IoError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kIoError;
+  } catch (const InternalError& e) {
+    std::cerr << "internal error: " << e.what() << " (please report this)\n";
+    return kInternalError;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "error: out of memory; try a smaller size or fewer --threads\n";
+    return kIoError;
+  } catch (const std::exception& e) {
+    std::cerr << "internal error: " << e.what() << " (please report this)\n";
+    return kInternalError;
+  }
+  return kOk;
+}
+
+}  // namespace bareskin::cli

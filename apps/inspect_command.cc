@@ -1,0 +1,124 @@
+// bareskin inspect: what a file holds (mesh, image, safetensors, landmarks), as text or JSON.
+#include <algorithm>
+#include <filesystem>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/landmarks.h"
+#include "core/mesh_io.h"
+#include "core/safetensors.h"
+
+namespace bareskin::cli {
+namespace {
+
+std::string extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+nlohmann::json inspect_file(const std::string& path, bool stats) {
+  const std::string ext = extension(path);
+  nlohmann::json j;
+  j["file"] = path;
+  if (ext == ".obj" || ext == ".ply") {
+    const Mesh m = read_mesh(path);
+    j["kind"] = "mesh";
+    j["vertices"] = m.V.rows();
+    j["triangles"] = m.F.rows();
+    j["uvs"] = m.UV.rows();
+    j["uv_seams"] = m.has_uv() && m.FUV != m.F;
+    j["normals"] = m.has_normals();
+    j["boundary_edges"] = boundary_edges(m.F).rows();
+    j["surface_area"] = surface_area(m.V, m.F);
+    const Eigen::RowVector3d lo = m.V.colwise().minCoeff(), hi = m.V.colwise().maxCoeff();
+    j["bounding_box"] = {{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}};
+  } else if (ext == ".safetensors") {
+    const SafeTensors st = SafeTensors::open(path);
+    j["kind"] = "safetensors";
+    j["metadata"] = st.metadata();
+    j["tensors"] = nlohmann::json::array();
+    for (const std::string& name : st.names()) {
+      const TensorView& t = st.tensor(name);
+      nlohmann::json e{{"name", name}, {"dtype", dtype_name(t.dtype)}, {"shape", t.shape}};
+      if (stats && t.numel() > 0) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0;
+        for (int64_t i = 0; i < t.numel(); ++i) {
+          const double v = t.as_double(i);
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+          sum += v;
+        }
+        e["min"] = lo;
+        e["max"] = hi;
+        e["mean"] = sum / double(t.numel());
+      }
+      j["tensors"].push_back(e);
+    }
+  } else if (ext == ".json" || ext == ".pts") {
+    const Landmarks lm = read_landmarks(path);
+    j["kind"] = "landmarks";
+    j["scheme"] = lm.scheme;
+    j["units"] = lm.units;
+    j["points"] = lm.points.rows();
+    j["dimensions"] = lm.points.cols();
+  } else {
+    const ImageFileInfo info = probe_image(path);
+    j["kind"] = "image";
+    j["format"] = info.format;
+    j["width"] = info.width;
+    j["height"] = info.height;
+    j["channels"] = info.channels;
+    j["pixel_type"] = to_string(info.type);
+    j["color_space"] = to_string(info.color_space);
+    j["tiled"] = info.tiled;
+    j["mip_levels"] = info.mip_levels;
+  }
+  return j;
+}
+
+void print_text(const nlohmann::json& j) {
+  std::cout << j["file"].get<std::string>() << ": " << j["kind"].get<std::string>() << "\n";
+  for (const auto& [key, value] : j.items()) {
+    if (key == "file" || key == "kind") continue;
+    if (key == "tensors") {
+      for (const auto& t : value) {
+        std::cout << "  " << t["name"].get<std::string>() << "  " << t["dtype"].get<std::string>() << " " << t["shape"].dump();
+        if (t.contains("mean")) std::cout << "  min " << t["min"] << " max " << t["max"] << " mean " << t["mean"];
+        std::cout << "\n";
+      }
+    } else {
+      std::cout << "  " << key << ": " << (value.is_string() ? value.get<std::string>() : value.dump()) << "\n";
+    }
+  }
+}
+
+}  // namespace
+
+std::function<void()> setup_inspect_command(CLI::App& app, const Globals&) {
+  struct Options {
+    std::vector<std::string> files;
+    bool json = false, stats = false;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("files", opt->files, "Meshes (.obj .ply), images, .safetensors, landmarks (.json .pts)")->required();
+  app.add_flag("--json", opt->json, "Print one JSON object per file");
+  app.add_flag("--stats", opt->stats, "Tensor min/max/mean (safetensors)");
+  return [opt] {
+    for (const std::string& f : opt->files) {
+      const nlohmann::json j = inspect_file(f, opt->stats);
+      if (opt->json) {
+        std::cout << j.dump() << "\n";
+      } else {
+        print_text(j);
+      }
+    }
+  };
+}
+
+}  // namespace bareskin::cli

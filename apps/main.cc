@@ -1,0 +1,21 @@
+// bareskin: one dispatcher for every command. Links named after a command (uvtools, render, ...) run that command.
+#include "apps/cli.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_template_command(CLI::App&, const Globals&);
+std::function<void()> setup_inspect_command(CLI::App&, const Globals&);
+std::function<void()> setup_render_command(CLI::App&, const Globals&);
+
+const std::vector<Command>& commands() {
+  static const std::vector<Command> table = {
+      {"template", "Setup", "Build the dense template face from the MediaPipe canonical face", setup_template_command},
+      {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
+      {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
+  };
+  return table;
+}
+
+}  // namespace bareskin::cli
+
+int main(int argc, char** argv) { return bareskin::cli::run(argc, argv); }

@@ -1,0 +1,46 @@
+// The template face: the fixed topology every scan is registered to and the 3DMM is built on.
+// Built from the MediaPipe canonical face (468 vertices), converted to millimetres and our axes (DESIGN.md §5), and
+// refined into a dense, evenly triangulated surface of a chosen size. Any user template (OBJ with UVs + landmark file)
+// can take its place: see read_template.
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/progress.h"
+#include "morphable/mediapipe_face.h"
+
+namespace bareskin {
+
+struct TemplateFace {
+  Mesh mesh;                                        // V in mm, UV per corner
+  std::vector<int> landmark_vertices;               // 68 vertex ids, iBUG order
+  std::map<std::string, std::vector<int>> regions;  // named vertex contours (lips, eyes, brows, silhouette)
+};
+
+struct TemplateOptions {
+  int target_vertices = 65000;  // the paper's 3DMM has 65,143 vertices
+  int remesh_iterations = 3;    // isotropic remeshing passes (more: more regular triangles, slower)
+  // Check(): throws InvalidInput when out of range.
+  void check() const;
+};
+
+// The canonical face as a coarse template: cm -> mm, UV v flipped to OBJ's bottom-left origin, tables attached.
+TemplateFace coarse_template(const CanonicalFace& face, const FaceMeshTables& tables);
+
+// Refines a template whose UVs are one per vertex (no seams) to about options.target_vertices vertices: modified
+// butterfly subdivision (interpolating, so the coarse surface is kept) then isotropic remeshing to an even edge length.
+// UVs follow through the same subdivision of the UV layout; landmarks and regions go to the nearest new vertex.
+TemplateFace refine_template(const TemplateFace& coarse, const TemplateOptions& options,
+                             const ProgressCallback& progress = {});
+
+// Writes dir/face.obj, dir/landmarks.json (3D points + "vertex_ids"), dir/regions.json and dir/face.safetensors
+// (V, F, UV, FUV, landmark ids) for the Torch side, which reads no OBJ.
+void write_template(const std::string& dir, const TemplateFace& face, const std::string& provenance);
+
+// Reads a template: an OBJ with UVs plus a landmark JSON holding either "vertex_ids" or 68 3D points (snapped to the
+// nearest vertex). regions.json beside the landmarks is optional.
+TemplateFace read_template(const std::string& obj_path, const std::string& landmarks_path);
+
+}  // namespace bareskin

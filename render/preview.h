@@ -1,0 +1,27 @@
+// Preview pictures of a mesh for reports and QA: an orthographic, z-buffered, shaded view with wireframe and
+// landmarks, or the UV layout. Plain CPU code with no framework; the differentiable renderer is separate.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "core/mesh.h"
+
+namespace bareskin {
+
+enum class PreviewView { Front, Left, Right, UV };
+PreviewView parse_preview_view(const std::string& name);  // "front", "left", "right", "uv"; InvalidInput otherwise
+
+struct PreviewOptions {
+  PreviewView view = PreviewView::Front;
+  int size = 1024;            // output is size x size pixels
+  bool shaded = true;         // grey Lambert shading (3D views)
+  bool wireframe = true;      // triangle edges
+  double wire_opacity = 0.35;
+  std::vector<int> landmark_vertices;  // drawn as red dots with their iBUG index order
+};
+
+// Returns an sRGB image. Left/right views look at the face's left/right side (a camera on the +x / -x axis).
+Image render_preview(const Mesh& mesh, const PreviewOptions& options);
+
+}  // namespace bareskin

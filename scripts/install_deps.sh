@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs the Debian packages the toolkit builds and tests with; skips what is present (idempotent).
+set -euo pipefail
+packages=(
+  build-essential cmake ninja-build ccache pkg-config
+  libeigen3-dev libspectra-dev libopenmesh-dev libcgal-dev libopenimageio-dev openimageio-tools libopenexr-dev
+  libtorch-dev libceres-dev libsuitesparse-dev colmap
+  libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  python3-numpy python3-skimage npm
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "deps: all ${#packages[@]} Debian packages present"
+  exit 0
+fi
+echo "deps: installing ${missing[*]}"
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "deps: done"
