@@ -2,6 +2,7 @@
 
 #include <malloc.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -129,6 +130,16 @@ int run(int argc, char** argv) {
       globals.apply();
       run_command();
     });
+  }
+  if (args.size() > 1 && args[1][0] != '-') {
+    const std::string first = args[1];
+    const bool known = std::any_of(commands().begin(), commands().end(), [&](const Command& c) { return first == c.name; });
+    if (!known) {
+      std::string names;
+      for (const Command& c : commands()) names += (names.empty() ? "" : ", ") + std::string(c.name);
+      std::cerr << "bareskin: unknown command '" << first << "'; commands are " << names << " (see --help)\n";
+      return kUsageError;
+    }
   }
   try {
     app.parse(int(args.size()), args.data());

@@ -69,6 +69,8 @@ nlohmann::json inspect_file(const std::string& path, bool stats) {
     j["dimensions"] = lm.points.cols();
   } else {
     const ImageFileInfo info = probe_image(path);
+    // Decode the pixels too (when they fit in memory comfortably), so a truncated file is reported as such.
+    if (int64_t(info.width) * info.height * info.channels <= (int64_t(1) << 28)) read_image(path);
     j["kind"] = "image";
     j["format"] = info.format;
     j["width"] = info.width;

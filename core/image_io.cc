@@ -2,9 +2,13 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <mutex>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -42,12 +46,60 @@ ColorSpace color_space_of(const OIIO::ImageSpec& spec) {
                                                                                                      : ColorSpace::Linear;
 }
 
+// OpenImageIO's messages can span lines; ours are one line.
+std::string one_line(std::string message) {
+  std::replace(message.begin(), message.end(), '\n', ' ');
+  return message;
+}
+
+// libpng prints its own "libpng error: ..." to stderr before OpenImageIO reports the same fault to us. While any PNG
+// is being decoded, stderr points at /dev/null (reference-counted, so parallel decodes do not serialise); the error
+// still reaches the user, once, through our exception.
+class SilencedStderr {
+ public:
+  explicit SilencedStderr(bool active) : active_(active) {
+    if (!active_) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    if (count()++ == 0) {
+      saved() = ::dup(STDERR_FILENO);
+      const int null = ::open("/dev/null", O_WRONLY);
+      if (null >= 0) {
+        ::dup2(null, STDERR_FILENO);
+        ::close(null);
+      }
+    }
+  }
+  ~SilencedStderr() {
+    if (!active_) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    if (--count() == 0 && saved() >= 0) {
+      ::dup2(saved(), STDERR_FILENO);
+      ::close(saved());
+    }
+  }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static int& count() {
+    static int c = 0;
+    return c;
+  }
+  static int& saved() {
+    static int fd = -1;
+    return fd;
+  }
+  bool active_;
+};
+
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError(path, "no such file", "check the path");
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
-    const std::string why = OIIO::geterror();
+    const std::string why = one_line(OIIO::geterror());
     throw InvalidInput(path, "cannot read image" + (why.empty() ? std::string() : " (" + why + ")"),
                        "the file is truncated, corrupt or not an image");
   }
@@ -111,8 +163,13 @@ Image read_image(const std::string& path, std::optional<ColorSpace> assume) {
                        "use the tiled/out-of-core tools (uvtools bake) for such images");
   }
   Image image(spec.width, spec.height, spec.nchannels, assume ? *assume : color_space_of(spec));
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data())) {
-    throw InvalidInput(path, "cannot decode pixels (" + in->geterror() + ")", "the file is truncated or corrupt");
+  bool decoded;
+  {
+    SilencedStderr silence(std::string(in->format_name()) == "png");
+    decoded = in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data());
+  }
+  if (!decoded) {
+    throw InvalidInput(path, "cannot decode pixels (" + one_line(in->geterror()) + ")", "the file is truncated or corrupt");
   }
   in->close();
   for (float v : image.pixels) {
@@ -161,7 +218,7 @@ void write_image(const std::string& path, const Image& image, const ImageWriteOp
     spec.attribute("openexr:levelmode", 1);  // MIPMAP_LEVELS: OpenEXR must know at open time
   }
   const auto fail = [&](const std::string& why) {
-    throw IoError(path, "cannot write image (" + why + ")", "check free disk space and permissions");
+    throw IoError(path, "cannot write image (" + one_line(why) + ")", "check free disk space and permissions");
   };
   if (!out->open(file.temp_path(), spec, OIIO::ImageOutput::Create)) {
     fail(out->geterror());

@@ -7,9 +7,11 @@ packages=(
   libtorch-dev libceres-dev libsuitesparse-dev colmap
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-numpy python3-skimage npm
+  python3-numpy python3-skimage
 )
 missing=()
+# npm fetches the pinned assets; the machine may already have Node.js from elsewhere, so test for the command.
+command -v npm >/dev/null || missing+=(npm)
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done

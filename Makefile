@@ -1,0 +1,62 @@
+# BareSkin toolkit front door. `make demo` and `make test` are all a new user needs; both install what is missing.
+BUILD      ?= build
+BUILD_TYPE ?= RelWithDebInfo
+LABEL      ?=
+JOBS       ?= $(shell nproc)
+# ccache must ignore the precompiled-header defines/timestamps, or PCH builds never hit the cache.
+export CCACHE_SLOPPINESS = pch_defines,time_macros,include_file_mtime,include_file_ctime
+export BARESKIN_ASSETS  ?= $(CURDIR)/assets
+
+.PHONY: all deps build test demo gpu gpu-vendor fuzz clean help
+all: build
+
+help:
+	@echo "make demo    run the pipeline on the built-in synthetic data; writes out/demo/report.html"
+	@echo "make test    install what is missing, build, run all tests (LABEL=unit|cli|torch to select)"
+	@echo "make deps    Debian packages + pinned npm assets (idempotent)"
+	@echo "make build   configure and build into $(BUILD)/"
+	@echo "make gpu     Torch-side build on the GPU machine (see docs/gpu.md)"
+	@echo "make fuzz    libFuzzer targets (clang) into build-fuzz/, run each FUZZ_SECONDS"
+
+deps:
+	@bash scripts/install_deps.sh
+	@bash scripts/fetch_assets.sh
+
+$(BUILD)/build.ninja:
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)
+
+build: deps $(BUILD)/build.ninja
+	cmake --build $(BUILD) -j $(JOBS)
+
+test: build
+	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) $(if $(LABEL),-L $(LABEL))
+
+demo: build
+	@bash scripts/demo.sh $(BUILD)/bin out/demo
+
+# GPU machine (no package registry): LibTorch from pip torch, spdlog/fmt headers carried in .gpu-vendor/.
+GPU_BUILD ?= build-gpu
+gpu:
+	cmake -S . -B $(GPU_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DBARESKIN_TORCH_ONLY=ON \
+	  -DTorch_DIR=$$(python3 -c 'import torch;print(torch.utils.cmake_prefix_path)')/Torch \
+	  -DCMAKE_PREFIX_PATH=$(CURDIR)/.gpu-vendor/usr
+	cmake --build $(GPU_BUILD) -j $(JOBS)
+	ctest --test-dir $(GPU_BUILD) --output-on-failure
+
+# Run on the CPU machine before sending the tree to the GPU machine.
+gpu-vendor:
+	@bash scripts/gpu_vendor.sh
+
+FUZZ_SECONDS ?= 60
+fuzz:
+	cmake -S . -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DBARESKIN_FUZZ=ON -DBARESKIN_WITH_TORCH=OFF \
+	  -DBARESKIN_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
+	cmake --build build-fuzz --target fuzz_safetensors fuzz_landmarks fuzz_canonical_face
+	@for t in safetensors landmarks canonical_face; do \
+	  mkdir -p build-fuzz/corpus_$$t; \
+	  build-fuzz/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 build-fuzz/corpus_$$t \
+	    tests/fuzz/seeds/$$t 2>&1 | grep -E "stat::number_of_executed_units|stat::peak_rss|ERROR|SUMMARY" ; \
+	done
+
+clean:
+	rm -rf $(BUILD) $(GPU_BUILD) build-fuzz out

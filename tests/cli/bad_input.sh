@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Bad input through the real command line: each case must exit with the documented code, print exactly one line on
+# stderr that names the file, and leave no output behind.
+set -u
+bin=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+failures=0 passed=0
+
+# expect CODE NEEDLE OUTPUT -- command...
+expect() {
+  local code=$1 needle=$2 output=$3
+  shift 4
+  "$@" >/dev/null 2>err.txt
+  local got=$? lines
+  lines=$(grep -c . err.txt)
+  if [ "$got" -ne "$code" ] || [ "$lines" -ne 1 ] || ! grep -qF -- "$needle" err.txt || { [ -n "$output" ] && [ -e "$output" ]; }; then
+    echo "FAIL: $* -> exit $got (want $code), $lines stderr lines, output '$output' $( [ -e "$output" ] && echo exists)"
+    sed 's/^/    /' err.txt
+    failures=$((failures + 1))
+  else
+    passed=$((passed + 1))
+  fi
+}
+
+# A valid mesh and image to cut up.
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nf 1/1 2/2 3/3\nf 2/2 4/4 3/3\n' > good.obj
+"$bin" render good.obj -o good.png --size 64 -q
+"$bin" render good.obj -o good.exr --size 64 -q
+head -c 300 good.png > cut.png
+head -c 300 good.exr > cut.exr
+printf 'v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n' > nan.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n' > quad.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/5 3/1\n' > uvrange.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n' > range.obj
+printf 'ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n' > cut.ply
+printf '{"points": [[1, 2, 3], [4, 5' > cut.json
+printf '{"points": [[1, 2, 3]]}' > short.json
+printf '\x40\x00\x00\x00\x00\x00\x00\x00{"a":{"dtype":"F32","shape":[4],"data_offsets":[0,16]}}' > cut.safetensors
+printf 'version: 1\nn_points: 68\n{\n1 2\n' > cut.pts
+
+for f in nan.obj quad.obj uvrange.obj range.obj cut.ply cut.png cut.exr cut.json short.json cut.safetensors cut.pts; do
+  expect 3 "$f" "" -- "$bin" inspect "$f"
+done
+expect 4 "missing.obj" "" -- "$bin" inspect missing.obj
+expect 3 "nan.obj" "out.png" -- "$bin" render nan.obj -o out.png
+expect 4 "/nonexistent_dir" "" -- "$bin" render good.obj -o /nonexistent_dir/out.png
+expect 3 "out.xyz" "out.xyz" -- "$bin" render good.obj -o out.xyz
+expect 2 "--size" "out.png" -- "$bin" render good.obj -o out.png --size 3
+expect 2 "unknown command 'nosuchcommand'" "" -- "$bin" nosuchcommand
+expect 3 "--vertices" "tpl" -- "$bin" template --vertices 10 -o tpl
+expect 4 "nowhere" "tpl" -- "$bin" template --assets nowhere -o tpl
+printf '{"render": {"size": "big"}}' > bad_config.json
+expect 2 "size" "out.png" -- "$bin" --config bad_config.json render good.obj -o out.png
+
+echo "$passed passed, $failures failed"
+[ "$failures" -eq 0 ]
