@@ -8,9 +8,9 @@ function(bareskin_library name)
   target_link_libraries(${name} PUBLIC ${ARG_PUBLIC} PRIVATE ${ARG_PRIVATE})
 endfunction()
 
-# bareskin_test(NAME SOURCES ... LINK ... LABELS ...): a GoogleTest binary registered with CTest.
+# bareskin_test(NAME SOURCES ... LINK ... LABELS ... FIXTURES ...): a GoogleTest binary registered with CTest.
 function(bareskin_test name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LINK;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "SOURCES;LINK;LABELS;FIXTURES" ${ARGN})
   if(NOT BARESKIN_TESTS)
     return()
   endif()
@@ -20,8 +20,13 @@ function(bareskin_test name)
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
-  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}"
-    ENVIRONMENT "BARESKIN_ASSETS=${PROJECT_SOURCE_DIR}/assets;BARESKIN_SOURCE=${PROJECT_SOURCE_DIR}"
-    DISCOVERY_TIMEOUT 60)
+  # Where tests find the setup assets and the fixture template (environment variables of the same name override).
+  target_compile_definitions(${name} PRIVATE BARESKIN_TEST_ASSETS="${PROJECT_SOURCE_DIR}/assets"
+                                             BARESKIN_TEST_TEMPLATE="${CMAKE_BINARY_DIR}/test_template")
+  set(properties LABELS "${ARG_LABELS}")
+  if(ARG_FIXTURES)
+    list(APPEND properties FIXTURES_REQUIRED "${ARG_FIXTURES}")
+  endif()
+  gtest_discover_tests(${name} PROPERTIES ${properties} DISCOVERY_TIMEOUT 60)
 endfunction()
 include(GoogleTest)

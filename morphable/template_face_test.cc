@@ -11,10 +11,7 @@
 namespace bareskin {
 namespace {
 
-std::string assets() {
-  const char* env = std::getenv("BARESKIN_ASSETS");
-  return env ? env : "assets";
-}
+std::string assets() { return BARESKIN_ASSETS_DIR; }
 
 TemplateFace load_coarse() {
   const std::string mp = assets() + "/mediapipe_face_mesh/", bundle = mp + "face_mesh_solution_packed_assets.data";
