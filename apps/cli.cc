@@ -126,6 +126,8 @@ int run(int argc, char** argv) {
   app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber)->group("Global");
   for (const Command& c : commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.summary)->group(c.group);
+    sub->footer("Global flags (before or after the command): -v, -q, --threads N, --config FILE.json; "
+                "see 'bareskin --help' and docs/cli.md.");
     sub->callback([&globals, run_command = c.setup(*sub, globals)] {
       globals.apply();
       run_command();

@@ -32,7 +32,8 @@ nlohmann::json inspect_file(const std::string& path, bool stats) {
     j["vertices"] = m.V.rows();
     j["triangles"] = m.F.rows();
     j["uvs"] = m.UV.rows();
-    j["uv_seams"] = m.has_uv() && m.FUV != m.F;
+    Eigen::MatrixX2d vertex_uv;
+    j["uv_seams"] = m.has_uv() && !per_vertex_uv(m, vertex_uv);
     j["normals"] = m.has_normals();
     j["boundary_edges"] = boundary_edges(m.F).rows();
     j["surface_area"] = surface_area(m.V, m.F);

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <map>
 #include <utility>
+#include <vector>
 
 #include "core/error.h"
 
@@ -95,6 +96,25 @@ Eigen::MatrixX2i boundary_edges(const Eigen::MatrixX3i& F) {
   Eigen::MatrixX2i E(edges.size(), 2);
   for (size_t i = 0; i < edges.size(); ++i) E.row(i) << edges[i].first, edges[i].second;
   return E;
+}
+
+bool per_vertex_uv(const Mesh& mesh, Eigen::MatrixX2d& uv) {
+  if (!mesh.has_uv()) return false;
+  uv.resize(mesh.V.rows(), 2);
+  std::vector<bool> seen(size_t(mesh.V.rows()), false);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const int v = mesh.F(f, c);
+      const Eigen::RowVector2d t = mesh.UV.row(mesh.FUV(f, c));
+      if (seen[size_t(v)] && (uv.row(v) - t).cwiseAbs().maxCoeff() > 1e-9) return false;
+      uv.row(v) = t;
+      seen[size_t(v)] = true;
+    }
+  }
+  for (Eigen::Index v = 0; v < mesh.V.rows(); ++v) {
+    if (!seen[size_t(v)]) uv.row(v).setZero();  // isolated vertex
+  }
+  return true;
 }
 
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {

@@ -30,6 +30,10 @@ Eigen::MatrixX3d face_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i&
 // Edges lying on exactly one face, as #E by 2 vertex index pairs oriented as in their face.
 Eigen::MatrixX2i boundary_edges(const Eigen::MatrixX3i& F);
 
+// True when every vertex has a single UV value (no seams); then `uv` (#V by 2) holds it. Compares values, not
+// indices, so a seamless mesh read back from OBJ (where indices are renumbered) counts as seamless.
+bool per_vertex_uv(const Mesh& mesh, Eigen::MatrixX2d& uv);
+
 // Total surface area.
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 

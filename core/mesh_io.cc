@@ -4,6 +4,8 @@
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -103,23 +105,41 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
   }
 }
 
-// OpenMesh skips an OBJ vertex it cannot parse ("nan", "inf") and later reports a bad face index; name the real fault.
-void check_obj_vertices(const std::string& path, const std::string& bytes) {
-  size_t line = 1;
+// OpenMesh skips OBJ lines it cannot parse (a "nan" coordinate, a face cut short) and carries on; check the text
+// first so the user hears about the real fault with its line number. Returns the number of face lines.
+size_t check_obj_text(const std::string& path, const std::string& bytes) {
+  size_t line = 1, faces = 0;
+  const auto bad = [&](const std::string& what, const std::string& hint) {
+    throw InvalidInput(path, "line " + std::to_string(line) + ": " + what, hint);
+  };
   for (size_t pos = 0; pos < bytes.size(); ++line) {
     size_t end = bytes.find('\n', pos);
     if (end == std::string::npos) end = bytes.size();
-    if (end - pos > 2 && bytes[pos] == 'v' && (bytes[pos + 1] == ' ' || bytes[pos + 1] == '\t')) {
-      for (size_t i = pos + 2; i < end; ++i) {
-        const char c = char(std::tolower(static_cast<unsigned char>(bytes[i])));
-        if (c == 'n' || c == 'i') {
-          throw InvalidInput(path, "line " + std::to_string(line) + ": vertex coordinate is NaN or infinite",
-                             "repair or remove that vertex");
+    std::istringstream fields(bytes.substr(pos, end - pos));
+    std::string key, token;
+    fields >> key;
+    std::vector<std::string> tokens;
+    while (fields >> token) tokens.push_back(token);
+    if (key == "v") {
+      if (tokens.size() < 3) bad("vertex has fewer than 3 coordinates", "the file is truncated or corrupt");
+      for (size_t i = 0; i < 3; ++i) {
+        char* stop = nullptr;
+        const double value = std::strtod(tokens[i].c_str(), &stop);
+        if (*stop != '\0') bad("vertex coordinate '" + tokens[i] + "' is not a number", "the file is corrupt");
+        if (!std::isfinite(value)) bad("vertex coordinate is NaN or infinite", "repair or remove that vertex");
+      }
+    } else if (key == "f") {
+      ++faces;
+      if (tokens.size() < 3) bad("face has " + std::to_string(tokens.size()) + " corners", "the file is truncated or corrupt");
+      for (const std::string& corner : tokens) {
+        if (corner.empty() || corner.back() == '/' || !(std::isdigit(static_cast<unsigned char>(corner[0])) || corner[0] == '-')) {
+          bad("malformed face corner '" + corner + "'", "the file is truncated or corrupt");
         }
       }
     }
     pos = end + 1;
   }
+  return faces;
 }
 
 }  // namespace
@@ -128,7 +148,7 @@ Mesh read_mesh(const std::string& path) {
   check_extension(path);
   const std::string bytes = read_file(path);  // IoError with a clear message when missing or unreadable
   if (lower_extension(path) == ".ply") check_ply_header(path, bytes);
-  if (lower_extension(path) == ".obj") check_obj_vertices(path, bytes);
+  const size_t obj_faces = lower_extension(path) == ".obj" ? check_obj_text(path, bytes) : 0;
   OmMesh om;
   om.request_vertex_texcoords2D();
   om.request_halfedge_texcoords2D();
@@ -152,6 +172,11 @@ Mesh read_mesh(const std::string& path) {
                        "repair the mesh (non-manifold or degenerate faces) before using it");
   }
   if (om.n_faces() == 0) throw InvalidInput(path, "has no faces", "the file is truncated or not a triangle mesh");
+  if (obj_faces && om.n_faces() != obj_faces) {
+    throw InvalidInput(path, "the reader kept " + std::to_string(om.n_faces()) + " of " + std::to_string(obj_faces) +
+                                 " faces (degenerate or non-manifold faces)",
+                       "repair the mesh before using it");
+  }
 
   Mesh mesh;
   mesh.V.resize(om.n_vertices(), 3);
@@ -201,7 +226,8 @@ void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOption
   check_extension(path);
   validate(mesh, path);
   const bool ply = lower_extension(path) == ".ply";
-  if (ply && mesh.has_uv() && mesh.FUV != mesh.F) {
+  Eigen::MatrixX2d vertex_uv;
+  if (ply && mesh.has_uv() && !per_vertex_uv(mesh, vertex_uv)) {
     throw InvalidInput(path, "PLY holds one texture coordinate per vertex but this mesh has UV seams",
                        "write an .obj instead");
   }
@@ -226,7 +252,7 @@ void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOption
   for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
     vh[i] = om.add_vertex(OmMesh::Point(mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2)));
     if (normals) om.set_normal(vh[i], OmMesh::Normal(mesh.N(i, 0), mesh.N(i, 1), mesh.N(i, 2)));
-    if (ply && mesh.has_uv()) om.set_texcoord2D(vh[i], OmMesh::TexCoord2D(mesh.UV(i, 0), mesh.UV(i, 1)));
+    if (ply && mesh.has_uv()) om.set_texcoord2D(vh[i], OmMesh::TexCoord2D(vertex_uv(i, 0), vertex_uv(i, 1)));
   }
   {
     CapturedOpenMeshLog capture;

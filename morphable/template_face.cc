@@ -151,14 +151,15 @@ TemplateFace coarse_template(const CanonicalFace& face, const FaceMeshTables& ta
 TemplateFace refine_template(const TemplateFace& coarse, const TemplateOptions& options,
                              const ProgressCallback& progress) {
   options.check();
-  if (!coarse.mesh.has_uv() || coarse.mesh.FUV != coarse.mesh.F) {
+  Eigen::MatrixX2d coarse_uv;
+  if (!per_vertex_uv(coarse.mesh, coarse_uv)) {
     throw InvalidInput("template", "refinement needs one UV per vertex (no seams)", "refine the template elsewhere");
   }
   const int steps = 3 + options.remesh_iterations;
   report(progress, 0, steps, "subdivide");
   // 1. A smooth reference surface at least as dense as the target.
   Eigen::MatrixX3d V = coarse.mesh.V;
-  Eigen::MatrixX2d UV = coarse.mesh.UV;
+  Eigen::MatrixX2d UV = coarse_uv;
   Eigen::MatrixX3i F = coarse.mesh.F;
   int levels = 0;
   for (double n = double(V.rows()); n < options.target_vertices; n *= 4) ++levels;

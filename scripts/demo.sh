@@ -44,7 +44,7 @@ body{font:15px/1.45 system-ui,sans-serif;max-width:1100px;margin:2em auto;color:
 h1{font-size:1.6em}h2{margin-top:2em;border-bottom:1px solid #ddd}
 figure{display:inline-block;margin:.5em;text-align:center}figure img{width:340px;border:1px solid #ccc}
 figcaption{font-size:.85em;color:#555}table{border-collapse:collapse}td,th{padding:.2em .8em;border-bottom:1px solid #eee;text-align:left}
-pre{background:#f6f6f6;padding:.8em;overflow:auto;font-size:.85em}.todo{color:#999}
+pre{background:#f6f6f6;padding:.8em;white-space:pre-wrap;font-size:.85em}.todo{color:#999}
 </style></head><body>
 <h1>BareSkin toolkit — demo report</h1>
 <p>Generated $(date -u '+%Y-%m-%d %H:%M UTC') on $(uname -n) by <code>make demo</code> ($("$bareskin" --version)).
@@ -59,7 +59,7 @@ iBUG-68 landmarks (red) from <code>@vladmandic/human@3.3.6</code> (MIT).</p>
 <table>
 <tr><th>vertices</th><td>$(json '["vertices"]')</td><th>triangles</th><td>$(json '["triangles"]')</td></tr>
 <tr><th>surface area</th><td>$(json '["surface_area"]' | xargs printf '%.0f') mm²</td><th>boundary edges</th><td>$(json '["boundary_edges"]')</td></tr>
-<tr><th>bounding box (mm)</th><td colspan=3>$(json '["bounding_box"]')</td></tr>
+<tr><th>bounding box (mm)</th><td colspan=3>$(json '["bounding_box"]' | /usr/bin/python3 -c "import ast,sys; b=ast.literal_eval(sys.stdin.read()); print(' to '.join('(' + ', '.join(f'{x:.1f}' for x in p) + ')' for p in b))")</td></tr>
 </table>
 <figure><a href="img/template_front.png"><img src="img/template_front.png"></a><figcaption>front (shaded + wireframe, landmarks)</figcaption></figure>
 <figure><a href="img/template_left.png"><img src="img/template_left.png"></a><figcaption>left</figcaption></figure>

@@ -34,13 +34,15 @@ printf 'v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n' > nan.obj
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n' > quad.obj
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/5 3/1\n' > uvrange.obj
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n' > range.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 2/2 4/' > cut.obj
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 3\nf 2 1 3\n' > dropped.obj
 printf 'ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n' > cut.ply
 printf '{"points": [[1, 2, 3], [4, 5' > cut.json
 printf '{"points": [[1, 2, 3]]}' > short.json
 printf '\x40\x00\x00\x00\x00\x00\x00\x00{"a":{"dtype":"F32","shape":[4],"data_offsets":[0,16]}}' > cut.safetensors
 printf 'version: 1\nn_points: 68\n{\n1 2\n' > cut.pts
 
-for f in nan.obj quad.obj uvrange.obj range.obj cut.ply cut.png cut.exr cut.json short.json cut.safetensors cut.pts; do
+for f in cut.obj dropped.obj nan.obj quad.obj uvrange.obj range.obj cut.ply cut.png cut.exr cut.json short.json cut.safetensors cut.pts; do
   expect 3 "$f" "" -- "$bin" inspect "$f"
 done
 expect 4 "missing.obj" "" -- "$bin" inspect missing.obj
