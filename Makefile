@@ -49,6 +49,7 @@ gpu-vendor:
 
 FUZZ_SECONDS ?= 60
 fuzz:
+	@bash scripts/install_deps.sh clang libclang-rt-14-dev
 	cmake -S . -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DBARESKIN_FUZZ=ON -DBARESKIN_WITH_TORCH=OFF \
 	  -DBARESKIN_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
 	cmake --build build-fuzz --target fuzz_safetensors fuzz_landmarks fuzz_canonical_face

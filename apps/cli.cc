@@ -7,7 +7,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/parallel.h"
 

@@ -8,6 +8,7 @@
 
 #include "apps/cli.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "core/mesh_io.h"
@@ -16,14 +17,8 @@
 namespace bareskin::cli {
 namespace {
 
-std::string extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
 nlohmann::json inspect_file(const std::string& path, bool stats) {
-  const std::string ext = extension(path);
+  const std::string ext = lower_extension(path);
   nlohmann::json j;
   j["file"] = path;
   if (ext == ".obj" || ext == ".ply") {

@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli.h"
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"

@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "apps/cli.h"
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "morphable/template_face.h"
 

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <mutex>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 
 namespace bareskin {
@@ -106,11 +106,6 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   return in;
 }
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 // 2x box downsample for mip levels (odd sizes round down, at least 1).
 Image half_size(const Image& in) {

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/image_io.h"

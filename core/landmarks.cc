@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 
 namespace bareskin {
@@ -84,7 +84,7 @@ Landmarks parse_landmarks_pts(const std::string& text, const std::string& source
 }
 
 Landmarks read_landmarks(const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
+  const std::string ext = lower_extension(path);
   const std::string text = read_file(path);
   if (ext == ".json") return parse_landmarks_json(text, path);
   if (ext == ".pts") return parse_landmarks_pts(text, path);
@@ -93,7 +93,7 @@ Landmarks read_landmarks(const std::string& path) {
 
 void write_landmarks(const std::string& path, const Landmarks& lm) {
   check_points(lm, path);
-  const std::string ext = std::filesystem::path(path).extension().string();
+  const std::string ext = lower_extension(path);
   std::ostringstream out;
   out.precision(10);
   if (ext == ".pts") {

@@ -13,7 +13,7 @@
 #include <sstream>
 #include <vector>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 
 namespace bareskin {
@@ -69,11 +69,6 @@ class CapturedOpenMeshLog {
   std::vector<std::vector<bool>> had_;
 };
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
 
 void check_extension(const std::string& path) {
   const std::string ext = lower_extension(path);

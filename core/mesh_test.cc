@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/mesh.h"
 #include "core/mesh_io.h"

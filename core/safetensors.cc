@@ -11,7 +11,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 
 namespace bareskin {

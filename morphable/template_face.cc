@@ -16,7 +16,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/landmarks.h"
 #include "core/mesh_io.h"

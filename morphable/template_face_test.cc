@@ -3,7 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/test_util.h"
 #include "morphable/template_face.h"

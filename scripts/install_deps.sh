@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# Installs the Debian packages the toolkit builds and tests with; skips what is present (idempotent).
+# Installs the Debian packages the toolkit builds and tests with, plus any named as arguments (e.g. the fuzzing
+# toolchain); skips what is present (idempotent).
 set -euo pipefail
-packages=(
+packages=("$@"
+
   build-essential cmake ninja-build ccache pkg-config
   libeigen3-dev libspectra-dev libopenmesh-dev libcgal-dev libopenimageio-dev openimageio-tools libopenexr-dev
   libtorch-dev libceres-dev libsuitesparse-dev colmap

@@ -2,7 +2,7 @@
 
 #include <fstream>
 
-#include "core/atomic_file.h"
+#include "core/files.h"
 #include "core/error.h"
 #include "core/test_util.h"
 
@@ -56,6 +56,13 @@ TEST(AtomicDirectory, AllOrNothing) {
   }
   EXPECT_EQ(read_file(target + "/a.txt"), "second");
   EXPECT_EQ(testing::count_files(root), 1u);
+  // A writer killed with -9 leaves its temporary behind; the next writer removes it (pid 999999999 is not alive).
+  std::filesystem::create_directories(root + "/.out.partial999999999-1");
+  testing::write_text(root + "/.a.tmp999999999-2.txt", "stale");
+  AtomicDirectory next(target);
+  AtomicFile file(root + "/a.txt");
+  EXPECT_FALSE(std::filesystem::exists(root + "/.out.partial999999999-1"));
+  EXPECT_FALSE(std::filesystem::exists(root + "/.a.tmp999999999-2.txt"));
 }
 
 }  // namespace

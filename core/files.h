@@ -1,5 +1,5 @@
-// Atomic output: write to a temporary file beside the target, then rename over it. A crash or an exception leaves
-// either the old file or nothing, never a partial one.
+// Files: atomic output (a temporary beside the target, renamed over it: a crash or an exception leaves the old file
+// or nothing, never a partial one), whole-file reads, directories, extensions.
 #pragma once
 #include <string>
 
@@ -44,6 +44,9 @@ class AtomicDirectory {
 void write_file_atomic(const std::string& path, const std::string& bytes);
 // Reads a whole file (IoError if missing/unreadable).
 std::string read_file(const std::string& path);
+
+// The extension in lower case with its dot (".obj"), or "".
+std::string lower_extension(const std::string& path);
 
 // Creates a directory and its parents (IoError when not possible).
 void make_directories(const std::string& dir);

@@ -1,9 +1,12 @@
-#include "core/atomic_file.h"
+#include "core/files.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +18,20 @@
 namespace fs = std::filesystem;
 
 namespace bareskin {
+namespace {
+
+// Temporaries are named ".<name>.<tag><pid>-<random>"; one whose process is gone (killed with -9) is removed.
+void remove_stale_temporaries(const fs::path& dir, const std::string& prefix) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const long pid = std::strtol(name.c_str() + prefix.size(), nullptr, 10);
+    if (pid > 0 && ::kill(pid_t(pid), 0) != 0 && errno == ESRCH) fs::remove_all(entry.path(), ec);
+  }
+}
+
+}  // namespace
 
 AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
   const fs::path path(target_);
@@ -27,6 +44,7 @@ AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
   if (access(dir.c_str(), W_OK) != 0) {
     throw IoError(target_, "output directory '" + dir.string() + "' is not writable", "check its permissions");
   }
+  remove_stale_temporaries(dir, "." + path.stem().string() + ".tmp");
   std::random_device rd;
   temp_ = (dir / ("." + path.stem().string() + ".tmp" + std::to_string(getpid()) + "-" + std::to_string(rd() % 100000) +
                   path.extension().string()))
@@ -62,6 +80,7 @@ AtomicDirectory::AtomicDirectory(std::string target) : target_(std::move(target)
   if (access(parent.c_str(), W_OK) != 0) {
     throw IoError(target_, "parent directory '" + parent.string() + "' is not writable", "check its permissions");
   }
+  remove_stale_temporaries(parent, "." + path.filename().string() + ".partial");
   std::random_device rd;
   temp_ = (parent / ("." + path.filename().string() + ".partial" + std::to_string(getpid()) + "-" +
                      std::to_string(rd() % 100000)))
@@ -111,6 +130,12 @@ std::string read_file(const std::string& path) {
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext;
 }
 
 void make_directories(const std::string& dir) {
