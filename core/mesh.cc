@@ -1,7 +1,8 @@
 #include "core/mesh.h"
 
 #include <Eigen/Geometry>
-#include <map>
+#include <algorithm>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -79,22 +80,28 @@ Eigen::MatrixX3d vertex_normals(const Eigen::MatrixX3d& V, const Eigen::MatrixX3
 }
 
 Eigen::MatrixX2i boundary_edges(const Eigen::MatrixX3i& F) {
-  std::map<std::pair<int, int>, int> count;  // undirected edge -> faces using it
+  // Undirected edges sorted so that shared edges sit side by side; an edge seen once is on the boundary.
+  struct Edge {
+    int lo, hi, a, b;
+  };
+  std::vector<Edge> edges;
+  edges.reserve(size_t(F.rows()) * 3);
   for (Eigen::Index f = 0; f < F.rows(); ++f) {
     for (int k = 0; k < 3; ++k) {
       const int a = F(f, k), b = F(f, (k + 1) % 3);
-      ++count[{std::min(a, b), std::max(a, b)}];
+      edges.push_back({std::min(a, b), std::max(a, b), a, b});
     }
   }
-  std::vector<std::pair<int, int>> edges;
-  for (Eigen::Index f = 0; f < F.rows(); ++f) {
-    for (int k = 0; k < 3; ++k) {
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      if (count[{std::min(a, b), std::max(a, b)}] == 1) edges.emplace_back(a, b);
-    }
+  std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return std::tie(x.lo, x.hi) < std::tie(y.lo, y.hi); });
+  std::vector<std::pair<int, int>> boundary;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    while (j < edges.size() && edges[j].lo == edges[i].lo && edges[j].hi == edges[i].hi) ++j;
+    if (j - i == 1) boundary.emplace_back(edges[i].a, edges[i].b);
+    i = j;
   }
-  Eigen::MatrixX2i E(edges.size(), 2);
-  for (size_t i = 0; i < edges.size(); ++i) E.row(i) << edges[i].first, edges[i].second;
+  Eigen::MatrixX2i E(boundary.size(), 2);
+  for (size_t i = 0; i < boundary.size(); ++i) E.row(Eigen::Index(i)) << boundary[i].first, boundary[i].second;
   return E;
 }
 

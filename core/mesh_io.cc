@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -107,32 +108,47 @@ size_t check_obj_text(const std::string& path, const std::string& bytes) {
   const auto bad = [&](const std::string& what, const std::string& hint) {
     throw InvalidInput(path, "line " + std::to_string(line) + ": " + what, hint);
   };
-  for (size_t pos = 0; pos < bytes.size(); ++line) {
-    size_t end = bytes.find('\n', pos);
-    if (end == std::string::npos) end = bytes.size();
-    std::istringstream fields(bytes.substr(pos, end - pos));
-    std::string key, token;
-    fields >> key;
-    std::vector<std::string> tokens;
-    while (fields >> token) tokens.push_back(token);
-    if (key == "v") {
-      if (tokens.size() < 3) bad("vertex has fewer than 3 coordinates", "the file is truncated or corrupt");
-      for (size_t i = 0; i < 3; ++i) {
+  const char* p = bytes.data();
+  const char* const end = p + bytes.size();
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+  while (p < end) {
+    const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+    if (!eol) eol = end;
+    // Tokens of this line, as [begin, end) pointers.
+    std::pair<const char*, const char*> tokens[8];
+    int n = 0;
+    for (const char* q = p; q < eol && n < 8;) {
+      while (q < eol && is_space(*q)) ++q;
+      const char* b = q;
+      while (q < eol && !is_space(*q)) ++q;
+      if (q > b) tokens[n++] = {b, q};
+    }
+    const auto is = [&](const char* key) {
+      return n > 0 && size_t(tokens[0].second - tokens[0].first) == std::strlen(key) &&
+             std::equal(tokens[0].first, tokens[0].second, key);
+    };
+    if (is("v")) {
+      if (n < 4) bad("vertex has fewer than 3 coordinates", "the file is truncated or corrupt");
+      for (int i = 1; i < 4; ++i) {
+        const std::string text(tokens[i].first, tokens[i].second);
         char* stop = nullptr;
-        const double value = std::strtod(tokens[i].c_str(), &stop);
-        if (*stop != '\0') bad("vertex coordinate '" + tokens[i] + "' is not a number", "the file is corrupt");
+        const double value = std::strtod(text.c_str(), &stop);
+        if (*stop != '\0') bad("vertex coordinate '" + text + "' is not a number", "the file is corrupt");
         if (!std::isfinite(value)) bad("vertex coordinate is NaN or infinite", "repair or remove that vertex");
       }
-    } else if (key == "f") {
+    } else if (is("f")) {
       ++faces;
-      if (tokens.size() < 3) bad("face has " + std::to_string(tokens.size()) + " corners", "the file is truncated or corrupt");
-      for (const std::string& corner : tokens) {
-        if (corner.empty() || corner.back() == '/' || !(std::isdigit(static_cast<unsigned char>(corner[0])) || corner[0] == '-')) {
-          bad("malformed face corner '" + corner + "'", "the file is truncated or corrupt");
+      if (n < 4) bad("face has " + std::to_string(n - 1) + " corners", "the file is truncated or corrupt");
+      for (int i = 1; i < n; ++i) {
+        const char first = *tokens[i].first, last = *(tokens[i].second - 1);
+        if (last == '/' || !(std::isdigit(static_cast<unsigned char>(first)) || first == '-')) {
+          bad("malformed face corner '" + std::string(tokens[i].first, tokens[i].second) + "'",
+              "the file is truncated or corrupt");
         }
       }
     }
-    pos = end + 1;
+    p = eol + 1;
+    ++line;
   }
   return faces;
 }
