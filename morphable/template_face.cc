@@ -1,12 +1,5 @@
 #include "morphable/template_face.h"
 
-#include <CGAL/AABB_face_graph_triangle_primitive.h>
-#include <CGAL/AABB_traits.h>
-#include <CGAL/AABB_tree.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Polygon_mesh_processing/locate.h>
-#include <CGAL/Polygon_mesh_processing/remesh.h>
-#include <CGAL/Surface_mesh.h>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Subdivider/Uniform/ModifiedButterFlyT.hh>
 #include <spdlog/spdlog.h>
@@ -22,14 +15,10 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
+#include "morphable/surface.h"
 
 namespace bareskin {
 namespace {
-
-namespace PMP = CGAL::Polygon_mesh_processing;
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = Kernel::Point_3;
-using SurfaceMesh = CGAL::Surface_mesh<Point>;
 
 struct DoubleTraits : public OpenMesh::DefaultTraits {
   typedef OpenMesh::Vec3d Point;
@@ -89,25 +78,6 @@ void butterfly(Eigen::MatrixX3d& V, Eigen::MatrixX2d& UV, Eigen::MatrixX3i& F, i
   from_openmesh(geometry, V, F);
 }
 
-SurfaceMesh to_cgal(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
-  SurfaceMesh sm;
-  std::vector<SurfaceMesh::Vertex_index> vi;
-  for (Eigen::Index i = 0; i < V.rows(); ++i) vi.push_back(sm.add_vertex(Point(V(i, 0), V(i, 1), V(i, 2))));
-  for (Eigen::Index f = 0; f < F.rows(); ++f) sm.add_face(vi[F(f, 0)], vi[F(f, 1)], vi[F(f, 2)]);
-  return sm;
-}
-
-void from_cgal(SurfaceMesh& sm, Eigen::MatrixX3d& V, Eigen::MatrixX3i& F) {
-  sm.collect_garbage();
-  V.resize(sm.number_of_vertices(), 3);
-  for (auto v : sm.vertices()) V.row(v.idx()) << sm.point(v).x(), sm.point(v).y(), sm.point(v).z();
-  F.resize(sm.number_of_faces(), 3);
-  for (auto f : sm.faces()) {
-    int c = 0;
-    for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) F(f.idx(), c++) = int(v.idx());
-  }
-}
-
 int nearest_vertex(const Eigen::MatrixX3d& V, const Eigen::RowVector3d& p) {
   Eigen::Index best;
   (V.rowwise() - p).rowwise().squaredNorm().minCoeff(&best);
@@ -155,9 +125,9 @@ TemplateFace refine_template(const TemplateFace& coarse, const TemplateOptions& 
   if (!per_vertex_uv(coarse.mesh, coarse_uv)) {
     throw InvalidInput("template", "refinement needs one UV per vertex (no seams)", "refine the template elsewhere");
   }
-  // Progress in units of roughly equal time (measured at 65k vertices): subdivision 1, each remeshing pass 8,
-  // UV transfer and landmarks 2.
-  const int steps = 1 + 2 * 8 + 2;
+  // Progress in units of roughly equal time (measured at 65k vertices): subdivision 1, remeshing 16, UV transfer and
+  // landmarks 2.
+  const int steps = 1 + 16 + 2;
   report(progress, 0, steps, "subdivide");
   // 1. A smooth reference surface at least as dense as the target.
   Eigen::MatrixX3d V = coarse.mesh.V;
@@ -166,43 +136,21 @@ TemplateFace refine_template(const TemplateFace& coarse, const TemplateOptions& 
   int levels = 0;
   for (double n = double(V.rows()); n < options.target_vertices; n *= 4) ++levels;
   butterfly(V, UV, F, levels);
-  report(progress, 1, steps, "remesh (pass 1 of at most 2)");
+  report(progress, 1, steps, "remesh");
 
-  // 2. Isotropic remeshing of the reference to an edge length that gives the target count (about 2 faces a vertex
-  //    on an even mesh), corrected once from the count the first pass gives.
-  const double area = surface_area(V, F);
-  double edge = std::sqrt(4.0 * area / (std::sqrt(3.0) * 2.0 * options.target_vertices));
-  SurfaceMesh reference = to_cgal(V, F), result;
-  for (int pass = 0; pass < 2; ++pass) {
-    result = reference;
-    PMP::isotropic_remeshing(faces(result), edge, result,
-                             PMP::parameters::number_of_iterations(options.remesh_iterations).protect_constraints(false));
-    const double ratio = double(result.number_of_vertices()) / options.target_vertices;
-    spdlog::debug("remesh pass {}: edge {:.4f} mm -> {} vertices", pass, edge, result.number_of_vertices());
-    if (std::abs(ratio - 1.0) < 0.02) break;
-    edge *= std::sqrt(ratio);
-    report(progress, 1 + 8 * (pass + 1), steps, "remesh (pass 2 of at most 2)");
-  }
+  // 2. Isotropic remeshing of the reference to an even edge length that gives the target count.
   TemplateFace dense;
-  from_cgal(result, dense.mesh.V, dense.mesh.F);
+  isotropic_remesh(V, F, options.target_vertices, options.remesh_iterations, dense.mesh.V, dense.mesh.F);
   report(progress, steps - 2, steps, "uv transfer");
 
   // 3. UVs: locate each new vertex on the reference surface and interpolate the subdivided UV layout there.
-  using Primitive = CGAL::AABB_face_graph_triangle_primitive<SurfaceMesh>;
-  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
-  Tree tree;
-  PMP::build_AABB_tree(reference, tree);
+  const SurfaceLocator reference(V, F);
   dense.mesh.UV.resize(dense.mesh.V.rows(), 2);
   parallel_for(0, dense.mesh.V.rows(), [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
-      const Point p(dense.mesh.V(i, 0), dense.mesh.V(i, 1), dense.mesh.V(i, 2));
-      const auto loc = PMP::locate_with_AABB_tree(p, tree, reference);
-      // locate's barycentric weights follow source(h), target(h), target(next(h)) of the face's halfedge h.
-      const auto h = reference.halfedge(loc.first);
-      const int corner[3] = {int(reference.source(h).idx()), int(reference.target(h).idx()),
-                             int(reference.target(reference.next(h)).idx())};
-      dense.mesh.UV.row(i) = loc.second[0] * UV.row(corner[0]) + loc.second[1] * UV.row(corner[1]) +
-                             loc.second[2] * UV.row(corner[2]);
+      const SurfacePoint p = reference.locate(dense.mesh.V.row(i).transpose());
+      dense.mesh.UV.row(i) = p.barycentric[0] * UV.row(F(p.face, 0)) + p.barycentric[1] * UV.row(F(p.face, 1)) +
+                             p.barycentric[2] * UV.row(F(p.face, 2));
     }
   }, 1024);
   dense.mesh.FUV = dense.mesh.F;
