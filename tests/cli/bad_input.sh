@@ -53,6 +53,8 @@ expect 2 "--size" "out.png" -- "$bin" render good.obj -o out.png --size 3
 expect 2 "unknown command 'nosuchcommand'" "" -- "$bin" nosuchcommand
 expect 3 "--vertices" "tpl" -- "$bin" template --vertices 10 -o tpl
 expect 4 "nowhere" "tpl" -- "$bin" template --assets nowhere -o tpl
+expect 4 "nowhere/face.obj" "scans" -- "$bin" scan synth --template nowhere -o scans --count 1
+expect 3 "--count" "scans" -- "$bin" scan synth --count 0 -o scans
 printf '{"render": {"size": "big"}}' > bad_config.json
 expect 2 "size" "out.png" -- "$bin" --config bad_config.json render good.obj -o out.png
 

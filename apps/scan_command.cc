@@ -1,0 +1,74 @@
+// bareskin scan synth: a synthetic population of scans with ground truth (registration joins `scan` later).
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/parallel.h"
+#include "scan/synth.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string template_dir = "template", output = "scans";
+    SynthOptions synth;
+  };
+  auto opt = std::make_shared<Options>();
+  app.require_subcommand(1);
+  CLI::App* synth = app.add_subcommand("synth", "Make a synthetic population of scans with ground truth");
+  synth->add_option("-o,--output", opt->output, "Population folder (one folder per subject + manifest.json)")
+      ->capture_default_str();
+  synth->add_option("--template", opt->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
+  synth->add_option("--count", opt->synth.count, "Subjects")->capture_default_str();
+  synth->add_option("--seed", opt->synth.seed, "Population seed (same seed: identical files)")->capture_default_str();
+  synth->add_option("--vertices", opt->synth.scan_vertices, "Vertices per scan (about; 2 triangles each)")
+      ->capture_default_str()->group("Scan mesh");
+  synth->add_option("--remesh-iterations", opt->synth.remesh_iterations, "Isotropic remeshing passes per scan")
+      ->capture_default_str()->group("Scan mesh");
+  synth->add_option("--feature-scale", opt->synth.identity.feature_scale, "Strength of the semantic feature controls")
+      ->capture_default_str()->group("Identity");
+  synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
+      ->capture_default_str()->group("Identity");
+  return [opt, &globals] {
+    opt->synth.check();
+    const TemplateFace face =
+        read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");
+    make_directories(opt->output);
+    // Resumable: a subject folder appears only when complete (atomic), so existing ones are skipped.
+    std::vector<int> todo;
+    for (int i = 0; i < opt->synth.count; ++i) {
+      char id[32];
+      std::snprintf(id, sizeof id, "subject_%04d", i);
+      if (!std::filesystem::exists(opt->output + "/" + id + "/truth/identity.json")) todo.push_back(i);
+    }
+    if (todo.size() < size_t(opt->synth.count)) {
+      spdlog::info("scan synth: {} of {} subjects already there, skipped", opt->synth.count - int(todo.size()), opt->synth.count);
+    }
+    ProgressBar bar = globals.progress("scan synth");
+    std::atomic<int> done{0};
+    parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+      for (int64_t k = b; k < e; ++k) {
+        write_scan(opt->output, synthesize_scan(face, todo[size_t(k)], opt->synth), opt->synth);
+        bar.update(++done, int64_t(todo.size()), "subjects");
+      }
+    });
+    bar.finish();
+    nlohmann::json manifest;
+    manifest["format"] = "bareskin.scan_population";
+    manifest["format_version"] = 1;
+    manifest["seed"] = opt->synth.seed;
+    manifest["count"] = opt->synth.count;
+    manifest["template"] = std::filesystem::absolute(opt->template_dir).string();
+    manifest["identity_features"] = identity_feature_names();
+    manifest["contents"] = "mesh.ply, landmarks.json, truth/ (maps, UV atlas and blendshapes: not yet generated)";
+    write_file_atomic(opt->output + "/manifest.json", manifest.dump(1) + "\n");
+    globals.write_resolved_config(opt->output + "/config.json");
+    spdlog::info("scan synth: {} subjects in {}", opt->synth.count, opt->output);
+  };
+}
+
+}  // namespace bareskin::cli

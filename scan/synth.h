@@ -1,0 +1,48 @@
+// `scan synth`: a synthetic population of cleaned head scans with ground truth (DESIGN.md §3). Each subject is the
+// template deformed by a sampled identity (scan/identity.h), remeshed into its own topology so registration has real
+// work to do, with the dense truth correspondence: for every template vertex, its true point on the scan's surface.
+//
+// Landed so far: geometry, landmarks and truth. The four maps in a per-scan UV atlas, the expression blendshape set and
+// the realism knobs (noise, holes, pose jitter) are the rest of the issue.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "core/landmarks.h"
+#include "core/mesh.h"
+#include "core/progress.h"
+#include "morphable/template_face.h"
+#include "scan/identity.h"
+
+namespace bareskin {
+
+struct SynthOptions {
+  int count = 8;                  // subjects
+  uint64_t seed = 1;              // population seed; subject i's seed derives from (seed, i)
+  int scan_vertices = 100000;     // about 200k triangles, each scan in its own topology
+  int remesh_iterations = 1;
+  IdentityOptions identity;
+  void check() const;
+};
+
+struct SyntheticScan {
+  std::string id;               // "subject_0007"
+  Identity identity;
+  Mesh mesh;                    // the scan: own vertices and triangles, mm
+  Landmarks landmarks;          // 68 iBUG points on the scan surface, mm
+  // Truth correspondence, one row per template vertex: the face of `mesh` it lies on, barycentric weights of that
+  // face's corners, and the point itself.
+  Eigen::VectorXi truth_face;
+  Eigen::MatrixX3d truth_barycentric;
+  Eigen::MatrixX3d truth_point;
+};
+
+uint64_t subject_seed(uint64_t population_seed, int index);
+
+// Subject `index` of the population; deterministic in (template, index, options).
+SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOptions& options);
+
+// Writes dir/<id>/{mesh.ply, landmarks.json, truth/correspondence.safetensors, truth/identity.json} atomically.
+void write_scan(const std::string& dir, const SyntheticScan& scan, const SynthOptions& options);
+
+}  // namespace bareskin
