@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/parallel.h"
+#include "scan/blendshapes.h"
 #include "scan/synth.h"
 
 namespace bareskin::cli {
@@ -57,6 +58,8 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       }
     });
     bar.finish();
+    const std::vector<Blendshape> shapes = make_blendshapes(face);
+    write_blendshapes(opt->output + "/blendshapes", shapes);
     nlohmann::json manifest;
     manifest["format"] = "bareskin.scan_population";
     manifest["format_version"] = 1;
@@ -64,7 +67,9 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
     manifest["count"] = opt->synth.count;
     manifest["template"] = std::filesystem::absolute(opt->template_dir).string();
     manifest["identity_features"] = identity_feature_names();
-    manifest["contents"] = "mesh.ply, landmarks.json, truth/ (maps, UV atlas and blendshapes: not yet generated)";
+    manifest["blendshapes"] = int(shapes.size());
+    manifest["contents"] = "per subject mesh.ply, landmarks.json, truth/; blendshapes/ on the template "
+                           "(maps in a per-scan UV atlas: not yet generated)";
     write_file_atomic(opt->output + "/manifest.json", manifest.dump(1) + "\n");
     globals.write_resolved_config(opt->output + "/config.json");
     spdlog::info("scan synth: {} subjects in {}", opt->synth.count, opt->output);

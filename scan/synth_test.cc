@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <map>
 #include <numeric>
 
 #include "core/error.h"
@@ -131,6 +132,63 @@ TEST(SynthScan, BadOptionsAreInvalidInput) {
   opt = SynthOptions();
   opt.identity.symmetry = 2;
   EXPECT_THROW(opt.check(), InvalidInput);
+}
+
+}  // namespace
+}  // namespace bareskin
+
+#include "scan/blendshapes.h"
+
+namespace bareskin {
+namespace {
+
+TEST(Blendshapes, ArkitStyleSetThatIsLocalSmoothAndMirrored) {
+  const TemplateFace& face = test_template();
+  const std::vector<Blendshape> shapes = make_blendshapes(face);
+  ASSERT_GE(shapes.size(), 50u);
+  std::map<std::string, const Blendshape*> by_name;
+  for (const Blendshape& b : shapes) by_name[b.name] = &b;
+  EXPECT_EQ(by_name.size(), shapes.size()) << "names are unique";
+  for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "eyeBlink_L", "browInnerUp", "mouthPucker"}) {
+    ASSERT_TRUE(by_name.count(name)) << name;
+  }
+  const Eigen::MatrixX3d before = face_normals(face.mesh.V, face.mesh.F);
+  const auto vertex = [&](int landmark) { return face.landmark_vertices[size_t(landmark)]; };
+  for (const Blendshape& b : shapes) {
+    SCOPED_TRACE(b.name);
+    const double peak = b.delta.rowwise().norm().maxCoeff();
+    EXPECT_GE(peak, 0.5);
+    EXPECT_LT(peak, 25.0) << "a wide-open jaw moves the chin about 2 cm; nothing moves more";
+    // Full activation folds no triangle.
+    const Eigen::MatrixX3d after = face_normals(face.mesh.V + b.delta, face.mesh.F);
+    int folded = 0;
+    for (Eigen::Index f = 0; f < before.rows(); ++f) folded += before.row(f).dot(after.row(f)) < 0;
+    EXPECT_EQ(folded, 0);
+  }
+  // Local: a left blink closes the left eye (upper lid 43/44 moves down) and leaves the right eye (37/38) still.
+  const Blendshape& blink = *by_name["eyeBlink_L"];
+  EXPECT_LT(blink.delta(vertex(44), 1), -1.0);
+  EXPECT_LT(blink.delta.row(vertex(37)).norm(), 0.05 * blink.delta.row(vertex(44)).norm());
+  // Mirrored: the right smile moves the right corner (48) as the left smile moves the left corner (54), x flipped.
+  const Eigen::RowVector3d left = by_name["mouthSmile_L"]->delta.row(vertex(54));
+  const Eigen::RowVector3d right = by_name["mouthSmile_R"]->delta.row(vertex(48));
+  EXPECT_NEAR(right.x(), -left.x(), 0.2 * std::abs(left.x()) + 0.1);
+  EXPECT_NEAR(right.y(), left.y(), 0.2 * std::abs(left.y()) + 0.1);
+  // The jaw opens downward at the chin and leaves the forehead still.
+  const Blendshape& jaw = *by_name["jawOpen"];
+  EXPECT_LT(jaw.delta(vertex(8), 1), -3.0);
+  EXPECT_LT(jaw.delta.row(vertex(19)).norm(), 1e-6);
+}
+
+TEST(Blendshapes, WrittenSetReadsBackWithNames) {
+  const TemplateFace& face = test_template();
+  const std::string dir = testing::temp_dir() + "/blendshapes";
+  const std::vector<Blendshape> shapes = make_blendshapes(face);
+  write_blendshapes(dir, shapes);
+  const SafeTensors st = SafeTensors::open(dir + "/blendshapes.safetensors");
+  const TensorView& deltas = st.tensor("deltas", DType::F32, {int64_t(shapes.size()), face.mesh.V.rows(), 3});
+  EXPECT_NEAR(deltas.as_double((5 * face.mesh.V.rows() + 7) * 3 + 1), shapes[5].delta(7, 1), 1e-5);
+  EXPECT_NE(st.metadata().at("names").find("\"jawOpen\""), std::string::npos);
 }
 
 }  // namespace
