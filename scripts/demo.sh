@@ -47,6 +47,15 @@ for dir in "$out"/scans/subject_*/; do
   tris=$("$bareskin" inspect --json "$dir/mesh.ply" | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["triangles"])')
   sheet+="<figure><img src=\"img/${id}_front.png\" style=\"width:160px\"><img src=\"img/${id}_left.png\" style=\"width:160px\"><figcaption>$id · $tris triangles</figcaption></figure>"
 done
+expressions=""
+for e in jawOpen=1 mouthSmile_L=1,mouthSmile_R=1 eyeBlink_L=1 browInnerUp=1 mouthPucker=1 noseSneer_L=1,noseSneer_R=1; do
+  name=${e//[=,]/_}
+  [ -f "$out/img/expr_$name.png" ] || "$bareskin" render "$out/template/face.obj" --no-wireframe --size 512 \
+      --blendshapes "$out/scans/blendshapes/blendshapes.safetensors" --expression "$e" -o "$out/img/expr_$name.png"
+  expressions+="<figure><img src=\"img/expr_$name.png\" style=\"width:200px\"><figcaption>${e//,/ }</figcaption></figure>"
+done
+blendshape_names=$(/usr/bin/python3 -c "import json,sys; n=json.load(open(sys.argv[1])); print(len(n), 'shapes:', ', '.join(n))" \
+  "$out/scans/blendshapes/names.json")
 spread=$(/usr/bin/python3 - "$out/scans" <<'PY'
 import glob, json, struct, sys
 import numpy as np
@@ -108,9 +117,14 @@ iBUG-68 landmarks (red) from <code>@vladmandic/human@3.3.6</code> (MIT).</p>
 process (squared-exponential kernels of 60, 25 and 10 mm, drawn with random Fourier features, 85% mirror-symmetric)
 plus semantic controls (nose length/width/bridge, jaw width, chin, cheekbones, eye spacing, lip thickness, brow ridge) —
 then remeshed into its own topology, with the true position of every template vertex on the scan stored in
-<code>truth/correspondence.safetensors</code>. $spread. The four maps in a per-scan UV atlas and the expression
-blendshapes are not generated yet.</p>
+<code>truth/correspondence.safetensors</code>. $spread. The four maps in a per-scan UV atlas are not generated yet.</p>
 $sheet
+<h3>Expression blendshapes (on the template)</h3>
+<p>Standing in for the paper's 236 artist-made blendshapes: region-weighted, smooth displacements anchored at iBUG-68
+landmarks, ARKit names ("_L" = the subject's left). Posed with
+<code>bareskin render face.obj --blendshapes scans/blendshapes/blendshapes.safetensors --expression jawOpen=1</code>.
+$blendshape_names.</p>
+$expressions
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>
