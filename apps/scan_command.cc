@@ -30,6 +30,14 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       ->capture_default_str()->group("Scan mesh");
   synth->add_option("--remesh-iterations", opt->synth.remesh_iterations, "Isotropic remeshing passes per scan")
       ->capture_default_str()->group("Scan mesh");
+  synth->add_option("--noise", opt->synth.noise_mm, "Measurement noise along normals, sigma in mm")
+      ->capture_default_str()->group("Realism");
+  synth->add_option("--scale-jitter", opt->synth.scale_jitter, "Random scale in [1-s, 1+s]")
+      ->capture_default_str()->group("Realism");
+  synth->add_option("--rotation-jitter", opt->synth.rotation_jitter_deg, "Random rotation up to this many degrees")
+      ->capture_default_str()->group("Realism");
+  synth->add_option("--translation-jitter", opt->synth.translation_jitter_mm, "Random shift up to this many mm per axis")
+      ->capture_default_str()->group("Realism");
   synth->add_option("--feature-scale", opt->synth.identity.feature_scale, "Strength of the semantic feature controls")
       ->capture_default_str()->group("Identity");
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")

@@ -1,6 +1,9 @@
 #include "scan/synth.h"
 
+#include <Eigen/Geometry>
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "core/error.h"
 #include "core/files.h"
@@ -15,6 +18,10 @@ void SynthOptions::check() const {
   if (scan_vertices < 1000 || scan_vertices > 5000000) throw InvalidInput("", "--vertices must lie in [1000, 5000000]", "");
   if (remesh_iterations < 1 || remesh_iterations > 10) throw InvalidInput("", "--remesh-iterations must lie in [1, 10]", "");
   identity.check();
+  if (!(noise_mm >= 0 && noise_mm <= 5)) throw InvalidInput("", "--noise must lie in [0, 5] mm", "");
+  if (!(scale_jitter >= 0 && scale_jitter < 0.5)) throw InvalidInput("", "--scale-jitter must lie in [0, 0.5)", "");
+  if (!(rotation_jitter_deg >= 0 && rotation_jitter_deg <= 180)) throw InvalidInput("", "--rotation-jitter must lie in [0, 180] degrees", "");
+  if (!(translation_jitter_mm >= 0 && translation_jitter_mm <= 1000)) throw InvalidInput("", "--translation-jitter must lie in [0, 1000] mm", "");
 }
 
 uint64_t subject_seed(uint64_t population_seed, int index) {
@@ -48,6 +55,30 @@ SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOp
     scan.truth_face(i) = p.face;
     scan.truth_barycentric.row(i) = p.barycentric.transpose();
     scan.truth_point.row(i) = p.point.transpose();
+  }
+  // Realism knobs, from a stream of their own so that turning them on leaves the identity unchanged.
+  std::mt19937_64 rng(subject_seed(options.seed ^ 0x5ca1ab1eull, index));
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  if (options.noise_mm > 0) {
+    for (Eigen::Index i = 0; i < scan.mesh.V.rows(); ++i) scan.mesh.V.row(i) += options.noise_mm * normal(rng) * scan.mesh.N.row(i);
+  }
+  if (options.scale_jitter > 0 || options.rotation_jitter_deg > 0 || options.translation_jitter_mm > 0) {
+    scan.scale = 1.0 + options.scale_jitter * uniform(rng);
+    const Eigen::Vector3d axis = Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+    scan.rotation = Eigen::AngleAxisd(options.rotation_jitter_deg * M_PI / 180.0 * uniform(rng), axis).toRotationMatrix();
+    for (int k = 0; k < 3; ++k) scan.translation[k] = options.translation_jitter_mm * uniform(rng);
+    scan.mesh.V = ((scan.scale * scan.mesh.V * scan.rotation.transpose()).rowwise() + scan.translation.transpose()).eval();
+  }
+  if (options.noise_mm > 0 || scan.scale != 1 || !scan.rotation.isIdentity() || !scan.translation.isZero()) {
+    // The truth keeps its face and barycentrics; its point follows the moved vertices, so it stays on the scan.
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const int f = scan.truth_face(i);
+      scan.truth_point.row(i) = scan.truth_barycentric(i, 0) * scan.mesh.V.row(scan.mesh.F(f, 0)) +
+                                scan.truth_barycentric(i, 1) * scan.mesh.V.row(scan.mesh.F(f, 1)) +
+                                scan.truth_barycentric(i, 2) * scan.mesh.V.row(scan.mesh.F(f, 2));
+    }
+    scan.mesh.N = vertex_normals(scan.mesh.V, scan.mesh.F);
   }
   scan.landmarks.units = "mm";
   scan.landmarks.points.resize(68, 3);
@@ -94,6 +125,13 @@ void write_scan(const std::string& dir, const SyntheticScan& scan, const SynthOp
   params["symmetry"] = options.identity.symmetry;
   params["scan_vertices"] = scan.mesh.V.rows();
   params["scan_triangles"] = scan.mesh.F.rows();
+  params["noise_mm"] = options.noise_mm;
+  params["similarity"] = {{"scale", scan.scale},
+                          {"rotation", {{scan.rotation(0, 0), scan.rotation(0, 1), scan.rotation(0, 2)},
+                                        {scan.rotation(1, 0), scan.rotation(1, 1), scan.rotation(1, 2)},
+                                        {scan.rotation(2, 0), scan.rotation(2, 1), scan.rotation(2, 2)}}},
+                          {"translation", {scan.translation.x(), scan.translation.y(), scan.translation.z()}},
+                          {"meaning", "x_scan = scale * rotation * x_identity + translation"}};
   write_file_atomic(out.path() + "/truth/identity.json", params.dump(1) + "\n");
   out.commit();
 }

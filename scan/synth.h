@@ -2,8 +2,8 @@
 // template deformed by a sampled identity (scan/identity.h), remeshed into its own topology so registration has real
 // work to do, with the dense truth correspondence: for every template vertex, its true point on the scan's surface.
 //
-// Landed so far: geometry, landmarks and truth. The four maps in a per-scan UV atlas, the expression blendshape set and
-// the realism knobs (noise, holes, pose jitter) are the rest of the issue.
+// Landed so far: geometry, landmarks, truth, expression blendshapes (scan/blendshapes.h), noise and pose/scale jitter.
+// The four maps in a per-scan UV atlas and holes are the rest of the issue.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -22,6 +22,13 @@ struct SynthOptions {
   int scan_vertices = 100000;     // about 200k triangles, each scan in its own topology
   int remesh_iterations = 1;
   IdentityOptions identity;
+  // Realism knobs (0 = off). Noise moves scan vertices along their normals; jitter applies a random similarity
+  // (uniform scale in [1-s, 1+s], rotation up to `rotation_jitter_deg` about a random axis, translation up to
+  // `translation_jitter_mm` per axis) to the whole scan, as a scanner's own frame would.
+  double noise_mm = 0;
+  double scale_jitter = 0;
+  double rotation_jitter_deg = 0;
+  double translation_jitter_mm = 0;
   void check() const;
 };
 
@@ -35,6 +42,10 @@ struct SyntheticScan {
   Eigen::VectorXi truth_face;
   Eigen::MatrixX3d truth_barycentric;
   Eigen::MatrixX3d truth_point;
+  // The similarity applied after remeshing: x_scan = scale * rotation * x + translation (identity when no jitter).
+  double scale = 1;
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 };
 
 uint64_t subject_seed(uint64_t population_seed, int index);

@@ -193,3 +193,41 @@ TEST(Blendshapes, WrittenSetReadsBackWithNames) {
 
 }  // namespace
 }  // namespace bareskin
+
+namespace bareskin {
+namespace {
+
+TEST(SynthScan, PoseJitterIsTheStoredSimilarityAndNoiseKeepsTruthOnTheSurface) {
+  const TemplateFace& face = test_template();
+  SynthOptions plain;
+  plain.scan_vertices = 4000;
+  SynthOptions jittered = plain;
+  jittered.scale_jitter = 0.1;
+  jittered.rotation_jitter_deg = 20;
+  jittered.translation_jitter_mm = 50;
+  const SyntheticScan a = synthesize_scan(face, 1, plain), b = synthesize_scan(face, 1, jittered);
+  EXPECT_EQ(a.identity.displacement, b.identity.displacement) << "knobs leave the identity unchanged";
+  EXPECT_FALSE(b.rotation.isIdentity());
+  // Independent oracle: Umeyama's least-squares similarity between the two truths is the stored one.
+  const Eigen::Matrix4d T = Eigen::umeyama(a.truth_point.transpose(), b.truth_point.transpose(), true);
+  const double scale = T.topLeftCorner<3, 3>().determinant() > 0 ? std::cbrt(T.topLeftCorner<3, 3>().determinant()) : 0;
+  EXPECT_NEAR(scale, b.scale, 1e-6);
+  EXPECT_LT((T.topLeftCorner<3, 3>() / scale - b.rotation).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_LT((T.topRightCorner<3, 1>() - b.translation).cwiseAbs().maxCoeff(), 1e-4);
+
+  SynthOptions noisy = plain;
+  noisy.noise_mm = 0.3;
+  const SyntheticScan c = synthesize_scan(face, 1, noisy);
+  const double rms = std::sqrt((c.mesh.V - a.mesh.V).rowwise().squaredNorm().mean());
+  EXPECT_NEAR(rms, 0.3, 0.03) << "vertex noise has the requested sigma";
+  const SurfaceLocator locator(c.mesh.V, c.mesh.F);
+  for (Eigen::Index i = 0; i < c.truth_point.rows(); i += 13) {
+    EXPECT_LT((locator.locate(c.truth_point.row(i).transpose()).point.transpose() - c.truth_point.row(i)).norm(), 1e-3);
+  }
+  EXPECT_EQ(c.landmarks.points.row(30), c.truth_point.row(face.landmark_vertices[30]));
+  noisy.noise_mm = -1;
+  EXPECT_THROW(noisy.check(), InvalidInput);
+}
+
+}  // namespace
+}  // namespace bareskin
