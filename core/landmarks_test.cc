@@ -57,8 +57,6 @@ TEST(Landmarks, BadInputNamesTheFile) {
   EXPECT_TRUE(rejects("{\"scheme\":\"x\",\"points\": [[1e999, 2]]}", true));     // infinite
   EXPECT_TRUE(rejects("version: 1\nn_points: 68\n{\n1 2\n3 4\n", false));        // truncated
   EXPECT_TRUE(rejects("hello", false));
-  Landmarks custom;
-  custom.scheme = "custom";
   EXPECT_NO_THROW(parse_landmarks_json("{\"scheme\":\"custom\",\"points\": [[1,2]]}", "lm.json"));
 }
 

@@ -173,16 +173,12 @@ void write_template(const std::string& dir, const TemplateFace& face, const std:
   make_directories(dir);
   write_mesh(dir + "/face.obj", face.mesh);
 
-  Landmarks lm;
-  lm.units = "mm";
-  lm.points.resize(Eigen::Index(face.landmark_vertices.size()), 3);
-  for (size_t i = 0; i < face.landmark_vertices.size(); ++i) lm.points.row(Eigen::Index(i)) = face.mesh.V.row(face.landmark_vertices[i]);
   nlohmann::json doc;
   doc["scheme"] = "ibug68";
   doc["units"] = "mm";
   doc["vertex_ids"] = face.landmark_vertices;
   doc["points"] = nlohmann::json::array();
-  for (Eigen::Index i = 0; i < lm.points.rows(); ++i) doc["points"].push_back({lm.points(i, 0), lm.points(i, 1), lm.points(i, 2)});
+  for (int v : face.landmark_vertices) doc["points"].push_back({face.mesh.V(v, 0), face.mesh.V(v, 1), face.mesh.V(v, 2)});
   write_file_atomic(dir + "/landmarks.json", doc.dump(1) + "\n");
   write_file_atomic(dir + "/regions.json", nlohmann::json(face.regions).dump(1) + "\n");
 
