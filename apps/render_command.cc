@@ -16,7 +16,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   struct Options {
-    std::string mesh, output, landmarks, blendshapes;
+    std::string mesh, output, landmarks, blendshapes, texture;
     std::vector<std::string> expression;
     std::string view = "front";
     PreviewOptions preview;
@@ -33,6 +33,8 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       ->check(CLI::ExistingFile)->group("Expression");
   app.add_option("--expression", opt->expression, "NAME=WEIGHT pairs, e.g. jawOpen=1,mouthSmile_L=0.5")
       ->delimiter(',')->group("Expression");
+  app.add_option("--texture", opt->texture, "Diffuse map in the mesh's UV (e.g. scans/subject_0000/diffuse.png)")
+      ->check(CLI::ExistingFile);
   app.add_flag("--no-wireframe", opt->no_wireframe, "Shading only");
   app.add_flag("--no-shading", opt->no_shading, "Wireframe only");
   return [opt] {
@@ -81,6 +83,11 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
         }
         opt->preview.landmark_vertices.push_back(id.get<int>());
       }
+    }
+    Image texture;
+    if (!opt->texture.empty()) {
+      texture = read_image(opt->texture);
+      opt->preview.texture = &texture;
     }
     write_image(opt->output, render_preview(mesh, opt->preview));
   };

@@ -15,7 +15,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string template_dir = "template", output = "scans";
+    std::string template_dir = "template", output = "scans", map_format = "png";
     SynthOptions synth;
   };
   auto opt = std::make_shared<Options>();
@@ -38,11 +38,22 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       ->capture_default_str()->group("Realism");
   synth->add_option("--translation-jitter", opt->synth.translation_jitter_mm, "Random shift up to this many mm per axis")
       ->capture_default_str()->group("Realism");
+  synth->add_flag("--holes", opt->synth.holes, "Cut the nostrils open, as scanners leave them")->group("Realism");
+  synth->add_option("--res", opt->synth.maps.resolution, "Map resolution in the scan's atlas (0: no maps; 16384 works)")
+      ->capture_default_str()->group("Maps");
+  synth->add_option("--map-format", opt->map_format, "png (16-bit, sRGB diffuse), tif (16-bit) or exr (half, linear)")
+      ->capture_default_str()->group("Maps");
+  synth->add_option("--gutter", opt->synth.maps.gutter, "Texels filled beyond each chart's edge")
+      ->capture_default_str()->group("Maps");
+  synth->add_option("--truth-res", opt->synth.truth_resolution,
+                    "Also bake the true maps in the template UV at this resolution into truth/maps/ (0: no)")
+      ->capture_default_str()->group("Maps");
   synth->add_option("--feature-scale", opt->synth.identity.feature_scale, "Strength of the semantic feature controls")
       ->capture_default_str()->group("Identity");
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
       ->capture_default_str()->group("Identity");
   return [opt, &globals] {
+    opt->synth.maps.format = parse_map_format(opt->map_format);
     opt->synth.check();
     const TemplateFace face =
         read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");
@@ -59,12 +70,22 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
     }
     ProgressBar bar = globals.progress("scan synth");
     std::atomic<int> done{0};
-    parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
-      for (int64_t k = b; k < e; ++k) {
-        write_scan(opt->output, synthesize_scan(face, todo[size_t(k)], opt->synth), opt->synth);
-        bar.update(++done, int64_t(todo.size()), "subjects");
-      }
-    });
+    // Several subjects: one per thread. A single subject: its maps are baked in parallel, and the bar follows them.
+    const bool one = todo.size() == 1;
+    const ProgressCallback maps_progress = [&](int64_t d, int64_t total, const std::string&) {
+      if (one) bar.update(d, total, "map bands");
+    };
+    const auto make = [&](int64_t k) {
+      write_scan(opt->output, face, synthesize_scan(face, todo[size_t(k)], opt->synth), opt->synth, maps_progress);
+      if (!one) bar.update(++done, int64_t(todo.size()), "subjects");
+    };
+    if (one) {
+      make(0);  // on this thread, so that the bake's own parallel_for is not nested (nested loops run serially)
+    } else {
+      parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+        for (int64_t k = b; k < e; ++k) make(k);
+      });
+    }
     bar.finish();
     const std::vector<Blendshape> shapes = make_blendshapes(face);
     write_blendshapes(opt->output + "/blendshapes", shapes);
@@ -76,8 +97,9 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
     manifest["template"] = std::filesystem::absolute(opt->template_dir).string();
     manifest["identity_features"] = identity_feature_names();
     manifest["blendshapes"] = int(shapes.size());
-    manifest["contents"] = "per subject mesh.ply, landmarks.json, truth/; blendshapes/ on the template "
-                           "(maps in a per-scan UV atlas: not yet generated)";
+    manifest["contents"] = "per subject mesh.obj (own topology and UV atlas), diffuse/normal/roughness/specular maps, "
+                           "landmarks.json, truth/; blendshapes/ on the template";
+    manifest["maps"] = {{"resolution", opt->synth.maps.resolution}, {"format", opt->map_format}};
     write_file_atomic(opt->output + "/manifest.json", manifest.dump(1) + "\n");
     globals.write_resolved_config(opt->output + "/config.json");
     spdlog::info("scan synth: {} subjects in {}", opt->synth.count, opt->output);

@@ -52,6 +52,10 @@ std::string one_line(std::string message) {
   return message;
 }
 
+[[noreturn]] void write_failed(const std::string& path, const std::string& why) {
+  throw IoError(path, "cannot write image (" + one_line(why) + ")", "check free disk space and permissions");
+}
+
 // libpng prints its own "libpng error: ..." to stderr before OpenImageIO reports the same fault to us. While any PNG
 // is being decoded, stderr points at /dev/null (reference-counted, so parallel decodes do not serialise); the error
 // still reaches the user, once, through our exception.
@@ -175,11 +179,13 @@ Image read_image(const std::string& path, std::optional<ColorSpace> assume) {
   return image;
 }
 
-void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options) {
-  if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
-      image.pixels.size() != size_t(image.width) * image.height * image.channels) {
-    throw InternalError(path + ": write_image called with an inconsistent image");
-  }
+namespace {
+
+// Opens an OpenImageIO output on `file`'s temporary with our conventions: storage type from the options or the
+// extension, colour-space tag, compression, tiles and mip levels. Throws naming `path`.
+std::unique_ptr<OIIO::ImageOutput> open_output(const std::string& path, const AtomicFile& file, int width, int height,
+                                               int channels, ColorSpace space, const ImageWriteOptions& options,
+                                               OIIO::ImageSpec& spec) {
   const std::string ext = lower_extension(path);
   PixelType type = PixelType::UInt8;
   if (options.type) {
@@ -189,50 +195,98 @@ void write_image(const std::string& path, const Image& image, const ImageWriteOp
   } else if (ext == ".tif" || ext == ".tiff") {
     type = PixelType::UInt16;
   }
-  AtomicFile file(path);
   auto out = OIIO::ImageOutput::create(file.temp_path());
   if (!out) throw InvalidInput(path, "unsupported image format '" + ext + "'", "use .png, .jpg, .tif or .exr");
-  OIIO::ImageSpec spec(image.width, image.height, image.channels, oiio_type(type));
-  spec.attribute("oiio:ColorSpace", image.color_space == ColorSpace::sRGB    ? "sRGB"
-                                    : image.color_space == ColorSpace::Data ? "Raw"
-                                                                            : "Linear");
+  spec = OIIO::ImageSpec(width, height, channels, oiio_type(type));
+  spec.attribute("oiio:ColorSpace", space == ColorSpace::sRGB ? "sRGB" : space == ColorSpace::Data ? "Raw" : "Linear");
   if (!options.compression.empty()) {
     spec.attribute("compression", options.compression);
   } else if (ext == ".exr") {
     spec.attribute("compression", "zip");
   }
   if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", "jpeg:" + std::to_string(options.jpeg_quality));
-  const bool mipmap = options.mipmap;
-  if (options.tiled || mipmap) {
+  if (options.tiled || options.mipmap) {
     if (!out->supports("tiles")) throw InvalidInput(path, "format cannot store tiles", "write .exr or .tif");
     spec.tile_width = spec.tile_height = 64;
   }
-  if (mipmap && !out->supports("mipmap")) throw InvalidInput(path, "format cannot store mip levels", "write .exr or .tif");
-  if (mipmap) {
+  if (options.mipmap && !out->supports("mipmap")) {
+    throw InvalidInput(path, "format cannot store mip levels", "write .exr or .tif");
+  }
+  if (options.mipmap) {
     spec.attribute("textureformat", "Plain Texture");
     spec.attribute("openexr:levelmode", 1);  // MIPMAP_LEVELS: OpenEXR must know at open time
   }
-  const auto fail = [&](const std::string& why) {
-    throw IoError(path, "cannot write image (" + one_line(why) + ")", "check free disk space and permissions");
-  };
-  if (!out->open(file.temp_path(), spec, OIIO::ImageOutput::Create)) {
-    fail(out->geterror());
+  if (!out->open(file.temp_path(), spec, OIIO::ImageOutput::Create)) write_failed(path, out->geterror());
+  return out;
+}
+
+}  // namespace
+
+void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options) {
+  if (image.empty() || image.width <= 0 || image.height <= 0 || image.channels <= 0 ||
+      image.pixels.size() != size_t(image.width) * image.height * image.channels) {
+    throw InternalError(path + ": write_image called with an inconsistent image");
   }
+  AtomicFile file(path);
+  OIIO::ImageSpec spec;
+  auto out = open_output(path, file, image.width, image.height, image.channels, image.color_space, options, spec);
   Image level = image;
   for (;;) {
-    if (!out->write_image(OIIO::TypeDesc::FLOAT, level.pixels.data())) fail(out->geterror());
-    if (!mipmap || (level.width == 1 && level.height == 1)) break;
+    if (!out->write_image(OIIO::TypeDesc::FLOAT, level.pixels.data())) write_failed(path, out->geterror());
+    if (!options.mipmap || (level.width == 1 && level.height == 1)) break;
     // Filter colour in linear light; store the level in the image's own encoding.
     Image next = level.color_space == ColorSpace::sRGB ? to_srgb(half_size(to_linear(level))) : half_size(level);
     level = std::move(next);
     OIIO::ImageSpec level_spec = spec;
     level_spec.width = level_spec.full_width = level.width;
     level_spec.height = level_spec.full_height = level.height;
-    if (!out->open(file.temp_path(), level_spec, OIIO::ImageOutput::AppendMIPLevel)) fail(out->geterror());
+    if (!out->open(file.temp_path(), level_spec, OIIO::ImageOutput::AppendMIPLevel)) {
+      write_failed(path, out->geterror());
+    }
   }
-  if (!out->close()) fail(out->geterror());
+  if (!out->close()) write_failed(path, out->geterror());
   out.reset();
   file.commit();
+}
+
+struct ImageStreamWriter::Impl {
+  std::string path;
+  AtomicFile file;
+  std::unique_ptr<OIIO::ImageOutput> out;
+  int width, height, channels, next_row = 0;
+  explicit Impl(const std::string& p) : path(p), file(p) {}
+};
+
+ImageStreamWriter::ImageStreamWriter(const std::string& path, int width, int height, int channels, ColorSpace space,
+                                     const ImageWriteOptions& options) {
+  if (width <= 0 || height <= 0 || channels <= 0) throw InternalError(path + ": stream writer with an empty size");
+  if (options.tiled || options.mipmap) throw InternalError(path + ": stream writer writes scanline files only");
+  impl_ = std::make_unique<Impl>(path);
+  impl_->width = width;
+  impl_->height = height;
+  impl_->channels = channels;
+  OIIO::ImageSpec spec;
+  impl_->out = open_output(path, impl_->file, width, height, channels, space, options, spec);
+}
+
+ImageStreamWriter::~ImageStreamWriter() = default;
+ImageStreamWriter::ImageStreamWriter(ImageStreamWriter&&) noexcept = default;
+
+void ImageStreamWriter::write_rows(int y_begin, int y_end, const float* pixels) {
+  Impl& s = *impl_;
+  if (y_begin != s.next_row || y_end <= y_begin || y_end > s.height) {
+    throw InternalError(s.path + ": rows written out of order");
+  }
+  if (!s.out->write_scanlines(y_begin, y_end, 0, OIIO::TypeDesc::FLOAT, pixels)) write_failed(s.path, s.out->geterror());
+  s.next_row = y_end;
+}
+
+void ImageStreamWriter::commit() {
+  Impl& s = *impl_;
+  if (s.next_row != s.height) throw InternalError(s.path + ": committed before every row was written");
+  if (!s.out->close()) write_failed(s.path, s.out->geterror());
+  s.out.reset();
+  s.file.commit();
 }
 
 }  // namespace bareskin

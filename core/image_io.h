@@ -1,5 +1,6 @@
 // Image files through OpenImageIO: PNG, JPEG, TIFF (8/16-bit), EXR (half/float, scanline or tiled, with mip levels).
 #pragma once
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -35,5 +36,22 @@ struct ImageWriteOptions {
 // Writes atomically; pixel values are stored as given (convert with to_srgb/to_linear first) and the file is tagged
 // with the image's colour space. Integer outputs clamp to [0,1].
 void write_image(const std::string& path, const Image& image, const ImageWriteOptions& options = {});
+
+// Writes a scanline image a band of rows at a time, so that maps of any size (16K and beyond) never sit in memory
+// whole. Same storage rules as write_image; the file appears only on commit() (atomic), never half-written.
+class ImageStreamWriter {
+ public:
+  ImageStreamWriter(const std::string& path, int width, int height, int channels, ColorSpace space,
+                    const ImageWriteOptions& options = {});
+  ~ImageStreamWriter();
+  ImageStreamWriter(ImageStreamWriter&&) noexcept;
+  // Rows [y_begin, y_end), top to bottom, interleaved float; bands must come in order.
+  void write_rows(int y_begin, int y_end, const float* pixels);
+  void commit();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace bareskin

@@ -124,6 +124,39 @@ bool per_vertex_uv(const Mesh& mesh, Eigen::MatrixX2d& uv) {
   return true;
 }
 
+Eigen::MatrixX4d uv_tangents(const Mesh& mesh) {
+  if (!mesh.has_uv() || !mesh.has_normals()) throw InvalidInput("mesh", "tangent frames need UVs and vertex normals", "");
+  Eigen::MatrixX3d T = Eigen::MatrixX3d::Zero(mesh.UV.rows(), 3), B = Eigen::MatrixX3d::Zero(mesh.UV.rows(), 3);
+  Eigen::VectorXi vertex = Eigen::VectorXi::Constant(mesh.UV.rows(), -1);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)), e1 = mesh.V.row(mesh.F(f, 1)).transpose() - p0,
+                          e2 = mesh.V.row(mesh.F(f, 2)).transpose() - p0;
+    const Eigen::Vector2d t0 = mesh.UV.row(mesh.FUV(f, 0)), d1 = mesh.UV.row(mesh.FUV(f, 1)).transpose() - t0,
+                          d2 = mesh.UV.row(mesh.FUV(f, 2)).transpose() - t0;
+    const double det = d1.x() * d2.y() - d2.x() * d1.y();
+    const double area = 0.5 * e1.cross(e2).norm();
+    if (std::abs(det) < 1e-20 || area == 0) continue;
+    // dP/du and dP/dv of the affine map from UV to the triangle, each scaled to unit length times the area.
+    const Eigen::Vector3d dpdu = (e1 * d2.y() - e2 * d1.y()) / det, dpdv = (e2 * d1.x() - e1 * d2.x()) / det;
+    for (int k = 0; k < 3; ++k) {
+      T.row(mesh.FUV(f, k)) += area * dpdu.normalized();
+      B.row(mesh.FUV(f, k)) += area * dpdv.normalized();
+      vertex(mesh.FUV(f, k)) = mesh.F(f, k);
+    }
+  }
+  Eigen::MatrixX4d frames = Eigen::MatrixX4d::Zero(mesh.UV.rows(), 4);
+  for (Eigen::Index i = 0; i < frames.rows(); ++i) {
+    if (vertex(i) < 0) continue;
+    const Eigen::Vector3d n = mesh.N.row(vertex(i));
+    Eigen::Vector3d t = T.row(i).transpose();
+    t -= n * n.dot(t);
+    if (t.norm() < 1e-12) continue;
+    t.normalize();
+    frames.row(i) << t.transpose(), n.cross(t).dot(B.row(i).transpose()) < 0 ? -1.0 : 1.0;
+  }
+  return frames;
+}
+
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
   double area = 0;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {

@@ -34,6 +34,12 @@ Eigen::MatrixX2i boundary_edges(const Eigen::MatrixX3i& F);
 // indices, so a seamless mesh read back from OBJ (where indices are renumbered) counts as seamless.
 bool per_vertex_uv(const Mesh& mesh, Eigen::MatrixX2d& uv);
 
+// Tangent frames for tangent-space normal maps, MikkTSpace-style: per UV index (so seams split them), the
+// area-weighted sum of the faces' dP/du, made orthogonal to the vertex normal; #UV by 4 with the unit tangent in
+// xyz and the handedness (+1/-1) in w, so that the bitangent is w * cross(N, T) (+v = +y, OpenGL convention).
+// Needs UVs and normals (InvalidInput otherwise). UV indices on degenerate faces only get a zero tangent.
+Eigen::MatrixX4d uv_tangents(const Mesh& mesh);
+
 // Total surface area.
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "core/error.h"
 
@@ -58,6 +59,21 @@ PreviewView parse_preview_view(const std::string& name) {
   throw InvalidInput("", "unknown view '" + name + "'", "use front, left, right or uv");
 }
 
+// Bilinear lookup of the first three channels (grey images repeat), UV origin bottom-left, clamped at the border.
+Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {
+  const double x = std::clamp(uv.x() * img.width - 0.5, 0.0, img.width - 1.0);
+  const double y = std::clamp((1 - uv.y()) * img.height - 0.5, 0.0, img.height - 1.0);
+  const int x0 = int(x), y0 = int(y), x1 = std::min(x0 + 1, img.width - 1), y1 = std::min(y0 + 1, img.height - 1);
+  const float fx = float(x - x0), fy = float(y - y0);
+  Eigen::Vector3f c;
+  for (int k = 0; k < 3; ++k) {
+    const int ch = std::min(k, img.channels - 1);
+    c[k] = (1 - fy) * ((1 - fx) * img.at(x0, y0, ch) + fx * img.at(x1, y0, ch)) +
+           fy * ((1 - fx) * img.at(x0, y1, ch) + fx * img.at(x1, y1, ch));
+  }
+  return c;
+}
+
 Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
   if (options.size < 16 || options.size > 16384) throw InvalidInput("", "--size must lie in [16, 16384]", "");
   Image img(options.size, options.size, 3, ColorSpace::sRGB, 1.f);
@@ -100,6 +116,11 @@ Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
   const Eigen::MatrixX3d N = mesh.has_normals() ? mesh.N : vertex_normals(mesh.V, mesh.F);
   const Eigen::Vector3d light = proj.rotation.transpose() * Eigen::Vector3d(0.3, 0.4, 1).normalized();
 
+  std::optional<Image> albedo;
+  if (options.texture) {
+    if (!mesh.has_uv()) throw InvalidInput("", "mesh has no UVs to map a texture with", "give a mesh with UVs");
+    albedo = options.texture->color_space == ColorSpace::sRGB ? to_linear(*options.texture) : *options.texture;
+  }
   std::vector<float> depth(size_t(options.size) * options.size, -std::numeric_limits<float>::infinity());
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
     const Eigen::Vector3d &a = screen[size_t(mesh.F(f, 0))], &b = screen[size_t(mesh.F(f, 1))], &c = screen[size_t(mesh.F(f, 2))];
@@ -120,10 +141,15 @@ Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
         float& d = depth[size_t(y) * options.size + x];
         if (z <= d) continue;
         d = float(z);
-        if (options.shaded) {
-          const Eigen::Vector3d n =
-              (w0 * N.row(mesh.F(f, 0)) + w1 * N.row(mesh.F(f, 1)) + w2 * N.row(mesh.F(f, 2))).transpose().normalized();
-          const float shade = float(0.15 + 0.8 * std::max(0.0, n.dot(light)));
+        const Eigen::Vector3d n =
+            (w0 * N.row(mesh.F(f, 0)) + w1 * N.row(mesh.F(f, 1)) + w2 * N.row(mesh.F(f, 2))).transpose().normalized();
+        const float shade = options.shaded ? float(0.15 + 0.8 * std::max(0.0, n.dot(light))) : 1.0f;
+        if (albedo) {
+          const Eigen::Vector2d uv = w0 * mesh.UV.row(mesh.FUV(f, 0)) + w1 * mesh.UV.row(mesh.FUV(f, 1)) +
+                                     w2 * mesh.UV.row(mesh.FUV(f, 2));
+          const Eigen::Vector3f c = sample_bilinear(*albedo, uv);
+          for (int k = 0; k < 3; ++k) img.at(x, y, k) = linear_to_srgb(std::min(1.0f, shade * c[k]));
+        } else if (options.shaded) {
           for (int k = 0; k < 3; ++k) img.at(x, y, k) = shade * (k == 2 ? 0.92f : 0.85f) + 0.05f;
         }
       }

@@ -19,6 +19,7 @@ struct PreviewOptions {
   bool wireframe = true;      // triangle edges
   double wire_opacity = 0.35;
   std::vector<int> landmark_vertices;  // drawn as red dots with their iBUG index order
+  const Image* texture = nullptr;      // diffuse albedo in the mesh's UV (needs UVs): shaded colour instead of grey
 };
 
 // Returns an sRGB image. Left/right views look at the face's left/right side (a camera on the +x / -x axis).

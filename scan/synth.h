@@ -2,8 +2,10 @@
 // template deformed by a sampled identity (scan/identity.h), remeshed into its own topology so registration has real
 // work to do, with the dense truth correspondence: for every template vertex, its true point on the scan's surface.
 //
-// Landed so far: geometry, landmarks, truth, expression blendshapes (scan/blendshapes.h), noise and pose/scale jitter.
-// The four maps in a per-scan UV atlas and holes are the rest of the issue.
+// Each scan also gets its own UV atlas (two charts cut along the facial midline, warped, rotated and packed differently
+// per subject) and the four skin maps in it (scan/skin_bake.h), evaluated from a per-subject procedural skin whose
+// true value at any surface point is known (scan/skin.h). Realism knobs: measurement noise, nostril holes, similarity
+// jitter. Expression blendshapes on the template are in scan/blendshapes.h.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -13,6 +15,8 @@
 #include "core/progress.h"
 #include "morphable/template_face.h"
 #include "scan/identity.h"
+#include "scan/skin.h"
+#include "scan/skin_bake.h"
 
 namespace bareskin {
 
@@ -29,16 +33,22 @@ struct SynthOptions {
   double scale_jitter = 0;
   double rotation_jitter_deg = 0;
   double translation_jitter_mm = 0;
+  bool holes = false;             // cut the nostrils open, as structured-light scanners leave them
+  // Maps in each scan's atlas (resolution 0: none) and, optionally, the truth maps in the template UV.
+  BakeOptions maps;
+  int truth_resolution = 0;
   void check() const;
 };
 
 struct SyntheticScan {
   std::string id;               // "subject_0007"
   Identity identity;
-  Mesh mesh;                    // the scan: own vertices and triangles, mm
+  Mesh mesh;                    // the scan: own vertices, triangles and UV atlas, mm (after noise and jitter)
+  Appearance appearance;        // the skin its maps are baked from
+  SkinSurface surface;          // the scan before noise and jitter, with each vertex's template point and UV
   Landmarks landmarks;          // 68 iBUG points on the scan surface, mm
   // Truth correspondence, one row per template vertex: the face of `mesh` it lies on, barycentric weights of that
-  // face's corners, and the point itself.
+  // face's corners, and the point itself. In a hole the face is -1 and the point is where the surface would be.
   Eigen::VectorXi truth_face;
   Eigen::MatrixX3d truth_barycentric;
   Eigen::MatrixX3d truth_point;
@@ -53,7 +63,13 @@ uint64_t subject_seed(uint64_t population_seed, int index);
 // Subject `index` of the population; deterministic in (template, index, options).
 SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOptions& options);
 
-// Writes dir/<id>/{mesh.ply, landmarks.json, truth/correspondence.safetensors, truth/identity.json} atomically.
-void write_scan(const std::string& dir, const SyntheticScan& scan, const SynthOptions& options);
+// The truth surface for maps in the template UV: the template deformed by `displacement`, with its own UV, evaluated
+// at the template's points. Baking it gives what a perfect registration + texture transfer produces.
+SkinSurface template_skin_surface(const TemplateFace& face, const Eigen::MatrixX3d& displacement);
+
+// Writes dir/<id>/{mesh.obj, diffuse/normal/roughness/specular maps, landmarks.json, truth/correspondence.safetensors,
+// truth/identity.json, truth/maps/ when asked} atomically (a killed run leaves no partial subject).
+void write_scan(const std::string& dir, const TemplateFace& face, const SyntheticScan& scan, const SynthOptions& options,
+                const ProgressCallback& progress = {});
 
 }  // namespace bareskin

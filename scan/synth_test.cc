@@ -110,14 +110,19 @@ TEST(SynthScan, WrittenScanReadsBackAndIsDeterministic) {
   const TemplateFace& face = test_template();
   SynthOptions opt;
   opt.scan_vertices = 3000;
+  opt.maps.resolution = 128;
+  opt.truth_resolution = 64;
   const std::string a = testing::temp_dir(), b = testing::temp_dir();
-  write_scan(a, synthesize_scan(face, 2, opt), opt);
-  write_scan(b, synthesize_scan(face, 2, opt), opt);
-  for (const char* f : {"/subject_0002/mesh.ply", "/subject_0002/landmarks.json",
-                        "/subject_0002/truth/correspondence.safetensors", "/subject_0002/truth/identity.json"}) {
+  write_scan(a, face, synthesize_scan(face, 2, opt), opt);
+  write_scan(b, face, synthesize_scan(face, 2, opt), opt);
+  for (const char* f : {"/subject_0002/mesh.obj", "/subject_0002/landmarks.json", "/subject_0002/diffuse.png",
+                        "/subject_0002/normal.png", "/subject_0002/roughness.png", "/subject_0002/specular.png",
+                        "/subject_0002/truth/correspondence.safetensors", "/subject_0002/truth/identity.json",
+                        "/subject_0002/truth/maps/diffuse.png"}) {
     EXPECT_EQ(read_file(a + f), read_file(b + f)) << f << " differs between two runs with one seed";
   }
-  const Mesh mesh = read_mesh(a + "/subject_0002/mesh.ply");
+  const Mesh mesh = read_mesh(a + "/subject_0002/mesh.obj");
+  EXPECT_TRUE(mesh.has_uv());
   const SafeTensors truth = SafeTensors::open(a + "/subject_0002/truth/correspondence.safetensors");
   EXPECT_EQ(truth.tensor("template_to_scan_face").to_vector<int32_t>().size(), size_t(face.mesh.V.rows()));
   const auto faces = truth.tensor("template_to_scan_face").to_vector<int32_t>();

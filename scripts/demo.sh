@@ -30,23 +30,42 @@ done
     --landmarks "$out/template/landmarks.json" -o "$out/img/template_uv.png"
 [ -f "$out/img/template_full.png" ] || "$bareskin" render "$out/template/face.obj" --view front --size 4096 \
     --landmarks "$out/template/landmarks.json" -o "$out/img/template_full.png"
-# 2. Synthetic scan population (geometry + truth; maps and blendshapes come next) --------------------------------------
+# 2. Synthetic scan population: geometry, maps in each scan's own atlas, truth, blendshapes -----------------------------
 subjects=${DEMO_SUBJECTS:-6}
+map_res=${DEMO_MAP_RES:-1024}
 if [ ! -f "$out/scans/manifest.json" ]; then
-  stage "synthesising $subjects scans"
+  stage "synthesising $subjects scans (maps at $map_res)"
   timed "scan synth" "$bareskin" scan synth --template "$out/template" --count "$subjects" --seed 1 --vertices 100000 \
-    -o "$out/scans"
+    --res "$map_res" --holes -o "$out/scans"
 fi
 sheet=""
 for dir in "$out"/scans/subject_*/; do
   id=$(basename "$dir")
   for view in front left; do
-    [ -f "$out/img/${id}_$view.png" ] || "$bareskin" render "$dir/mesh.ply" --view "$view" --size 512 --no-wireframe \
-        -o "$out/img/${id}_$view.png"
+    [ -f "$out/img/${id}_$view.png" ] || "$bareskin" render "$dir/mesh.obj" --texture "$dir/diffuse.png" --view "$view" \
+        --size 512 --no-wireframe -o "$out/img/${id}_$view.png"
   done
-  tris=$("$bareskin" inspect --json "$dir/mesh.ply" | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["triangles"])')
-  sheet+="<figure><img src=\"img/${id}_front.png\" style=\"width:160px\"><img src=\"img/${id}_left.png\" style=\"width:160px\"><figcaption>$id · $tris triangles</figcaption></figure>"
+  caption=$(/usr/bin/python3 - "$dir" <<'PY2'
+import json, sys
+t = json.load(open(sys.argv[1] + "/truth/identity.json"))
+a = t["appearance"]
+print(f'{t["scan_triangles"]} triangles · melanin {a["melanin"]:.2f} · freckles {a["freckles"]:.2f}')
+PY2
+)
+  sheet+="<figure><img src=\"img/${id}_front.png\" style=\"width:160px\"><img src=\"img/${id}_left.png\" style=\"width:160px\"><figcaption>$id · $caption</figcaption></figure>"
 done
+first="$out/scans/subject_0000"
+maps=""
+for m in diffuse normal roughness specular; do
+  case $m in roughness|specular) channels=Y,Y,Y ;; *) channels=R,G,B ;; esac
+  [ -f "$out/img/map_$m.png" ] || oiiotool "$first/$m.png" --resize 512x512 --ch "$channels" -d uint8 -o "$out/img/map_$m.png"
+  maps+="<figure><a href=\"scans/subject_0000/$m.png\"><img src=\"img/map_$m.png\" style=\"width:220px\"></a><figcaption>$m</figcaption></figure>"
+done
+[ -f "$out/img/map_normal_detail.png" ] || oiiotool "$first/normal.png" --cut 192x192+400+300 --subc 0.5,0.5,1 \
+    --mulc 6,6,6 --addc 0.5,0.5,1 --resize 384x384 -d uint8 -o "$out/img/map_normal_detail.png"
+maps+="<figure><img src=\"img/map_normal_detail.png\" style=\"width:220px\"><figcaption>normal detail, tilt ×6</figcaption></figure>"
+[ -f "$out/img/scan_uv.png" ] || "$bareskin" render "$first/mesh.obj" --view uv --size 1024 -o "$out/img/scan_uv.png"
+maps+="<figure><img src=\"img/scan_uv.png\" style=\"width:220px\"><figcaption>the scan's own atlas</figcaption></figure>"
 expressions=""
 for e in jawOpen=1 mouthSmile_L=1,mouthSmile_R=1 eyeBlink_L=1 browInnerUp=1 mouthPucker=1 noseSneer_L=1,noseSneer_R=1; do
   name=${e//[=,]/_}
@@ -67,7 +86,11 @@ for f in sorted(glob.glob(sys.argv[1] + "/subject_*/truth/correspondence.safeten
     b, e = h["identity_displacement"]["data_offsets"]
     d = np.frombuffer(raw[8 + n + b:8 + n + e], dtype="<f4").reshape(-1, 3)
     rms.append(np.sqrt((d ** 2).sum(1).mean()))
-print(f"{len(rms)} subjects; RMS distance from the template {np.mean(rms):.1f} mm (min {np.min(rms):.1f}, max {np.max(rms):.1f})")
+lum = []
+for f in sorted(glob.glob(sys.argv[1] + "/subject_*/truth/identity.json")):
+    lum.append(json.load(open(f))["appearance"]["melanin"])
+print(f"{len(rms)} subjects; RMS distance from the template {np.mean(rms):.1f} mm (min {np.min(rms):.1f}, max {np.max(rms):.1f}); "
+      f"melanin {np.min(lum):.2f} to {np.max(lum):.2f}")
 PY
 )
 
@@ -89,7 +112,7 @@ pre{background:#f6f6f6;padding:.8em;white-space:pre-wrap;font-size:.85em}.todo{c
 </style></head><body>
 <h1>BareSkin toolkit — demo report</h1>
 <p>Generated $(date -u '+%Y-%m-%d %H:%M UTC') on $(uname -n) by <code>make demo</code> ($("$bareskin" --version)).
-Pipeline stages run so far are below; later stages (scan maps, registration, 3DMM, rendering and fitting, training)
+Pipeline stages run so far are below; later stages (registration, 3DMM, rendering and fitting, training)
 join this report as they land.</p>
 
 <h2>1. Template face</h2>
@@ -117,8 +140,15 @@ iBUG-68 landmarks (red) from <code>@vladmandic/human@3.3.6</code> (MIT).</p>
 process (squared-exponential kernels of 60, 25 and 10 mm, drawn with random Fourier features, 85% mirror-symmetric)
 plus semantic controls (nose length/width/bridge, jaw width, chin, cheekbones, eye spacing, lip thickness, brow ridge) —
 then remeshed into its own topology, with the true position of every template vertex on the scan stored in
-<code>truth/correspondence.safetensors</code>. $spread. The four maps in a per-scan UV atlas are not generated yet.</p>
+<code>truth/correspondence.safetensors</code>. Each scan has its own UV atlas (two charts cut along the midline, warped,
+turned and packed per subject) and four ${map_res}² maps baked from a procedural skin (melanin/haemoglobin albedo,
+freckles, blemishes, blush, lips, brow hair; pores and forehead wrinkles in the tangent-space normal map; regional
+roughness and specular) whose true value at every surface point is known. Nostrils are cut open (<code>--holes</code>;
+the white in them is the background seen through the holes).
+$spread. Front and profile, textured with each scan's diffuse map:</p>
 $sheet
+<h3>The four maps of subject_0000 (its own atlas)</h3>
+$maps
 <h3>Expression blendshapes (on the template)</h3>
 <p>Standing in for the paper's 236 artist-made blendshapes: region-weighted, smooth displacements anchored at iBUG-68
 landmarks, ARKit names ("_L" = the subject's left). Posed with

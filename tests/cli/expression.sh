@@ -6,7 +6,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 "$bin" template -q --vertices 2000 -o "$work/t" || fail "template"
-"$bin" scan synth -q --template "$work/t" --count 1 --vertices 2000 -o "$work/s" || fail "scan synth"
+"$bin" scan synth -q --template "$work/t" --count 1 --vertices 2000 --res 64 -o "$work/s" || fail "scan synth"
 bs="$work/s/blendshapes/blendshapes.safetensors"
 "$bin" render "$work/t/face.obj" --blendshapes "$bs" --expression jawOpen=1,mouthSmile_L=0.5 -o "$work/posed.png" \
   || fail "posed render"

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# scan synth maps: readable by oiiotool (an independent reader) in each format, truth maps, kill -9 + resume gives the
+# same bytes as an uninterrupted run, bad map options get one line and exit 3.
+set -u
+bin=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+passed=0
+ok() { passed=$((passed + 1)); }
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+synth() { "$bin" scan synth -q --template "$work/t" --vertices 3000 "$@"; }
+
+synth --count 2 --res 256 --holes --truth-res 128 -o "$work/png" || fail "scan synth png"
+for s in subject_0000 subject_0001; do
+  for m in diffuse normal; do
+    oiiotool --info "$work/png/$s/$m.png" | grep -q "256 x  *256, 3 channel, uint16 png" || fail "$s/$m.png: $(oiiotool --info "$work/png/$s/$m.png")"
+  done
+  for m in roughness specular; do
+    oiiotool --info "$work/png/$s/$m.png" | grep -q "256 x  *256, 1 channel, uint16 png" || fail "$s/$m.png"
+  done
+  oiiotool --info "$work/png/$s/truth/maps/diffuse.png" | grep -q "128 x  *128, 3 channel" || fail "$s truth maps"
+done
+# Normals point out of the surface: the mean of the stored z ((n+1)/2) is close to 1 in the charts and outside them.
+avg=$(oiiotool --stats "$work/png/subject_0000/normal.png" | sed -n 's/.*Stats Avg: *\([0-9.]*\) *\([0-9.]*\) *\([0-9.]*\).*/\3/p')
+/usr/bin/python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) > 0.95 * 65535 else 1)" "$avg" || fail "normal z average $avg"
+ok
+
+synth --count 1 --res 128 --map-format exr -o "$work/exr" || fail "scan synth exr"
+oiiotool --info -v "$work/exr/subject_0000/diffuse.exr" | grep -q "3 channel, half openexr" || fail "exr diffuse"
+oiiotool --info -v "$work/exr/subject_0000/diffuse.exr" | grep -qi "colorspace.*linear" || fail "exr diffuse is not tagged linear"
+"$bin" inspect "$work/exr/subject_0000/roughness.exr" > /dev/null || fail "our reader on exr roughness"
+ok
+
+# kill -9 in the middle, rerun: finished subjects are kept, the rest made again, all bytes as an uninterrupted run.
+synth --count 3 --res 512 -o "$work/ref" || fail "reference run"
+synth --count 3 --res 512 -o "$work/killed" &
+pid=$!
+for _ in $(seq 1 600); do [ -d "$work/killed/subject_0000" ] && break; sleep 0.05; done
+kill -9 $pid 2> /dev/null
+wait $pid 2> /dev/null
+synth --count 3 --res 512 -o "$work/killed" || fail "resumed run"
+for f in $(cd "$work/ref" && find subject_* -type f | sort); do
+  cmp -s "$work/ref/$f" "$work/killed/$f" || fail "$f differs after kill -9 and resume"
+done
+[ -z "$(find "$work/killed" -name '.*partial*')" ] || fail "a partial subject was left behind"
+ok
+
+synth --count 1 --res 128 --map-format bmp -o "$work/bad" 2> "$work/err"
+[ $? -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q "map format" "$work/err" && [ ! -e "$work/bad" ] \
+  || fail "bad map format: $(cat "$work/err")"
+synth --count 1 --res 5 -o "$work/bad" 2> "$work/err"
+[ $? -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "--res" "$work/err" || fail "bad --res: $(cat "$work/err")"
+ok
+echo "$passed passed, 0 failed"
