@@ -11,7 +11,7 @@ std::function<void()> setup_scan_command(CLI::App&, const Globals&);
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
       {"template", "Setup", "Build the dense template face from the MediaPipe canonical face", setup_template_command},
-      {"scan", "Scans", "Synthetic scan populations with ground truth (synth)", setup_scan_command},
+      {"scan", "Scans", "Synthetic scans with ground truth (synth); registration to the template (register)", setup_scan_command},
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };

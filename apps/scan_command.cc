@@ -13,6 +13,8 @@
 
 namespace bareskin::cli {
 
+CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::function<void()>& action);
+
 std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) {
   struct Options {
     std::string template_dir = "template", output = "scans", map_format = "png";
@@ -52,7 +54,10 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       ->capture_default_str()->group("Identity");
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
       ->capture_default_str()->group("Identity");
-  return [opt, &globals] {
+  auto register_action = std::make_shared<std::function<void()>>();
+  add_scan_register(app, globals, *register_action);
+  return [opt, &globals, synth, register_action] {
+    if (!synth->parsed()) return (*register_action)();
     opt->synth.maps.format = parse_map_format(opt->map_format);
     opt->synth.check();
     const TemplateFace face =

@@ -74,6 +74,17 @@ Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {
   return c;
 }
 
+Eigen::Vector3f heat_color(double t) {
+  // Piecewise-linear through blue, cyan, green, yellow, red.
+  static const float stops[5][3] = {{0.15f, 0.25f, 0.85f}, {0.1f, 0.75f, 0.85f}, {0.3f, 0.8f, 0.3f}, {0.95f, 0.85f, 0.2f},
+                                    {0.85f, 0.15f, 0.1f}};
+  const double x = std::clamp(t, 0.0, 1.0) * 4;
+  const int i = std::min(3, int(x));
+  const float f = float(x - i);
+  return {stops[i][0] + f * (stops[i + 1][0] - stops[i][0]), stops[i][1] + f * (stops[i + 1][1] - stops[i][1]),
+          stops[i][2] + f * (stops[i + 1][2] - stops[i][2])};
+}
+
 Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
   if (options.size < 16 || options.size > 16384) throw InvalidInput("", "--size must lie in [16, 16384]", "");
   Image img(options.size, options.size, 3, ColorSpace::sRGB, 1.f);
@@ -149,6 +160,11 @@ Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
                                      w2 * mesh.UV.row(mesh.FUV(f, 2));
           const Eigen::Vector3f c = sample_bilinear(*albedo, uv);
           for (int k = 0; k < 3; ++k) img.at(x, y, k) = linear_to_srgb(std::min(1.0f, shade * c[k]));
+        } else if (options.vertex_colors.rows() == mesh.V.rows() && mesh.V.rows() > 0) {
+          const Eigen::Vector3f c = (float(w0) * options.vertex_colors.row(mesh.F(f, 0)) +
+                                     float(w1) * options.vertex_colors.row(mesh.F(f, 1)) +
+                                     float(w2) * options.vertex_colors.row(mesh.F(f, 2))).transpose();
+          for (int k = 0; k < 3; ++k) img.at(x, y, k) = linear_to_srgb(std::min(1.0f, shade * srgb_to_linear(c[k])));
         } else if (options.shaded) {
           for (int k = 0; k < 3; ++k) img.at(x, y, k) = shade * (k == 2 ? 0.92f : 0.85f) + 0.05f;
         }

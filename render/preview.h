@@ -20,7 +20,11 @@ struct PreviewOptions {
   double wire_opacity = 0.35;
   std::vector<int> landmark_vertices;  // drawn as red dots with their iBUG index order
   const Image* texture = nullptr;      // diffuse albedo in the mesh's UV (needs UVs): shaded colour instead of grey
+  Eigen::MatrixX3f vertex_colors;      // or per-vertex sRGB colours (e.g. an error heat map), #V by 3
 };
+
+// A perceptual blue-to-red heat colour (sRGB) for t in [0, 1] (clamped).
+Eigen::Vector3f heat_color(double t);
 
 // Returns an sRGB image. Left/right views look at the face's left/right side (a camera on the +x / -x axis).
 Image render_preview(const Mesh& mesh, const PreviewOptions& options);

@@ -1,5 +1,6 @@
 #include "scan/identity.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -36,6 +37,22 @@ const std::vector<Feature>& features() {
   return table;
 }
 
+// Vertex normals diffused over about `radius_mm` (one-ring averaging, as many rounds as the mesh density needs).
+Eigen::MatrixX3d smooth_normals(const Mesh& mesh, double radius_mm) {
+  Eigen::MatrixX3d N = vertex_normals(mesh.V, mesh.F);
+  double edge = 0;
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) edge += (mesh.V.row(mesh.F(f, 0)) - mesh.V.row(mesh.F(f, 1))).norm();
+  edge /= double(std::max<Eigen::Index>(1, mesh.F.rows()));
+  const int rounds = std::clamp(int(std::pow(radius_mm / std::max(edge, 1e-9), 2)), 1, 400);
+  for (int r = 0; r < rounds; ++r) {
+    Eigen::MatrixX3d sum = N;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) sum.row(mesh.F(f, k)) += N.row(mesh.F(f, (k + 1) % 3)) + N.row(mesh.F(f, (k + 2) % 3));
+    N = sum.rowwise().normalized();
+  }
+  return N;
+}
+
 // x -> -x
 Eigen::Vector3d mirror(const Eigen::Vector3d& v) { return {-v.x(), v.y(), v.z()}; }
 
@@ -49,6 +66,7 @@ void IdentityOptions::check() const {
   if (fourier_features < 1 || fourier_features > 100000) throw InvalidInput("", "fourier_features must lie in [1, 100000]", "");
   if (!(symmetry >= 0 && symmetry <= 1)) throw InvalidInput("", "symmetry must lie in [0, 1]", "");
   if (!(feature_scale >= 0)) throw InvalidInput("", "feature_scale must be >= 0", "");
+  if (!(tangential >= 0 && tangential <= 1)) throw InvalidInput("", "tangential must lie in [0, 1]", "");
 }
 
 std::vector<std::string> identity_feature_names() {
@@ -115,6 +133,17 @@ Identity sample_identity(const TemplateFace& face, uint64_t seed, const Identity
       id.displacement.row(i) += (mm * weight * dir).transpose();
     }
   }
+  // Faces differ mostly across their surface, not along it: keep `tangential` of the tangential part, with
+  // the normal taken from a smoothed normal field (about 10 mm), so that creases (nostrils, lips) do not fold.
+  if (options.tangential < 1) {
+    const Eigen::MatrixX3d N = smooth_normals(face.mesh, 10.0);
+    for (Eigen::Index i = 0; i < V.rows(); ++i) {
+      const Eigen::RowVector3d d = id.displacement.row(i), n = N.row(i);
+      const Eigen::RowVector3d along = d.dot(n) * n;
+      id.displacement.row(i) = along + options.tangential * (d - along);
+    }
+  }
+
   return id;
 }
 

@@ -3,7 +3,8 @@
 //
 // A displacement field on the template is the sum of
 //  - a Gaussian-process sample with a multi-scale squared-exponential kernel (as in Gaussian process morphable models,
-//    Lüthi et al. 2017), drawn with random Fourier features, mostly bilaterally symmetric like real faces; and
+//    Lüthi et al. 2017), drawn with random Fourier features, mostly bilaterally symmetric like real faces, and mostly
+//    along the (smoothed) surface normal (as is the sum below); and
 //  - semantic feature controls (nose length/width, jaw width, cheekbones, eye spacing, lip thickness, brow ridge),
 //    each a smooth bump around landmark anchors with a random signed strength.
 #pragma once
@@ -23,6 +24,9 @@ struct IdentityOptions {
   std::vector<double> gp_sigmas = {3.0, 1.2, 0.2};
   int fourier_features = 256;   // per scale; the sample converges to the GP as this grows
   double symmetry = 0.85;       // share of the field that is mirror-symmetric in x (real faces: mostly symmetric)
+  // Share of the displacement's component along the surface that is kept. Faces differ across their surface; a tangential
+  // shift of a smooth field is invisible in the geometry, so it would make correspondence truth arbitrary.
+  double tangential = 0.2;
   double feature_scale = 1.0;   // multiplies every semantic control's strength
   void check() const;           // InvalidInput when inconsistent
 };

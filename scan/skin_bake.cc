@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <future>
 #include <limits>
 
 #include "core/error.h"
@@ -142,7 +143,12 @@ void SkinBaker::bake(const std::string& dir, const BakeOptions& options, const P
     for (int b = b0; b <= b1; ++b) in_band[size_t(b)].push_back(int(f));
   }
 
-  std::vector<float> dist, d_buf, n_buf, r_buf, s_buf;
+  // Two sets of band buffers: one band is written (compressed) on a helper thread while the next is evaluated.
+  struct Band {
+    std::vector<float> d, n, r, s;
+  } bands_buf[2];
+  std::future<void> writing;
+  std::vector<float> dist;
   std::vector<int> tri;
   std::vector<Eigen::Vector3f> bary;
   for (int band = 0; band < bands; ++band) {
@@ -196,6 +202,8 @@ void SkinBaker::bake(const std::string& dir, const BakeOptions& options, const P
       }
     });
     // Evaluate the skin at every covered texel.
+    std::vector<float>&d_buf = bands_buf[band % 2].d, &n_buf = bands_buf[band % 2].n, &r_buf = bands_buf[band % 2].r,
+                      &s_buf = bands_buf[band % 2].s;
     d_buf.assign(texels * 3, 0.f);
     n_buf.assign(texels * 3, 0.f);
     r_buf.assign(texels, 0.f);
@@ -216,12 +224,17 @@ void SkinBaker::bake(const std::string& dir, const BakeOptions& options, const P
       }
     }, 4096);
     for (float& v : n_buf) v = 0.5f * (v + 1);
-    diffuse.write_rows(yb, ye, d_buf.data());
-    normal.write_rows(yb, ye, n_buf.data());
-    roughness.write_rows(yb, ye, r_buf.data());
-    specular.write_rows(yb, ye, s_buf.data());
+    if (writing.valid()) writing.get();  // the previous band is on disk (rethrows its error)
+    writing = std::async(std::launch::async, [&, yb, ye, band] {
+      const Band& out = bands_buf[band % 2];
+      diffuse.write_rows(yb, ye, out.d.data());
+      normal.write_rows(yb, ye, out.n.data());
+      roughness.write_rows(yb, ye, out.r.data());
+      specular.write_rows(yb, ye, out.s.data());
+    });
     report(progress, band + 1, bands, "maps");
   }
+  if (writing.valid()) writing.get();
   diffuse.commit();
   normal.commit();
   roughness.commit();

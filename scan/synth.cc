@@ -296,6 +296,7 @@ void write_scan(const std::string& dir, const TemplateFace& face, const Syntheti
   params["gp_sigmas_mm"] = options.identity.gp_sigmas;
   params["fourier_features"] = options.identity.fourier_features;
   params["symmetry"] = options.identity.symmetry;
+  params["tangential"] = options.identity.tangential;
   params["scan_vertices"] = scan.mesh.V.rows();
   params["scan_triangles"] = scan.mesh.F.rows();
   params["noise_mm"] = options.noise_mm;

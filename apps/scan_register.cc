@@ -1,0 +1,214 @@
+// bareskin scan register: the template onto every scan of a folder (landmark similarity + optimal-step NICP), with an
+// error report per scan (and against the truth when the scan has one) and a QA heat map.
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "core/parallel.h"
+#include "core/safetensors.h"
+#include "render/preview.h"
+#include "scan/register.h"
+
+namespace bareskin::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RegisterArgs {
+  std::string template_dir = "template", scans = "scans", output = "registered";
+  bool keep_going = false, no_landmarks = false;
+  double heat_max_mm = 2.0;
+  RegisterOptions nicp;
+};
+
+// The scan's mesh file: mesh.obj, else mesh.ply.
+std::string scan_mesh_path(const std::string& dir) {
+  for (const char* name : {"/mesh.obj", "/mesh.ply"}) {
+    if (fs::exists(dir + name)) return dir + name;
+  }
+  throw InvalidInput(dir, "holds no mesh.obj or mesh.ply", "point --scans at a folder of scan folders");
+}
+
+nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const std::string& out_root,
+                            const RegisterArgs& args) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string id = fs::path(scan_dir).filename().string();
+  const Mesh scan = read_mesh(scan_mesh_path(scan_dir));
+  std::optional<Landmarks> landmarks;
+  if (!args.no_landmarks && fs::exists(scan_dir + "/landmarks.json")) {
+    landmarks = read_landmarks(scan_dir + "/landmarks.json");
+    check_scan_landmarks(face, *landmarks, scan_dir + "/landmarks.json");
+  }
+  const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const Registration reg = register_scan(face, scan, landmarks ? &*landmarks : nullptr, args.nicp);
+
+  // Truth, when the scan came from `scan synth`.
+  std::optional<Eigen::MatrixX3d> truth_point;
+  std::optional<Eigen::VectorXi> truth_face;
+  const std::string truth_path = scan_dir + "/truth/correspondence.safetensors";
+  if (fs::exists(truth_path)) {
+    const SafeTensors truth = SafeTensors::open(truth_path);
+    const int64_t n = face.mesh.V.rows();
+    const std::vector<float> p = truth.tensor("template_to_scan_point", DType::F32, {n, 3}).to_vector<float>();
+    const std::vector<int32_t> f = truth.tensor("template_to_scan_face", DType::I32, {n}).to_vector<int32_t>();
+    truth_point = Eigen::Map<const Eigen::Matrix<float, -1, 3, Eigen::RowMajor>>(p.data(), n, 3).cast<double>();
+    truth_face = Eigen::Map<const Eigen::VectorXi>(f.data(), n);
+  }
+  const RegistrationErrors err = measure_registration(face, reg.V, scan, landmarks ? &*landmarks : nullptr,
+                                                      truth_point ? &*truth_point : nullptr,
+                                                      truth_face ? &*truth_face : nullptr);
+
+  AtomicDirectory out(out_root + "/" + id);
+  Mesh registered = face.mesh;
+  registered.V = reg.V;
+  registered.N = vertex_normals(registered.V, registered.F);
+  write_mesh(out.path() + "/mesh.obj", registered);
+  // QA: the error per vertex as a heat map (blue 0 .. red heat_max_mm), front and left.
+  PreviewOptions preview;
+  preview.size = 512;
+  preview.wireframe = false;
+  preview.vertex_colors.resize(registered.V.rows(), 3);
+  for (Eigen::Index i = 0; i < registered.V.rows(); ++i) {
+    preview.vertex_colors.row(i) = heat_color(err.per_vertex(i) / args.heat_max_mm).transpose();
+  }
+  write_image(out.path() + "/qa_front.png", render_preview(registered, preview));
+  preview.view = PreviewView::Left;
+  write_image(out.path() + "/qa_left.png", render_preview(registered, preview));
+
+  const RegistrationStats& s = reg.stats;
+  nlohmann::json report;
+  report["subject"] = id;
+  report["scan"] = scan_mesh_path(scan_dir);
+  report["scan_vertices"] = scan.V.rows();
+  report["scan_triangles"] = scan.F.rows();
+  report["alignment"] = s.used_landmarks ? "landmarks (Umeyama similarity)"
+                                         : "FALLBACK: no landmarks; centroid + RMS radius + rigid ICP";
+  report["similarity_scale"] = s.similarity_scale;
+  report["landmark_rms_after_similarity_mm"] = s.landmark_rms_after_similarity_mm;
+  report["nicp_iterations"] = s.iterations;
+  report["accepted_fraction"] = s.accepted_fraction;
+  report["surface_distance_mm"] = {{"median", err.distance_median}, {"p95", err.distance_p95}, {"max", err.distance_max}};
+  if (err.has_truth) {
+    report["correspondence_error_mm"] = {
+        {"median", err.correspondence_median}, {"p95", err.correspondence_p95}, {"max", err.correspondence_max}};
+  }
+  if (err.has_landmarks) report["landmark_error_mm"] = {{"mean", err.landmark_mean}, {"max", err.landmark_max}};
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  report["seconds"] = {{"read", read_seconds},
+                       {"similarity", s.seconds_similarity},
+                       {"nicp", s.seconds_nicp},
+                       {"nicp_correspondences", s.seconds_correspond},
+                       {"nicp_factorize_solve", s.seconds_factorize},
+                       {"total", total}};
+  report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
+                                   ", blue 0 to red " + std::to_string(args.heat_max_mm) + " mm"}};
+  write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");
+  out.commit();
+  return report;
+}
+
+}  // namespace
+
+CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::function<void()>& action) {
+  auto args = std::make_shared<RegisterArgs>();
+  CLI::App* app = scan.add_subcommand("register", "Register the template onto every scan (landmarks + NICP), with a report");
+  app->add_option("--scans", args->scans, "Folder of scan folders (mesh.obj|ply, landmarks.json; truth/ is used if there)")
+      ->capture_default_str();
+  app->add_option("-o,--output", args->output, "Output folder: <id>/{mesh.obj, report.json, qa_*.png}, summary.json")
+      ->capture_default_str();
+  app->add_option("--template", args->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
+  app->add_flag("--keep-going", args->keep_going, "Go on after a scan fails; list the failures at the end");
+  app->add_flag("--no-landmarks", args->no_landmarks, "Ignore landmarks: fallback alignment (centroid + rigid ICP)");
+  app->add_option("--stiffness", args->nicp.stiffness, "NICP stiffness schedule")->capture_default_str()->group("NICP");
+  app->add_option("--landmark-weight", args->nicp.landmark_weight, "Landmark weight per step")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--trim", args->nicp.trim_mm, "Correspondence distance trim per step (mm)")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--iterations", args->nicp.iterations_per_step, "ICP iterations per stiffness step")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--max-normal-angle", args->nicp.max_normal_angle_deg, "Reject correspondences beyond this angle")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--huber", args->nicp.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
+  app->add_option("--heat-max", args->heat_max_mm, "Error (mm) shown red in the QA heat maps")->capture_default_str();
+  action = [args, &globals] {
+    args->nicp.check();
+    const TemplateFace face = read_template(args->template_dir + "/face.obj", args->template_dir + "/landmarks.json");
+    if (!fs::is_directory(args->scans)) {
+      throw IoError(args->scans, "is not a folder", "give the folder 'scan synth' wrote, or one of scan folders");
+    }
+    std::vector<std::string> dirs;
+    for (const auto& entry : fs::directory_iterator(args->scans)) {
+      const std::string name = entry.path().filename().string();
+      if (!entry.is_directory() || name.empty() || name[0] == '.' || name == "blendshapes") continue;
+      dirs.push_back(entry.path().string());
+    }
+    std::sort(dirs.begin(), dirs.end());
+    if (dirs.empty()) throw InvalidInput(args->scans, "holds no scan folders", "run 'bareskin scan synth' first");
+    make_directories(args->output);
+    std::vector<std::string> todo;
+    for (const std::string& d : dirs) {
+      if (!fs::exists(args->output + "/" + fs::path(d).filename().string() + "/report.json")) todo.push_back(d);
+    }
+    if (todo.size() < dirs.size()) spdlog::info("scan register: {} of {} scans already registered, skipped", dirs.size() - todo.size(), dirs.size());
+    ProgressBar bar = globals.progress("scan register");
+    std::atomic<int> done{0};
+    std::mutex failures_mutex;
+    std::vector<std::pair<std::string, std::string>> failures;
+    const auto one = [&](int64_t k) {
+      try {
+        register_one(face, todo[size_t(k)], args->output, *args);
+      } catch (const std::exception& e) {
+        if (!args->keep_going) throw;
+        std::lock_guard<std::mutex> lock(failures_mutex);
+        failures.emplace_back(todo[size_t(k)], e.what());
+      }
+      bar.update(++done, int64_t(todo.size()), "scans");
+    };
+    if (todo.size() == 1) {
+      one(0);  // the registration's own parallel loops get every thread
+    } else {
+      parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+        for (int64_t k = b; k < e; ++k) one(k);
+      });
+    }
+    bar.finish();
+    // Summary over every registered scan (including ones from earlier runs).
+    nlohmann::json summary, rows = nlohmann::json::array();
+    for (const std::string& d : dirs) {
+      const std::string report = args->output + "/" + fs::path(d).filename().string() + "/report.json";
+      if (fs::exists(report)) rows.push_back(nlohmann::json::parse(read_file(report)));
+    }
+    summary["format"] = "bareskin.registration_summary";
+    summary["scans"] = rows;
+    summary["failures"] = nlohmann::json::array();
+    for (const auto& [dir, why] : failures) summary["failures"].push_back({{"scan", dir}, {"error", why}});
+    write_file_atomic(args->output + "/summary.json", summary.dump(1) + "\n");
+    globals.write_resolved_config(args->output + "/config.json");
+    for (const auto& r : rows) {
+      std::string line = fmt::format("{}: surface distance median {:.3f} mm", r["subject"].get<std::string>(),
+                                     r["surface_distance_mm"]["median"].get<double>());
+      if (r.contains("correspondence_error_mm")) {
+        line += fmt::format(", correspondence error median {:.3f} / p95 {:.3f} mm",
+                            r["correspondence_error_mm"]["median"].get<double>(), r["correspondence_error_mm"]["p95"].get<double>());
+      }
+      if (r.contains("landmark_error_mm")) line += fmt::format(", landmarks {:.2f} mm", r["landmark_error_mm"]["mean"].get<double>());
+      spdlog::info("{}, {:.1f} s", line, r["seconds"]["total"].get<double>());
+    }
+    if (!failures.empty()) {
+      for (const auto& [dir, why] : failures) spdlog::error("{}: {}", dir, why);
+      throw InvalidInput(args->scans, std::to_string(failures.size()) + " scan(s) failed (listed above and in summary.json)",
+                         "fix them and rerun: registered scans are skipped");
+    }
+  };
+  return app;
+}
+
+}  // namespace bareskin::cli

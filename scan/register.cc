@@ -1,0 +1,330 @@
+#include "scan/register.h"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Geometry>
+#include <Eigen/Sparse>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "morphable/surface.h"
+
+namespace bareskin {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Eigen::MatrixX3d landmark_points(const TemplateFace& face) {
+  Eigen::MatrixX3d P(68, 3);
+  for (int k = 0; k < 68; ++k) P.row(k) = face.mesh.V.row(face.landmark_vertices[size_t(k)]);
+  return P;
+}
+
+Eigen::MatrixX3d apply(const Eigen::Matrix4d& T, const Eigen::MatrixX3d& V) {
+  return ((V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+}
+
+double rms(const Eigen::MatrixX3d& a, const Eigen::MatrixX3d& b) { return std::sqrt((a - b).rowwise().squaredNorm().mean()); }
+
+// Which scan points are on its boundary: a closest point on a boundary edge or vertex means the query is off the scan
+// (beyond its rim or over a hole), so its correspondence is rejected.
+class BoundaryTest {
+ public:
+  explicit BoundaryTest(const Mesh& scan) : vertex_(size_t(scan.V.rows()), false) {
+    const Eigen::MatrixX2i edges = boundary_edges(scan.F);
+    for (Eigen::Index e = 0; e < edges.rows(); ++e) {
+      vertex_[size_t(edges(e, 0))] = vertex_[size_t(edges(e, 1))] = true;
+      edges_.insert(key(edges(e, 0), edges(e, 1)));
+    }
+    F_ = scan.F;
+  }
+  bool on_boundary(const SurfacePoint& p) const {
+    constexpr double eps = 1e-7;
+    for (int k = 0; k < 3; ++k) {
+      if (p.barycentric[k] > 1 - eps && vertex_[size_t(F_(p.face, k))]) return true;
+      if (p.barycentric[k] < eps && edges_.count(key(F_(p.face, (k + 1) % 3), F_(p.face, (k + 2) % 3)))) return true;
+    }
+    return false;
+  }
+
+ private:
+  static uint64_t key(int a, int b) { return (uint64_t(std::min(a, b)) << 32) | uint64_t(std::max(a, b)); }
+  std::vector<bool> vertex_;
+  std::set<uint64_t> edges_;
+  Eigen::MatrixX3i F_;
+};
+
+struct Correspondences {
+  Eigen::MatrixX3d target;
+  Eigen::VectorXd weight;  // 0: rejected
+};
+
+Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const SurfaceLocator& locator,
+                           const Eigen::MatrixX3d& scan_normals, const BoundaryTest& boundary, double trim,
+                           double huber, double min_cos) {
+  const Eigen::MatrixX3d N = vertex_normals(V, F);
+  Correspondences c;
+  c.target.resize(V.rows(), 3);
+  c.weight.setZero(V.rows());
+  parallel_for(0, V.rows(), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const SurfacePoint p = locator.locate(V.row(i).transpose());
+      c.target.row(i) = p.point.transpose();
+      const double d = (p.point - V.row(i).transpose()).norm();
+      if (d > trim || boundary.on_boundary(p)) continue;
+      if (N.row(i).dot(scan_normals.row(p.face)) < min_cos) continue;
+      c.weight(i) = d > huber ? huber / d : 1.0;
+    }
+  }, 1024);
+  return c;
+}
+
+}  // namespace
+
+void RegisterOptions::check() const {
+  if (stiffness.empty()) throw InvalidInput("", "the stiffness schedule is empty", "give at least one step");
+  if (landmark_weight.size() != stiffness.size() || trim_mm.size() != stiffness.size()) {
+    throw InvalidInput("", "stiffness, landmark weight and trim schedules differ in length", "give one value per step");
+  }
+  for (size_t k = 0; k < stiffness.size(); ++k) {
+    if (!(stiffness[k] > 0) || !(landmark_weight[k] >= 0) || !(trim_mm[k] > 0)) {
+      throw InvalidInput("", "schedules need stiffness > 0, landmark weight >= 0 and trim > 0", "");
+    }
+  }
+  if (iterations_per_step < 1 || iterations_per_step > 100) throw InvalidInput("", "--iterations must lie in [1, 100]", "");
+  if (!(gamma > 0) || !(huber_mm > 0)) throw InvalidInput("", "gamma and the Huber threshold must be > 0", "");
+  if (!(max_normal_angle_deg > 0 && max_normal_angle_deg <= 180)) {
+    throw InvalidInput("", "--max-normal-angle must lie in (0, 180] degrees", "");
+  }
+}
+
+void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, const std::string& source) {
+  if (landmarks.points.rows() != 68 || landmarks.points.cols() != 3) {
+    throw InvalidInput(source, "needs 68 3D iBUG landmarks", "give the scan's landmarks.json");
+  }
+  const Eigen::MatrixX3d src = landmark_points(face), dst = landmarks.points;
+  const double eyes = (dst.row(36) - dst.row(45)).norm(), template_eyes = (src.row(36) - src.row(45)).norm();
+  char what[200];
+  if (eyes < 0.02 * template_eyes) {
+    std::snprintf(what, sizeof what, "outer eye corners are %.4g apart, faces about %.0f mm: the scan looks like metres",
+                  eyes, template_eyes);
+    throw InvalidInput(source, what, "scale the scan and its landmarks by 1000 (millimetres)");
+  }
+  if (eyes > 20 * template_eyes) {
+    std::snprintf(what, sizeof what, "outer eye corners are %.4g apart, faces about %.0f mm: not millimetres", eyes,
+                  template_eyes);
+    throw InvalidInput(source, what, "convert the scan and its landmarks to millimetres");
+  }
+  const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), dst.transpose(), true);
+  const double scale = std::cbrt(T.topLeftCorner<3, 3>().determinant());
+  const double fit = rms(apply(T, src), dst) / scale;  // in template millimetres
+  if (fit < 8) return;
+  Eigen::MatrixX3d mirrored = dst;
+  mirrored.col(0) *= -1;
+  const Eigen::Matrix4d M = Eigen::umeyama(src.transpose(), mirrored.transpose(), true);
+  const double mirrored_fit = rms(apply(M, src), mirrored) / std::cbrt(M.topLeftCorner<3, 3>().determinant());
+  if (mirrored_fit < 0.5 * fit) {
+    std::snprintf(what, sizeof what, "landmarks fit the template only when mirrored (RMS %.1f mm, mirrored %.1f mm)", fit,
+                  mirrored_fit);
+    throw InvalidInput(source, what, "the scan is mirrored: flip one axis of the scan and its landmarks");
+  }
+  std::snprintf(what, sizeof what, "landmarks do not fit the template's iBUG-68 layout (RMS %.1f mm after a similarity)",
+                fit);
+  throw InvalidInput(source, what, "check that they are the 68 iBUG points in order, on this scan");
+}
+
+Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
+                           const RegisterOptions& options, const ProgressCallback& progress) {
+  options.check();
+  const auto t_start = std::chrono::steady_clock::now();
+  Registration out;
+  RegistrationStats& stats = out.stats;
+  const Eigen::Index n = face.mesh.V.rows();
+  const SurfaceLocator locator(scan.V, scan.F);
+  const Eigen::MatrixX3d scan_normals = face_normals(scan.V, scan.F);
+  const BoundaryTest boundary(scan);
+  const double min_cos = std::cos(options.max_normal_angle_deg * M_PI / 180);
+
+  // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then rigid ICP).
+  Eigen::MatrixX3d V0;
+  if (landmarks) {
+    const Eigen::MatrixX3d src = landmark_points(face);
+    const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), landmarks->points.transpose(), true);
+    V0 = apply(T, face.mesh.V);
+    stats.used_landmarks = true;
+    stats.similarity_scale = std::cbrt(T.topLeftCorner<3, 3>().determinant());
+    stats.landmark_rms_after_similarity_mm = rms(apply(T, src), landmarks->points);
+  } else {
+    const Eigen::RowVector3d ct = face.mesh.V.colwise().mean(), cs = scan.V.colwise().mean();
+    const double rt = std::sqrt((face.mesh.V.rowwise() - ct).rowwise().squaredNorm().mean());
+    const double rs = std::sqrt((scan.V.rowwise() - cs).rowwise().squaredNorm().mean());
+    V0 = (((face.mesh.V.rowwise() - ct) * (rs / rt)).rowwise() + cs).eval();
+    for (int it = 0; it < 20; ++it) {
+      const Correspondences c = correspond(V0, face.mesh.F, locator, scan_normals, boundary, 1e9, 1e9, min_cos);
+      std::vector<Eigen::Index> keep;
+      for (Eigen::Index i = 0; i < n; ++i)
+        if (c.weight(i) > 0) keep.push_back(i);
+      if (keep.size() < 100) throw InvalidInput("scan", "rigid ICP found no overlap with the template", "give landmarks");
+      Eigen::Matrix3Xd a(3, keep.size()), b(3, keep.size());
+      for (size_t k = 0; k < keep.size(); ++k) {
+        a.col(Eigen::Index(k)) = V0.row(keep[k]).transpose();
+        b.col(Eigen::Index(k)) = c.target.row(keep[k]).transpose();
+      }
+      const Eigen::Matrix4d T = Eigen::umeyama(a, b, true);
+      V0 = apply(T, V0);
+      if ((T - Eigen::Matrix4d::Identity()).norm() < 1e-6) break;
+    }
+  }
+  stats.seconds_similarity = seconds_since(t_start);
+
+  // 2. Optimal-step NICP in normalised coordinates (centred, unit RMS radius), so the schedules do not depend on size.
+  const auto t_nicp = std::chrono::steady_clock::now();
+  const Eigen::RowVector3d centre = V0.colwise().mean();
+  const double radius = std::sqrt((V0.rowwise() - centre).rowwise().squaredNorm().mean());
+  Eigen::MatrixX4d v(n, 4);  // homogeneous normalised template points
+  v.leftCols<3>() = (V0.rowwise() - centre) / radius;
+  v.col(3).setOnes();
+  const Eigen::MatrixX3d lm_target =
+      landmarks ? Eigen::MatrixX3d((landmarks->points.rowwise() - centre) / radius) : Eigen::MatrixX3d();
+
+  // Stiffness: sum over edges of ||G (X_i - X_j)||^2 = X^T ((M^T M) kron G^2) X. Its pattern plus full 4x4 diagonal
+  // blocks (data and landmark terms) is the pattern of every system, so CHOLMOD analyses it once.
+  std::set<uint64_t> edge_set;
+  for (Eigen::Index f = 0; f < face.mesh.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = face.mesh.F(f, k), b = face.mesh.F(f, (k + 1) % 3);
+      edge_set.insert((uint64_t(std::min(a, b)) << 32) | uint64_t(std::max(a, b)));
+    }
+  std::vector<Eigen::Triplet<double>> stiff;
+  stiff.reserve(edge_set.size() * 16 + size_t(n) * 16);
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) stiff.emplace_back(int(4 * i + a), int(4 * i + b), 0.0);
+  for (uint64_t e : edge_set) {
+    const int i = int(e >> 32), j = int(e & 0xffffffffu);
+    for (int a = 0; a < 4; ++a) {
+      const double g2 = a < 3 ? 1.0 : options.gamma * options.gamma;
+      stiff.emplace_back(4 * i + a, 4 * i + a, g2);
+      stiff.emplace_back(4 * j + a, 4 * j + a, g2);
+      stiff.emplace_back(4 * i + a, 4 * j + a, -g2);
+      stiff.emplace_back(4 * j + a, 4 * i + a, -g2);
+    }
+  }
+  Eigen::SparseMatrix<double> K(4 * n, 4 * n);
+  K.setFromTriplets(stiff.begin(), stiff.end());
+  std::vector<Eigen::Triplet<double>>().swap(stiff);
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver;
+  solver.analyzePattern(K);
+
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(4 * n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) X.block<3, 3>(4 * i, 0).setIdentity();
+  const auto deformed = [&](const Eigen::MatrixXd& Xs) {
+    Eigen::MatrixX3d V(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) V.row(i) = v.row(i) * Xs.block<4, 3>(4 * i, 0);
+    return Eigen::MatrixX3d((V * radius).rowwise() + centre);
+  };
+
+  const int steps = int(options.stiffness.size());
+  Correspondences c;
+  for (int s = 0; s < steps; ++s) {
+    const double alpha = options.stiffness[size_t(s)], beta = landmarks ? options.landmark_weight[size_t(s)] : 0.0;
+    for (int it = 0; it < options.iterations_per_step; ++it) {
+      const auto t_c = std::chrono::steady_clock::now();
+      c = correspond(deformed(X), face.mesh.F, locator, scan_normals, boundary, options.trim_mm[size_t(s)],
+                     options.huber_mm, min_cos);
+      stats.seconds_correspond += seconds_since(t_c);
+      // A = alpha^2 K + sum_i w_i v_i v_i^T (+ beta^2 for landmarks) on the diagonal blocks; B likewise.
+      Eigen::SparseMatrix<double> A = alpha * alpha * K;
+      Eigen::MatrixXd B = Eigen::MatrixXd::Zero(4 * n, 3);
+      const auto add_block = [&](Eigen::Index i, double w, const Eigen::RowVector3d& u) {
+        const Eigen::RowVector4d vi = v.row(i);
+        for (int b = 0; b < 4; ++b)
+          for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += w * vi[a] * vi[b];
+        B.block<4, 3>(4 * i, 0) += w * vi.transpose() * u;
+      };
+      for (Eigen::Index i = 0; i < n; ++i) {
+        if (c.weight(i) > 0) add_block(i, c.weight(i), (c.target.row(i) - centre) / radius);
+      }
+      if (beta > 0) {
+        for (int k = 0; k < 68; ++k) add_block(face.landmark_vertices[size_t(k)], beta * beta, lm_target.row(k));
+      }
+      const auto t_f = std::chrono::steady_clock::now();
+      solver.factorize(A);
+      if (solver.info() != Eigen::Success) throw InternalError("NICP: the sparse system is not positive definite");
+      const Eigen::MatrixXd X_new = solver.solve(B);
+      stats.seconds_factorize += seconds_since(t_f);
+      const double change = (X_new - X).norm() / std::sqrt(double(n));
+      X = X_new;
+      ++stats.iterations;
+      if (change < 1e-4) break;
+    }
+    report(progress, s + 1, steps, "NICP steps");
+  }
+  out.V = deformed(X);
+
+  // 3. Projection: accepted vertices go onto the scan (the last step's rejection rules).
+  c = correspond(out.V, face.mesh.F, locator, scan_normals, boundary, options.trim_mm.back(), 1e9, min_cos);
+  out.accepted.assign(size_t(n), false);
+  int accepted = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (c.weight(i) <= 0) continue;
+    out.accepted[size_t(i)] = true;
+    ++accepted;
+    if (options.project) out.V.row(i) = c.target.row(i);
+  }
+  stats.accepted_fraction = double(accepted) / double(n);
+  stats.seconds_nicp = seconds_since(t_nicp);
+  return out;
+}
+
+namespace {
+// The value at quantile q of `values` (sorted copy), 0 when empty.
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  const size_t k = std::min(values.size() - 1, size_t(q * double(values.size())));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+}  // namespace
+
+RegistrationErrors measure_registration(const TemplateFace& face, const Eigen::MatrixX3d& V, const Mesh& scan,
+                                        const Landmarks* landmarks, const Eigen::MatrixX3d* truth_point,
+                                        const Eigen::VectorXi* truth_face) {
+  RegistrationErrors e;
+  const SurfaceLocator locator(scan.V, scan.F);
+  std::vector<double> distance(size_t(V.rows()));
+  parallel_for(0, V.rows(), [&](int64_t b, int64_t end) {
+    for (int64_t i = b; i < end; ++i) distance[size_t(i)] = (locator.locate(V.row(i).transpose()).point - V.row(i).transpose()).norm();
+  }, 1024);
+  e.distance_median = quantile(distance, 0.5);
+  e.distance_p95 = quantile(distance, 0.95);
+  e.distance_max = *std::max_element(distance.begin(), distance.end());
+  e.per_vertex = Eigen::Map<Eigen::VectorXd>(distance.data(), Eigen::Index(distance.size()));
+  if (truth_point && truth_point->rows() == V.rows()) {
+    e.has_truth = true;
+    std::vector<double> errors;
+    for (Eigen::Index i = 0; i < V.rows(); ++i) {
+      e.per_vertex(i) = (V.row(i) - truth_point->row(i)).norm();
+      if (!truth_face || (*truth_face)(i) >= 0) errors.push_back(e.per_vertex(i));
+    }
+    e.correspondence_median = quantile(errors, 0.5);
+    e.correspondence_p95 = quantile(errors, 0.95);
+    e.correspondence_max = errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end());
+  }
+  if (landmarks && landmarks->points.rows() == 68 && landmarks->points.cols() == 3) {
+    e.has_landmarks = true;
+    for (int k = 0; k < 68; ++k) {
+      const double d = (V.row(face.landmark_vertices[size_t(k)]) - landmarks->points.row(k)).norm();
+      e.landmark_mean += d / 68;
+      e.landmark_max = std::max(e.landmark_max, d);
+    }
+  }
+  return e;
+}
+
+}  // namespace bareskin

@@ -1,0 +1,74 @@
+// `scan register`: brings the template onto a scan (DESIGN.md §2). A similarity from the 68 landmarks (Umeyama), then
+// optimal-step non-rigid ICP (Amberg, Romdhani & Vetter 2007): one affine transform per template vertex, a stiffness
+// term on neighbouring transforms that is relaxed step by step, a landmark term whose weight decays to zero, and a data
+// term to the closest points of the scan (projections onto its triangles, found in a CGAL AABB tree). Correspondences
+// are rejected when the normals disagree, when the closest point lies on the scan's boundary (holes, the scan's rim),
+// or beyond a distance trimmed with the schedule; the rest get Huber weights (robust loss). Each step solves the
+// sparse normal equations with CHOLMOD (supernodal Cholesky), whose symbolic analysis is done once: the pattern never
+// changes. A final projection puts each accepted vertex on the scan.
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/landmarks.h"
+#include "core/mesh.h"
+#include "core/progress.h"
+#include "morphable/template_face.h"
+
+namespace bareskin {
+
+struct RegisterOptions {
+  // Stiffness schedule (alpha, relaxed step by step) and the landmark weight at each step (beta, decaying to 0).
+  std::vector<double> stiffness = {20, 10, 5, 2, 1, 0.5};
+  std::vector<double> landmark_weight = {30, 20, 10, 5, 2, 1};
+  int iterations_per_step = 3;       // inner ICP iterations at one stiffness (stops early when converged)
+  double gamma = 1;                  // weight of the translation part of the stiffness (Amberg's G = diag(1,1,1,gamma))
+  double max_normal_angle_deg = 60;  // reject a correspondence whose normals differ more
+  std::vector<double> trim_mm = {20, 10, 5, 3, 2, 2};  // reject beyond this distance, per step
+  double huber_mm = 1.0;             // robust loss: weight min(1, huber / distance)
+  bool project = true;               // finally move accepted vertices onto their closest scan point
+  void check() const;                // InvalidInput when inconsistent
+};
+
+struct RegistrationStats {
+  bool used_landmarks = false;
+  double similarity_scale = 1;
+  double landmark_rms_after_similarity_mm = 0;
+  int iterations = 0;
+  double accepted_fraction = 0;  // of template vertices with an accepted correspondence at the end
+  double seconds_similarity = 0, seconds_nicp = 0, seconds_factorize = 0, seconds_correspond = 0;
+};
+
+struct Registration {
+  Eigen::MatrixX3d V;  // template topology, on the scan (mm, the scan's frame)
+  std::vector<bool> accepted;  // per template vertex: had an accepted correspondence at the end
+  RegistrationStats stats;
+};
+
+// Checks the scan's landmarks against the template's: millimetres (eye-corner distance), order and handedness
+// (the similarity fit must be good). Throws InvalidInput naming `source` with what is wrong and what to do.
+void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, const std::string& source);
+
+// Registers the template to `scan`. Without landmarks (nullptr) the fallback is documented: the template is centred
+// and scaled onto the scan's centroid and RMS radius, assuming the scan is in the template's orientation (+y up, +z
+// out of the face), then rigid ICP; stats.used_landmarks says which ran.
+Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
+                           const RegisterOptions& options = {}, const ProgressCallback& progress = {});
+
+// Registration error, in mm. Surface distance: registered vertex to the scan surface. Correspondence error (when the
+// scan has truth, e.g. from `scan synth`): registered vertex to its true point, over template vertices that are not in
+// a hole (truth face >= 0). Landmark error: the template's 68 landmark vertices to the scan's landmarks.
+struct RegistrationErrors {
+  double distance_median = 0, distance_p95 = 0, distance_max = 0;
+  bool has_truth = false;
+  double correspondence_median = 0, correspondence_p95 = 0, correspondence_max = 0;
+  bool has_landmarks = false;
+  double landmark_mean = 0, landmark_max = 0;
+  Eigen::VectorXd per_vertex;  // correspondence error with truth, else surface distance (for heat maps)
+};
+RegistrationErrors measure_registration(const TemplateFace& face, const Eigen::MatrixX3d& V, const Mesh& scan,
+                                        const Landmarks* landmarks, const Eigen::MatrixX3d* truth_point,
+                                        const Eigen::VectorXi* truth_face);
+
+}  // namespace bareskin

@@ -1,0 +1,107 @@
+// Registration against the synthetic truth: the template lands on the scan and on the right points of it; bad
+// landmarks (metres, mirrored, shuffled) are named; without landmarks the fallback still registers a scan in the
+// template's orientation.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+
+#include "core/error.h"
+#include "core/test_util.h"
+#include "scan/register.h"
+#include "scan/synth.h"
+
+namespace bareskin {
+namespace {
+
+const TemplateFace& test_template() {
+  static const TemplateFace face = read_template(std::string(BARESKIN_TEMPLATE_DIR) + "/face.obj",
+                                                 std::string(BARESKIN_TEMPLATE_DIR) + "/landmarks.json");
+  return face;
+}
+
+SyntheticScan make_scan(int index, double noise = 0, bool holes = false) {
+  SynthOptions opt;
+  opt.scan_vertices = 20000;
+  opt.maps.resolution = 0;
+  opt.noise_mm = noise;
+  opt.holes = holes;
+  opt.rotation_jitter_deg = 10;
+  opt.translation_jitter_mm = 30;
+  return synthesize_scan(test_template(), index, opt);
+}
+
+RegistrationErrors errors(const Registration& r, const SyntheticScan& s) {
+  return measure_registration(test_template(), r.V, s.mesh, &s.landmarks, &s.truth_point, &s.truth_face);
+}
+
+TEST(Register, LandsOnTheTrueCorrespondences) {
+  const SyntheticScan scan = make_scan(0, 0, true);
+  const Registration r = register_scan(test_template(), scan.mesh, &scan.landmarks);
+  const RegistrationErrors e = errors(r, scan);
+  EXPECT_TRUE(r.stats.used_landmarks);
+  EXPECT_LT(e.distance_median, 0.05) << "mm";
+  // Regression bounds at the 6k test template (issue 4's targets, 0.5 / 1.5 mm at 65k, are tracked in bench/).
+  EXPECT_LT(e.correspondence_median, 0.9) << "mm";
+  EXPECT_LT(e.correspondence_p95, 2.5) << "mm";
+  EXPECT_LT(e.landmark_mean, 1.5) << "mm";
+  // The landmark similarity alone is far from this: the non-rigid part does real work.
+  const TemplateFace& face = test_template();
+  Eigen::Matrix3Xd src(3, 68);
+  for (int k = 0; k < 68; ++k) src.col(k) = face.mesh.V.row(face.landmark_vertices[size_t(k)]).transpose();
+  const Eigen::Matrix4d T = Eigen::umeyama(src, Eigen::Matrix3Xd(scan.landmarks.points.transpose()), true);
+  const Eigen::MatrixX3d similar =
+      (face.mesh.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose();
+  const double similarity_error =
+      measure_registration(face, similar, scan.mesh, nullptr, &scan.truth_point, &scan.truth_face).correspondence_median;
+  EXPECT_GT(similarity_error, 2 * e.correspondence_median);
+}
+
+TEST(Register, NoisyScanStaysAccurate) {
+  const SyntheticScan scan = make_scan(1, 0.3);
+  const RegistrationErrors e = errors(register_scan(test_template(), scan.mesh, &scan.landmarks), scan);
+  EXPECT_LT(e.correspondence_median, 1.2);
+  EXPECT_LT(e.distance_median, 0.4);
+}
+
+TEST(Register, WithoutLandmarksTheFallbackRegistersAnUprightScan) {
+  SynthOptions opt;
+  opt.scan_vertices = 20000;
+  opt.maps.resolution = 0;
+  opt.translation_jitter_mm = 20;
+  const SyntheticScan scan = synthesize_scan(test_template(), 2, opt);
+  const Registration r = register_scan(test_template(), scan.mesh, nullptr);
+  EXPECT_FALSE(r.stats.used_landmarks);
+  const RegistrationErrors e = errors(r, scan);
+  EXPECT_LT(e.distance_median, 0.05);
+  EXPECT_LT(e.correspondence_median, 4.5) << "the fallback has no landmarks to fix sliding: it is flagged in reports";
+}
+
+TEST(Register, BadLandmarksAreNamed) {
+  const TemplateFace& face = test_template();
+  const SyntheticScan scan = make_scan(3);
+  EXPECT_NO_THROW(check_scan_landmarks(face, scan.landmarks, "lm.json"));
+  const auto message = [&](const Landmarks& l) {
+    try {
+      check_scan_landmarks(face, l, "lm.json");
+    } catch (const InvalidInput& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  Landmarks metres = scan.landmarks;
+  metres.points *= 0.001;
+  EXPECT_NE(message(metres).find("metres"), std::string::npos) << message(metres);
+  Landmarks mirrored = scan.landmarks;
+  mirrored.points.col(0) *= -1;
+  EXPECT_NE(message(mirrored).find("mirrored"), std::string::npos) << message(mirrored);
+  Landmarks shuffled = scan.landmarks;
+  for (int k = 0; k < 17; ++k) shuffled.points.row(k).swap(shuffled.points.row(k + 30));
+  EXPECT_NE(message(shuffled).find("iBUG-68"), std::string::npos) << message(shuffled);
+  Landmarks few = scan.landmarks;
+  few.points.conservativeResize(60, 3);
+  EXPECT_NE(message(few).find("68"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace bareskin
