@@ -94,6 +94,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   report["similarity_scale"] = s.similarity_scale;
   report["landmark_rms_after_similarity_mm"] = s.landmark_rms_after_similarity_mm;
   report["nicp_iterations"] = s.iterations;
+  report["nicp_nodes"] = s.nodes;
   report["accepted_fraction"] = s.accepted_fraction;
   report["surface_distance_mm"] = {{"median", err.distance_median}, {"p95", err.distance_p95}, {"max", err.distance_max}};
   if (err.has_truth) {
@@ -131,6 +132,8 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
   app->add_option("--landmark-weight", args->nicp.landmark_weight, "Landmark weight per step")
       ->capture_default_str()->group("NICP");
   app->add_option("--trim", args->nicp.trim_mm, "Correspondence distance trim per step (mm)")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--nodes", args->nicp.nodes, "NICP node count (template remeshed; 0: every template vertex)")
       ->capture_default_str()->group("NICP");
   app->add_option("--iterations", args->nicp.iterations_per_step, "ICP iterations per stiffness step")
       ->capture_default_str()->group("NICP");

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/Sparse>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <set>
@@ -96,6 +97,7 @@ void RegisterOptions::check() const {
       throw InvalidInput("", "schedules need stiffness > 0, landmark weight >= 0 and trim > 0", "");
     }
   }
+  if (nodes < 0 || (nodes > 0 && nodes < 500)) throw InvalidInput("", "--nodes must be 0 (every vertex) or >= 500", "");
   if (iterations_per_step < 1 || iterations_per_step > 100) throw InvalidInput("", "--iterations must lie in [1, 100]", "");
   if (!(gamma > 0) || !(huber_mm > 0)) throw InvalidInput("", "gamma and the Huber threshold must be > 0", "");
   if (!(max_normal_angle_deg > 0 && max_normal_angle_deg <= 180)) {
@@ -183,28 +185,65 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   stats.seconds_similarity = seconds_since(t_start);
 
   // 2. Optimal-step NICP in normalised coordinates (centred, unit RMS radius), so the schedules do not depend on size.
+  // The transforms live on nodes: the aligned template remeshed to about `options.nodes` vertices (or every vertex).
+  // Each template vertex is embedded in a node triangle and moves by the barycentric blend of its corners' affines.
   const auto t_nicp = std::chrono::steady_clock::now();
   const Eigen::RowVector3d centre = V0.colwise().mean();
   const double radius = std::sqrt((V0.rowwise() - centre).rowwise().squaredNorm().mean());
-  Eigen::MatrixX4d v(n, 4);  // homogeneous normalised template points
-  v.leftCols<3>() = (V0.rowwise() - centre) / radius;
-  v.col(3).setOnes();
+  Eigen::MatrixX3d node_V;
+  Eigen::MatrixX3i node_F;
+  std::vector<std::array<int, 3>> embed_node(static_cast<size_t>(n));
+  std::vector<Eigen::Vector3d> embed_weight(static_cast<size_t>(n));
+  if (options.nodes > 0 && n > options.nodes + options.nodes / 5) {
+    isotropic_remesh(V0, face.mesh.F, options.nodes, 3, node_V, node_F);
+    const SurfaceLocator on_nodes(node_V, node_F);
+    parallel_for(0, n, [&](int64_t b0, int64_t b1) {
+      for (int64_t i = b0; i < b1; ++i) {
+        const SurfacePoint p = on_nodes.locate(V0.row(i).transpose());
+        embed_node[size_t(i)] = {node_F(p.face, 0), node_F(p.face, 1), node_F(p.face, 2)};
+        embed_weight[size_t(i)] = p.barycentric;
+      }
+    }, 1024);
+  } else {
+    node_V = V0;
+    node_F = face.mesh.F;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      embed_node[size_t(i)] = {int(i), int(i), int(i)};
+      embed_weight[size_t(i)] = Eigen::Vector3d(1, 0, 0);
+    }
+  }
+  stats.nodes = int(node_V.rows());
+  const Eigen::Index m = node_V.rows();
+  const auto homogeneous = [&](const Eigen::MatrixX3d& P) {
+    Eigen::MatrixX4d h(P.rows(), 4);
+    h.leftCols<3>() = (P.rowwise() - centre) / radius;
+    h.col(3).setOnes();
+    return h;
+  };
+  const Eigen::MatrixX4d v = homogeneous(node_V), v_dense = homogeneous(V0);
   const Eigen::MatrixX3d lm_target =
       landmarks ? Eigen::MatrixX3d((landmarks->points.rowwise() - centre) / radius) : Eigen::MatrixX3d();
 
-  // Stiffness: sum over edges of ||G (X_i - X_j)||^2 = X^T ((M^T M) kron G^2) X. Its pattern plus full 4x4 diagonal
-  // blocks (data and landmark terms) is the pattern of every system, so CHOLMOD analyses it once.
+  // Stiffness: sum over node edges of ||G (X_i - X_j)||^2 = X^T ((M^T M) kron G^2) X. Its pattern, plus full 4x4
+  // blocks on the diagonal (data) and between the corners of each landmark's node triangle (landmark term), is the
+  // pattern of every system, so CHOLMOD analyses it once.
   std::set<uint64_t> edge_set;
-  for (Eigen::Index f = 0; f < face.mesh.F.rows(); ++f)
+  for (Eigen::Index f = 0; f < node_F.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
-      const int a = face.mesh.F(f, k), b = face.mesh.F(f, (k + 1) % 3);
+      const int a = node_F(f, k), b = node_F(f, (k + 1) % 3);
       edge_set.insert((uint64_t(std::min(a, b)) << 32) | uint64_t(std::max(a, b)));
     }
   std::vector<Eigen::Triplet<double>> stiff;
-  stiff.reserve(edge_set.size() * 16 + size_t(n) * 16);
-  for (Eigen::Index i = 0; i < n; ++i)
+  stiff.reserve(edge_set.size() * 16 + size_t(m) * 16);
+  const auto full_block = [&](int i, int j) {
     for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) stiff.emplace_back(int(4 * i + a), int(4 * i + b), 0.0);
+      for (int b = 0; b < 4; ++b) stiff.emplace_back(4 * i + a, 4 * j + b, 0.0);
+  };
+  for (Eigen::Index i = 0; i < m; ++i) full_block(int(i), int(i));
+  for (int k = 0; k < 68; ++k) {
+    for (int x : embed_node[size_t(face.landmark_vertices[size_t(k)])])
+      for (int y : embed_node[size_t(face.landmark_vertices[size_t(k)])]) full_block(x, y);
+  }
   for (uint64_t e : edge_set) {
     const int i = int(e >> 32), j = int(e & 0xffffffffu);
     for (int a = 0; a < 4; ++a) {
@@ -215,18 +254,19 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
       stiff.emplace_back(4 * j + a, 4 * i + a, -g2);
     }
   }
-  Eigen::SparseMatrix<double> K(4 * n, 4 * n);
+  Eigen::SparseMatrix<double> K(4 * m, 4 * m);
   K.setFromTriplets(stiff.begin(), stiff.end());
   std::vector<Eigen::Triplet<double>>().swap(stiff);
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver;
   solver.analyzePattern(K);
 
-  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(4 * n, 3);
-  for (Eigen::Index i = 0; i < n; ++i) X.block<3, 3>(4 * i, 0).setIdentity();
-  const auto deformed = [&](const Eigen::MatrixXd& Xs) {
-    Eigen::MatrixX3d V(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i) V.row(i) = v.row(i) * Xs.block<4, 3>(4 * i, 0);
-    return Eigen::MatrixX3d((V * radius).rowwise() + centre);
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(4 * m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) X.block<3, 3>(4 * i, 0).setIdentity();
+  const auto to_mm = [&](const Eigen::MatrixX3d& P) { return Eigen::MatrixX3d((P * radius).rowwise() + centre); };
+  const auto deformed_nodes = [&](const Eigen::MatrixXd& Xs) {
+    Eigen::MatrixX3d P(m, 3);
+    for (Eigen::Index i = 0; i < m; ++i) P.row(i) = v.row(i) * Xs.block<4, 3>(4 * i, 0);
+    return to_mm(P);
   };
 
   const int steps = int(options.stiffness.size());
@@ -235,37 +275,54 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
     const double alpha = options.stiffness[size_t(s)], beta = landmarks ? options.landmark_weight[size_t(s)] : 0.0;
     for (int it = 0; it < options.iterations_per_step; ++it) {
       const auto t_c = std::chrono::steady_clock::now();
-      c = correspond(deformed(X), face.mesh.F, locator, scan_normals, boundary, options.trim_mm[size_t(s)],
+      c = correspond(deformed_nodes(X), node_F, locator, scan_normals, boundary, options.trim_mm[size_t(s)],
                      options.huber_mm, min_cos);
       stats.seconds_correspond += seconds_since(t_c);
-      // A = alpha^2 K + sum_i w_i v_i v_i^T (+ beta^2 for landmarks) on the diagonal blocks; B likewise.
+      // A = alpha^2 K + sum_i w_i v_i v_i^T + beta^2 r^T r per landmark (r: the landmark's blended row); B likewise.
       Eigen::SparseMatrix<double> A = alpha * alpha * K;
-      Eigen::MatrixXd B = Eigen::MatrixXd::Zero(4 * n, 3);
-      const auto add_block = [&](Eigen::Index i, double w, const Eigen::RowVector3d& u) {
+      Eigen::MatrixXd B = Eigen::MatrixXd::Zero(4 * m, 3);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        if (c.weight(i) <= 0) continue;
         const Eigen::RowVector4d vi = v.row(i);
         for (int b = 0; b < 4; ++b)
-          for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += w * vi[a] * vi[b];
-        B.block<4, 3>(4 * i, 0) += w * vi.transpose() * u;
-      };
-      for (Eigen::Index i = 0; i < n; ++i) {
-        if (c.weight(i) > 0) add_block(i, c.weight(i), (c.target.row(i) - centre) / radius);
+          for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += c.weight(i) * vi[a] * vi[b];
+        B.block<4, 3>(4 * i, 0) += c.weight(i) * vi.transpose() * ((c.target.row(i) - centre) / radius);
       }
-      if (beta > 0) {
-        for (int k = 0; k < 68; ++k) add_block(face.landmark_vertices[size_t(k)], beta * beta, lm_target.row(k));
+      for (int k = 0; beta > 0 && k < 68; ++k) {
+        const int vertex = face.landmark_vertices[size_t(k)];
+        const Eigen::RowVector4d x = v_dense.row(vertex);
+        const auto& nodes = embed_node[size_t(vertex)];
+        const Eigen::Vector3d& w = embed_weight[size_t(vertex)];
+        for (int p = 0; p < 3; ++p) {
+          for (int q = 0; q < 3; ++q)
+            for (int b = 0; b < 4; ++b)
+              for (int a = 0; a < 4; ++a)
+                A.coeffRef(4 * nodes[size_t(p)] + a, 4 * nodes[size_t(q)] + b) += beta * beta * w[p] * w[q] * x[a] * x[b];
+          B.block<4, 3>(4 * nodes[size_t(p)], 0) += beta * beta * w[p] * x.transpose() * lm_target.row(k);
+        }
       }
       const auto t_f = std::chrono::steady_clock::now();
       solver.factorize(A);
       if (solver.info() != Eigen::Success) throw InternalError("NICP: the sparse system is not positive definite");
       const Eigen::MatrixXd X_new = solver.solve(B);
       stats.seconds_factorize += seconds_since(t_f);
-      const double change = (X_new - X).norm() / std::sqrt(double(n));
+      const double change = (X_new - X).norm() / std::sqrt(double(m));
       X = X_new;
       ++stats.iterations;
       if (change < 1e-4) break;
     }
     report(progress, s + 1, steps, "NICP steps");
   }
-  out.V = deformed(X);
+  // The dense template: each vertex by the blend of its node triangle's affines, evaluated at its own position.
+  Eigen::MatrixX3d dense(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 3; ++k) {
+      p += embed_weight[size_t(i)][k] * (v_dense.row(i) * X.block<4, 3>(4 * embed_node[size_t(i)][size_t(k)], 0));
+    }
+    dense.row(i) = p;
+  }
+  out.V = to_mm(dense);
 
   // 3. Projection: accepted vertices go onto the scan (the last step's rejection rules).
   c = correspond(out.V, face.mesh.F, locator, scan_normals, boundary, options.trim_mm.back(), 1e9, min_cos);

@@ -5,7 +5,8 @@
 // are rejected when the normals disagree, when the closest point lies on the scan's boundary (holes, the scan's rim),
 // or beyond a distance trimmed with the schedule; the rest get Huber weights (robust loss). Each step solves the
 // sparse normal equations with CHOLMOD (supernodal Cholesky), whose symbolic analysis is done once: the pattern never
-// changes. A final projection puts each accepted vertex on the scan.
+// changes. The transforms live on a coarser node mesh (the template remeshed, ~8k vertices) and the dense template
+// follows by blending them; a final projection puts each accepted vertex on the scan.
 #pragma once
 #include <Eigen/Core>
 #include <string>
@@ -28,11 +29,15 @@ struct RegisterOptions {
   std::vector<double> trim_mm = {20, 10, 5, 3, 2, 2};  // reject beyond this distance, per step
   double huber_mm = 1.0;             // robust loss: weight min(1, huber / distance)
   bool project = true;               // finally move accepted vertices onto their closest scan point
+  // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
+  // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
+  int nodes = 8000;
   void check() const;                // InvalidInput when inconsistent
 };
 
 struct RegistrationStats {
   bool used_landmarks = false;
+  int nodes = 0;  // NICP nodes used
   double similarity_scale = 1;
   double landmark_rms_after_similarity_mm = 0;
   int iterations = 0;
