@@ -157,6 +157,20 @@ Eigen::MatrixX4d uv_tangents(const Mesh& mesh) {
   return frames;
 }
 
+Eigen::Matrix3f tangent_frame(const Mesh& mesh, const Eigen::MatrixX4d& tangents, int f, const Eigen::Vector3f& b) {
+  Eigen::Vector3f n = Eigen::Vector3f::Zero(), t = Eigen::Vector3f::Zero();
+  for (int k = 0; k < 3; ++k) {
+    n += b[k] * mesh.N.row(mesh.F(f, k)).cast<float>().transpose();
+    t += b[k] * tangents.row(mesh.FUV(f, k)).head<3>().cast<float>().transpose();
+  }
+  n.normalize();
+  t = (t - n * n.dot(t)).normalized();
+  const float handedness = tangents(mesh.FUV(f, 0), 3) < 0 ? -1.0f : 1.0f;
+  Eigen::Matrix3f tbn;
+  tbn << t, handedness * n.cross(t), n;
+  return tbn;
+}
+
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F) {
   double area = 0;
   for (Eigen::Index f = 0; f < F.rows(); ++f) {

@@ -40,6 +40,11 @@ bool per_vertex_uv(const Mesh& mesh, Eigen::MatrixX2d& uv);
 // Needs UVs and normals (InvalidInput otherwise). UV indices on degenerate faces only get a zero tangent.
 Eigen::MatrixX4d uv_tangents(const Mesh& mesh);
 
+// The tangent frame at a point of face f (barycentrics b): columns tangent, bitangent, normal, interpolated from the
+// vertex normals and `tangents` (uv_tangents of the same mesh) and made orthonormal. World normal = frame * tangent-space
+// normal; tangent-space = frame^T * world.
+Eigen::Matrix3f tangent_frame(const Mesh& mesh, const Eigen::MatrixX4d& tangents, int f, const Eigen::Vector3f& b);
+
 // Total surface area.
 double surface_area(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F);
 

@@ -9,6 +9,7 @@
 #include "core/mesh.h"
 #include "core/progress.h"
 #include "scan/skin.h"
+#include "scan/uv_maps.h"
 
 namespace bareskin {
 
@@ -18,18 +19,6 @@ struct SkinSurface {
   Mesh mesh;
   Eigen::MatrixX3d template_point;
   Eigen::MatrixX2d template_uv;
-};
-
-enum class MapFormat { Png16, Tiff16, Exr };
-MapFormat parse_map_format(const std::string& name);  // "png", "tif", "exr"; InvalidInput otherwise
-const char* map_extension(MapFormat format);          // ".png", ".tif", ".exr"
-
-struct BakeOptions {
-  int resolution = 2048;  // maps are resolution x resolution
-  int gutter = 4;         // texels outside the charts filled from the nearest chart edge
-  MapFormat format = MapFormat::Png16;
-  int band_rows = 64;     // rows rasterised and written at a time
-  void check() const;
 };
 
 // The material and shading normal at a point of `surface` (face, barycentrics), as the bake computes them for a
