@@ -16,6 +16,7 @@
 #include "core/safetensors.h"
 #include "render/preview.h"
 #include "scan/register.h"
+#include "scan/transfer.h"
 
 namespace bareskin::cli {
 namespace {
@@ -26,6 +27,12 @@ struct RegisterArgs {
   std::string template_dir = "template", scans = "scans", output = "registered";
   bool keep_going = false, no_landmarks = false;
   double heat_max_mm = 2.0;
+  BakeOptions maps = [] {  // resolution 0: no texture transfer
+    BakeOptions o;
+    o.resolution = 1024;
+    return o;
+  }();
+  std::string map_format = "png";
   RegisterOptions nicp;
 };
 
@@ -71,6 +78,20 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   registered.V = reg.V;
   registered.N = vertex_normals(registered.V, registered.F);
   write_mesh(out.path() + "/mesh.obj", registered);
+  nlohmann::json transfer;
+  if (args.maps.resolution > 0) {
+    const auto t_maps = std::chrono::steady_clock::now();
+    const TransferResult tr = transfer_maps(registered, scan, read_scan_maps(scan_dir), args.maps, out.path());
+    transfer["resolution"] = args.maps.resolution;
+    transfer["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_maps).count();
+    const std::string truth_maps = scan_dir + "/truth/maps";
+    if (fs::exists(truth_maps + "/diffuse" + map_extension(args.maps.format)) &&
+        probe_image(truth_maps + "/diffuse" + map_extension(args.maps.format)).width == args.maps.resolution) {
+      const TransferErrors te = compare_maps(out.path(), truth_maps, tr.texel_class);
+      transfer["vs_truth"] = {{"diffuse_psnr_db", te.diffuse_psnr_db}, {"normal_angle_median_deg", te.normal_median_deg},
+                              {"normal_angle_p95_deg", te.normal_p95_deg}, {"texels_away_from_seams", te.texels}};
+    }
+  }
   // QA: the error per vertex as a heat map (blue 0 .. red heat_max_mm), front and left.
   PreviewOptions preview;
   preview.size = 512;
@@ -109,6 +130,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
                        {"nicp_correspondences", s.seconds_correspond},
                        {"nicp_factorize_solve", s.seconds_factorize},
                        {"total", total}};
+  if (!transfer.empty()) report["maps"] = transfer;
   report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
                                    ", blue 0 to red " + std::to_string(args.heat_max_mm) + " mm"}};
   write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");
@@ -140,9 +162,15 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
   app->add_option("--max-normal-angle", args->nicp.max_normal_angle_deg, "Reject correspondences beyond this angle")
       ->capture_default_str()->group("NICP");
   app->add_option("--huber", args->nicp.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
+  app->add_option("--maps-res", args->maps.resolution,
+                  "Transfer the scan's four maps into the template UV at this resolution (0: no maps)")
+      ->capture_default_str()->group("Maps");
+  app->add_option("--map-format", args->map_format, "png, tif or exr")->capture_default_str()->group("Maps");
   app->add_option("--heat-max", args->heat_max_mm, "Error (mm) shown red in the QA heat maps")->capture_default_str();
   action = [args, &globals] {
     args->nicp.check();
+    args->maps.format = parse_map_format(args->map_format);
+    if (args->maps.resolution != 0) args->maps.check();
     const TemplateFace face = read_template(args->template_dir + "/face.obj", args->template_dir + "/landmarks.json");
     if (!fs::is_directory(args->scans)) {
       throw IoError(args->scans, "is not a folder", "give the folder 'scan synth' wrote, or one of scan folders");
@@ -203,6 +231,10 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
                             r["correspondence_error_mm"]["median"].get<double>(), r["correspondence_error_mm"]["p95"].get<double>());
       }
       if (r.contains("landmark_error_mm")) line += fmt::format(", landmarks {:.2f} mm", r["landmark_error_mm"]["mean"].get<double>());
+      if (r.contains("maps") && r["maps"].contains("vs_truth")) {
+        line += fmt::format(", diffuse PSNR {:.1f} dB, normals {:.2f} deg", r["maps"]["vs_truth"]["diffuse_psnr_db"].get<double>(),
+                            r["maps"]["vs_truth"]["normal_angle_median_deg"].get<double>());
+      }
       spdlog::info("{}, {:.1f} s", line, r["seconds"]["total"].get<double>());
     }
     if (!failures.empty()) {

@@ -1,5 +1,6 @@
 #include "core/image.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -55,5 +56,19 @@ Image convert(const Image& image, ColorSpace target, float (*transfer)(float)) {
 
 Image to_linear(const Image& image) { return convert(image, ColorSpace::Linear, srgb_to_linear); }
 Image to_srgb(const Image& image) { return convert(image, ColorSpace::sRGB, linear_to_srgb); }
+
+Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {
+  const double x = std::clamp(uv.x() * img.width - 0.5, 0.0, img.width - 1.0);
+  const double y = std::clamp((1 - uv.y()) * img.height - 0.5, 0.0, img.height - 1.0);
+  const int x0 = int(x), y0 = int(y), x1 = std::min(x0 + 1, img.width - 1), y1 = std::min(y0 + 1, img.height - 1);
+  const float fx = float(x - x0), fy = float(y - y0);
+  Eigen::Vector3f c;
+  for (int k = 0; k < 3; ++k) {
+    const int ch = std::min(k, img.channels - 1);
+    c[k] = (1 - fy) * ((1 - fx) * img.at(x0, y0, ch) + fx * img.at(x1, y0, ch)) +
+           fy * ((1 - fx) * img.at(x0, y1, ch) + fx * img.at(x1, y1, ch));
+  }
+  return c;
+}
 
 }  // namespace bareskin

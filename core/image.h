@@ -1,6 +1,7 @@
 // An image as interleaved float pixels, rows top to bottom, with the colour space its values are in.
 // All maths happens in linear light; sRGB is an encoding for 8/16-bit files (DESIGN.md §5).
 #pragma once
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -30,6 +31,10 @@ struct Image {
   float& at(int x, int y, int c = 0) { return pixels[index(x, y, c)]; }
   float at(int x, int y, int c = 0) const { return pixels[index(x, y, c)]; }
 };
+
+// Bilinear lookup at texture coordinates (u, v), origin bottom-left, clamped at the border; the first three channels
+// (a grey image repeats its channel).
+Eigen::Vector3f sample_bilinear(const Image& image, const Eigen::Vector2d& uv);
 
 // The sRGB transfer functions (IEC 61966-2-1), exact piecewise form.
 float srgb_to_linear(float encoded);

@@ -59,21 +59,6 @@ PreviewView parse_preview_view(const std::string& name) {
   throw InvalidInput("", "unknown view '" + name + "'", "use front, left, right or uv");
 }
 
-// Bilinear lookup of the first three channels (grey images repeat), UV origin bottom-left, clamped at the border.
-Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {
-  const double x = std::clamp(uv.x() * img.width - 0.5, 0.0, img.width - 1.0);
-  const double y = std::clamp((1 - uv.y()) * img.height - 0.5, 0.0, img.height - 1.0);
-  const int x0 = int(x), y0 = int(y), x1 = std::min(x0 + 1, img.width - 1), y1 = std::min(y0 + 1, img.height - 1);
-  const float fx = float(x - x0), fy = float(y - y0);
-  Eigen::Vector3f c;
-  for (int k = 0; k < 3; ++k) {
-    const int ch = std::min(k, img.channels - 1);
-    c[k] = (1 - fy) * ((1 - fx) * img.at(x0, y0, ch) + fx * img.at(x1, y0, ch)) +
-           fy * ((1 - fx) * img.at(x0, y1, ch) + fx * img.at(x1, y1, ch));
-  }
-  return c;
-}
-
 Eigen::Vector3f heat_color(double t) {
   // Piecewise-linear through blue, cyan, green, yellow, red.
   static const float stops[5][3] = {{0.15f, 0.25f, 0.85f}, {0.1f, 0.75f, 0.85f}, {0.3f, 0.8f, 0.3f}, {0.95f, 0.85f, 0.2f},

@@ -7,9 +7,11 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/test_util.h"
 #include "scan/register.h"
 #include "scan/synth.h"
+#include "scan/transfer.h"
 
 namespace bareskin {
 namespace {
@@ -75,6 +77,30 @@ TEST(Register, WithoutLandmarksTheFallbackRegistersAnUprightScan) {
   const RegistrationErrors e = errors(r, scan);
   EXPECT_LT(e.distance_median, 0.05);
   EXPECT_LT(e.correspondence_median, 4.5) << "the fallback has no landmarks to fix sliding: it is flagged in reports";
+}
+
+TEST(Register, TransferredMapsMatchTheTruthInTheTemplateUv) {
+  const TemplateFace& face = test_template();
+  const SyntheticScan scan = make_scan(4);
+  const SkinModel skin(face, scan.appearance);
+  const std::string dir = testing::temp_dir();
+  BakeOptions scan_maps, truth_maps;
+  scan_maps.resolution = 512;
+  truth_maps.resolution = 256;
+  make_directories(dir + "/scan");
+  make_directories(dir + "/truth");
+  make_directories(dir + "/out");
+  SkinBaker(scan.surface, skin).bake(dir + "/scan", scan_maps);
+  const SkinSurface truth_surface = template_skin_surface(face, scan.identity.displacement);
+  SkinBaker(truth_surface, skin).bake(dir + "/truth", truth_maps);
+
+  Mesh registered = face.mesh;
+  registered.V = register_scan(face, scan.mesh, &scan.landmarks).V;
+  const TransferResult result = transfer_maps(registered, scan.mesh, read_scan_maps(dir + "/scan"), truth_maps, dir + "/out");
+  const TransferErrors e = compare_maps(dir + "/out", dir + "/truth", result.texel_class);
+  EXPECT_GT(e.texels, 256 * 256 / 3);
+  EXPECT_GT(e.diffuse_psnr_db, 35.0);
+  EXPECT_LT(e.normal_median_deg, 2.0) << "normals re-expressed from the scan's quarter-turned charts to the template's";
 }
 
 TEST(Register, BadLandmarksAreNamed) {

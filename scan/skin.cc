@@ -278,7 +278,10 @@ SkinSample SkinModel::sample(const Vec3& p, const Vec2& uv, float footprint) con
   Vec3 albedo = (kBase.array() * (-(melanin * kMelanin + blood * kHaemoglobin)).array().exp()).matrix();
   albedo *= 1 - 0.12f * std::min(1.0f, pore.value) * (1 - lip);
   // Brow hair: strands across the brow (noise stretched along x), coverage fading at the edges.
-  const float strands = 0.5f + 0.5f * value_noise(Vec3(p.x() * 0.6f, p.y() * 4.0f, p.z() * 4.0f), seed_ ^ 5u);
+  // Strands are 0.25 mm across: they fade out when a texel is wider (low-pass, like every other component).
+  const float strand_keep = smoothstep(1.0f, 0.25f, footprint / 0.25f);
+  const float strands =
+      0.5f + 0.5f * strand_keep * value_noise(Vec3(p.x() * 0.6f, p.y() * 4.0f, p.z() * 4.0f), seed_ ^ 5u);
   const float hair = brow * std::clamp(0.35f + 0.9f * strands, 0.0f, 1.0f);
   albedo = (1 - hair) * albedo + hair * a.hair.cast<float>();
 

@@ -71,7 +71,7 @@ SkinTexel SkinBaker::evaluate(int f, const Eigen::Vector3f& b, float footprint) 
 void SkinBaker::bake(const std::string& dir, const BakeOptions& options, const ProgressCallback& progress) const {
   options.check();
   const float R = float(options.resolution);
-  write_uv_maps(surface_.mesh, options, dir, [&](int f, const Eigen::Vector3f& b) {
+  write_uv_maps(surface_.mesh, options, dir, [&](int f, const Eigen::Vector3f& b, int, int) {
     const SkinTexel t = evaluate(f, b, mm_per_uv_[size_t(f)] / R);
     return MapTexel{t.material.diffuse, t.normal, t.material.roughness, t.material.specular};
   }, progress);

@@ -41,7 +41,7 @@ void BakeOptions::check() const {
 }
 
 void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::string& dir,
-                   const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric)>& texel,
+                   const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric, int x, int y)>& texel,
                    const ProgressCallback& progress) {
   options.check();
   const Mesh& m = mesh;
@@ -142,7 +142,7 @@ void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::stri
       for (int64_t i = i0; i < i1; ++i) {
         const int f = tri[size_t(i)];
         if (f < 0) continue;
-        const MapTexel value = texel(f, bary[size_t(i)]);
+        const MapTexel value = texel(f, bary[size_t(i)], int(i % R), yb + int(i / R));
         for (int k = 0; k < 3; ++k) {
           const float c = std::max(0.0f, value.diffuse[k]);
           d_buf[size_t(3 * i + k)] = exr ? c : linear_to_srgb(c);

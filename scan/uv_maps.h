@@ -31,10 +31,11 @@ struct MapTexel {
 };
 
 // For each texel centre of the mesh's UV atlas: the face whose UV triangle holds it, or within `options.gutter` texels
-// the nearest face at its closest point; `texel(face, barycentric)` gives the value there (called in parallel).
+// the nearest face at its closest point; `texel(face, barycentric, x, y)` gives the value at texel (x, y), rows from
+// the top (called in parallel).
 // Writes dir/{diffuse,normal,roughness,specular}<ext> atomically; texels outside every chart are 0 (normal: +z).
 void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::string& dir,
-                   const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric)>& texel,
+                   const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric, int x, int y)>& texel,
                    const ProgressCallback& progress = {});
 
 }  // namespace bareskin

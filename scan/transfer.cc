@@ -1,0 +1,121 @@
+#include "scan/transfer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "morphable/surface.h"
+
+namespace bareskin {
+namespace {
+
+std::string find_map(const std::string& dir, const std::string& name) {
+  for (const char* ext : {".png", ".tif", ".tiff", ".exr"}) {
+    if (std::filesystem::exists(dir + "/" + name + ext)) return dir + "/" + name + ext;
+  }
+  throw InvalidInput(dir, "has no " + name + " map (.png, .tif or .exr)", "run scan synth with --res > 0, or add the map");
+}
+
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  const size_t k = std::min(values.size() - 1, size_t(q * double(values.size())));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
+ScanMaps read_scan_maps(const std::string& dir) {
+  ScanMaps maps;
+  maps.diffuse = to_linear(read_image(find_map(dir, "diffuse")));
+  maps.normal = read_image(find_map(dir, "normal"), ColorSpace::Data);
+  maps.roughness = read_image(find_map(dir, "roughness"), ColorSpace::Data);
+  maps.specular = read_image(find_map(dir, "specular"), ColorSpace::Data);
+  return maps;
+}
+
+TransferResult transfer_maps(const Mesh& registered, const Mesh& scan, const ScanMaps& maps, const BakeOptions& options,
+                             const std::string& out_dir, const ProgressCallback& progress) {
+  if (!registered.has_uv()) throw InvalidInput("template", "has no UVs to transfer maps into", "use a template with UVs");
+  if (!scan.has_uv()) throw InvalidInput("scan", "has no UV atlas, so its maps cannot be read", "give a scan with UVs");
+  Mesh target = registered, source = scan;
+  target.N = vertex_normals(target.V, target.F);
+  source.N = vertex_normals(source.V, source.F);
+  const Eigen::MatrixX4d target_tangents = uv_tangents(target), source_tangents = uv_tangents(source);
+  const SurfaceLocator locator(source.V, source.F);
+  // Scan faces touching a seam of its atlas: a vertex with more than one UV.
+  std::vector<int> uv_of(size_t(source.V.rows()), -1);
+  std::vector<bool> seam_vertex(size_t(source.V.rows()), false);
+  for (Eigen::Index f = 0; f < source.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      int& u = uv_of[size_t(source.F(f, k))];
+      if (u >= 0 && u != source.FUV(f, k) && !source.UV.row(u).isApprox(source.UV.row(source.FUV(f, k)))) {
+        seam_vertex[size_t(source.F(f, k))] = true;
+      }
+      u = source.FUV(f, k);
+    }
+
+  TransferResult result;
+  const int R = options.resolution;
+  result.texel_class.assign(size_t(R) * size_t(R), 0);
+  write_uv_maps(target, options, out_dir, [&](int f, const Eigen::Vector3f& b, int x, int y) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) p += double(b[k]) * target.V.row(target.F(f, k)).transpose();
+    const SurfacePoint s = locator.locate(p);
+    Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+    bool seam = false;
+    for (int k = 0; k < 3; ++k) {
+      uv += s.barycentric[k] * source.UV.row(source.FUV(s.face, k)).transpose();
+      seam = seam || seam_vertex[size_t(source.F(s.face, k))];
+    }
+    result.texel_class[size_t(y) * size_t(R) + size_t(x)] = seam ? 2 : 1;
+    MapTexel t;
+    t.diffuse = sample_bilinear(maps.diffuse, uv);
+    t.roughness = sample_bilinear(maps.roughness, uv).x();
+    t.specular = sample_bilinear(maps.specular, uv).x();
+    // Normal: scan tangent space -> world -> template tangent space.
+    const Eigen::Vector3f stored = sample_bilinear(maps.normal, uv);
+    const Eigen::Vector3f n_scan = (2 * stored - Eigen::Vector3f::Ones()).normalized();
+    const Eigen::Vector3f world = tangent_frame(source, source_tangents, s.face, s.barycentric.cast<float>()) * n_scan;
+    t.normal = (tangent_frame(target, target_tangents, f, b).transpose() * world).normalized();
+    return t;
+  }, progress);
+  return result;
+}
+
+TransferErrors compare_maps(const std::string& transferred_dir, const std::string& truth_dir,
+                            const std::vector<uint8_t>& texel_class) {
+  const Image d = read_image(find_map(transferred_dir, "diffuse")), dt = read_image(find_map(truth_dir, "diffuse"));
+  const Image n = read_image(find_map(transferred_dir, "normal"), ColorSpace::Data);
+  const Image nt = read_image(find_map(truth_dir, "normal"), ColorSpace::Data);
+  if (d.width != dt.width || d.height != dt.height || size_t(d.width) * size_t(d.height) != texel_class.size()) {
+    throw InvalidInput(truth_dir, "truth maps differ in size from the transferred maps",
+                       "make them at the same resolution (scan synth --truth-res = register --maps-res)");
+  }
+  const Image ds = d.color_space == ColorSpace::sRGB ? d : to_srgb(d), dts = dt.color_space == ColorSpace::sRGB ? dt : to_srgb(dt);
+  TransferErrors e;
+  double squared = 0;
+  std::vector<double> angles;
+  for (int y = 0; y < d.height; ++y)
+    for (int x = 0; x < d.width; ++x) {
+      if (texel_class[size_t(y) * size_t(d.width) + size_t(x)] != 1) continue;
+      for (int k = 0; k < 3; ++k) squared += std::pow(double(ds.at(x, y, k)) - dts.at(x, y, k), 2);
+      Eigen::Vector3d a, b;
+      for (int k = 0; k < 3; ++k) {
+        a[k] = 2.0 * n.at(x, y, k) - 1;
+        b[k] = 2.0 * nt.at(x, y, k) - 1;
+      }
+      angles.push_back(std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI);
+      ++e.texels;
+    }
+  if (e.texels == 0) return e;
+  const double mse = squared / double(3 * e.texels);
+  e.diffuse_psnr_db = mse > 0 ? 10 * std::log10(1.0 / mse) : 99;
+  e.normal_median_deg = quantile(angles, 0.5);
+  e.normal_p95_deg = quantile(angles, 0.95);
+  return e;
+}
+
+}  // namespace bareskin
