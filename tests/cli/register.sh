@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# scan register through the command line: a population registers with errors against the truth and transferred maps;
+# a scan in metres, a mirrored scan and a missing map each get one line naming the problem (exit 3, nothing written
+# for that scan); --keep-going registers the rest and lists the failures; without landmarks the fallback is flagged.
+set -u
+bin=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+py=/usr/bin/python3
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+"$bin" scan synth -q --template "$work/t" --count 2 --vertices 8000 --res 128 --truth-res 64 -o "$work/s" || fail "synth"
+reg() { "$bin" scan register -q --template "$work/t" --maps-res 64 "$@"; }
+
+reg --scans "$work/s" -o "$work/r" || fail "register"
+$py - "$work/r/summary.json" <<'PY' || fail "summary"
+import json, sys
+rows = json.load(open(sys.argv[1]))["scans"]
+assert len(rows) == 2, rows
+for r in rows:
+    assert r["alignment"].startswith("landmarks"), r["alignment"]
+    assert r["correspondence_error_mm"]["median"] < 2.5, r["correspondence_error_mm"]
+    assert r["surface_distance_mm"]["median"] < 0.05, r["surface_distance_mm"]
+    assert r["maps"]["vs_truth"]["normal_angle_median_deg"] < 5, r["maps"]
+PY
+for f in mesh.obj diffuse.png normal.png roughness.png specular.png qa_front.png report.json; do
+  [ -f "$work/r/subject_0000/$f" ] || fail "missing $f"
+done
+oiiotool --info "$work/r/subject_0000/normal.png" | grep -q "64 x  *64, 3 channel, uint16 png" || fail "transferred normal map"
+
+# Broken copies of subject_0000.
+broken() {  # broken NAME: a copy of subject_0000 in its own population folder
+  mkdir -p "$work/b_$1" && cp -r "$work/s/subject_0000" "$work/b_$1/subject_0000"
+  echo "$work/b_$1"
+}
+metres=$(broken metres)
+$py - "$metres/subject_0000" <<'PY'
+import json, sys
+d = sys.argv[1]
+lines = []
+for line in open(d + "/mesh.obj"):
+    if line.startswith("v "):
+        x = [float(t) * 0.001 for t in line.split()[1:4]]
+        line = "v %.9g %.9g %.9g\n" % tuple(x)
+    lines.append(line)
+open(d + "/mesh.obj", "w").writelines(lines)
+lm = json.load(open(d + "/landmarks.json"))
+lm["points"] = [[c * 0.001 for c in p] for p in lm["points"]]
+json.dump(lm, open(d + "/landmarks.json", "w"))
+PY
+mirrored=$(broken mirrored)
+$py - "$mirrored/subject_0000" <<'PY'
+import json, sys
+d = sys.argv[1]
+lines = []
+for line in open(d + "/mesh.obj"):
+    if line.startswith("v ") or line.startswith("vn "):
+        t = line.split()
+        t[1] = repr(-float(t[1]))
+        line = " ".join(t) + "\n"
+    lines.append(line)
+open(d + "/mesh.obj", "w").writelines(lines)
+lm = json.load(open(d + "/landmarks.json"))
+lm["points"] = [[-p[0], p[1], p[2]] for p in lm["points"]]
+json.dump(lm, open(d + "/landmarks.json", "w"))
+PY
+nomap=$(broken nomap)
+rm "$nomap/subject_0000/diffuse.png"
+for case in "metres:metres" "mirrored:mirrored" "nomap:diffuse"; do
+  name=${case%%:*} needle=${case#*:}
+  reg --scans "$work/b_$name" -o "$work/out_$name" 2> "$work/err"
+  code=$?
+  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q "$needle" "$work/err" \
+    && [ ! -e "$work/out_$name/subject_0000" ] || fail "$name: exit $code: $(cat "$work/err")"
+done
+
+# --keep-going: the good scans register, the broken ones are listed, exit 3.
+mkdir -p "$work/mixed"
+cp -r "$work/s/subject_0001" "$work/mixed/"
+cp -r "$metres/subject_0000" "$work/mixed/subject_0002"
+cp -r "$mirrored/subject_0000" "$work/mixed/subject_0003"
+reg --scans "$work/mixed" -o "$work/out_mixed" --keep-going 2> "$work/err"
+[ $? -eq 3 ] || fail "keep-going exit code"
+[ -f "$work/out_mixed/subject_0001/report.json" ] || fail "keep-going did not register the good scan"
+$py -c "import json,sys; s=json.load(open(sys.argv[1])); assert len(s['failures']) == 2 and len(s['scans']) == 1, s['failures']" \
+  "$work/out_mixed/summary.json" || fail "keep-going summary"
+
+# No landmarks: the documented fallback, flagged in the report.
+mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work/nolm/subject_0001/landmarks.json"
+"$bin" scan register -q --template "$work/t" --maps-res 0 --scans "$work/nolm" -o "$work/out_nolm" || fail "fallback registration"
+grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
+echo "6 passed, 0 failed"
