@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~8k nodes, blended onto the
+# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~4k nodes, blended onto the
 # dense template) side by side with the anchor, Amberg's NICP with one affine per template vertex (--nodes 0), and
 # against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row]
 set -euo pipefail
@@ -15,7 +15,7 @@ row() {  # row LABEL NOISE register-args...
   [ -d "$work/scans_$noise" ] || "$bin/bareskin" scan synth -q --template "$template" --count "$count" --res 0 \
       --noise "$noise" --rotation-jitter 10 --translation-jitter 30 --holes -o "$work/scans_$noise"
   rm -rf "$work/reg"
-  "$bin/bareskin" scan register -q --template "$template" --scans "$work/scans_$noise" -o "$work/reg" "$@"
+  "$bin/bareskin" scan register -q --template "$template" --scans "$work/scans_$noise" -o "$work/reg" --maps-res 0 "$@"
   /usr/bin/python3 - "$work/reg/summary.json" "$label" "$noise" <<'PY'
 import json, sys, statistics as st
 rows = json.load(open(sys.argv[1]))["scans"]
@@ -26,9 +26,10 @@ print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('co
 PY
 }
 echo "$count scans per row, $(nproc) cores, template $(grep -c '^v ' "$template/face.obj") vertices"
-row "ours (8k nodes)" 0
+row "ours (4k nodes, default)" 0
 row "anchor: per-vertex NICP" 0 --nodes 0
-row "ours (4k nodes)" 0 --nodes 4000
+row "ours (2k nodes)" 0 --nodes 2000
+row "ours (8k nodes)" 0 --nodes 8000
 row "ours (16k nodes)" 0 --nodes 16000
 row "ours, 1 iteration/step" 0 --iterations 1
-for noise in 0.1 0.3 0.5; do row "ours (8k nodes)" $noise; done
+for noise in 0.1 0.3 0.5; do row "ours (4k nodes, default)" $noise; done
