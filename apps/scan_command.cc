@@ -52,6 +52,9 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       ->capture_default_str()->group("Maps");
   synth->add_option("--feature-scale", opt->synth.identity.feature_scale, "Strength of the semantic feature controls")
       ->capture_default_str()->group("Identity");
+  synth->add_option("--tangential", opt->synth.identity.tangential,
+                    "Share of the identity displacement along the surface that is kept [0,1]")
+      ->capture_default_str()->group("Identity");
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
       ->capture_default_str()->group("Identity");
   auto register_action = std::make_shared<std::function<void()>>();
