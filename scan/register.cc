@@ -10,6 +10,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/stats.h"
 #include "core/parallel.h"
 #include "morphable/surface.h"
 
@@ -338,16 +339,6 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   stats.seconds_nicp = seconds_since(t_nicp);
   return out;
 }
-
-namespace {
-// The value at quantile q of `values` (sorted copy), 0 when empty.
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const size_t k = std::min(values.size() - 1, size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
-  return values[k];
-}
-}  // namespace
 
 RegistrationErrors measure_registration(const TemplateFace& face, const Eigen::MatrixX3d& V, const Mesh& scan,
                                         const Landmarks* landmarks, const Eigen::MatrixX3d* truth_point,

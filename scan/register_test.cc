@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
-#include "core/test_util.h"
+#include "scan/test_template.h"
 #include "scan/register.h"
 #include "scan/synth.h"
 #include "scan/transfer.h"
@@ -16,11 +16,7 @@
 namespace bareskin {
 namespace {
 
-const TemplateFace& test_template() {
-  static const TemplateFace face = read_template(std::string(BARESKIN_TEMPLATE_DIR) + "/face.obj",
-                                                 std::string(BARESKIN_TEMPLATE_DIR) + "/landmarks.json");
-  return face;
-}
+using testing::test_template;
 
 SyntheticScan make_scan(int index, double noise = 0, bool holes = false) {
   SynthOptions opt;

@@ -13,17 +13,13 @@
 
 #include "core/image_io.h"
 #include "core/mesh_io.h"
-#include "core/test_util.h"
+#include "scan/test_template.h"
 #include "scan/synth.h"
 
 namespace bareskin {
 namespace {
 
-const TemplateFace& test_template() {
-  static const TemplateFace face = read_template(std::string(BARESKIN_TEMPLATE_DIR) + "/face.obj",
-                                                 std::string(BARESKIN_TEMPLATE_DIR) + "/landmarks.json");
-  return face;
-}
+using testing::test_template;
 
 int nearest_vertex(const TemplateFace& face, const Eigen::Vector3d& p) {
   Eigen::Index i;

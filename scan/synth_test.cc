@@ -9,19 +9,14 @@
 #include "core/files.h"
 #include "core/mesh_io.h"
 #include "core/safetensors.h"
-#include "core/test_util.h"
+#include "scan/test_template.h"
 #include "morphable/surface.h"
 #include "scan/synth.h"
 
 namespace bareskin {
 namespace {
 
-// The template made by the ctest fixture (6k vertices) keeps these tests fast.
-const TemplateFace& test_template() {
-  static const TemplateFace face = read_template(std::string(BARESKIN_TEMPLATE_DIR) + "/face.obj",
-                                                 std::string(BARESKIN_TEMPLATE_DIR) + "/landmarks.json");
-  return face;
-}
+using testing::test_template;
 
 TEST(Identity, DeterministicPerSeedAndDifferentAcrossSeeds) {
   const TemplateFace& face = test_template();

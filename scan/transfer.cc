@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/stats.h"
 #include "core/image_io.h"
 #include "morphable/surface.h"
 
@@ -16,13 +17,6 @@ std::string find_map(const std::string& dir, const std::string& name) {
     if (std::filesystem::exists(dir + "/" + name + ext)) return dir + "/" + name + ext;
   }
   throw InvalidInput(dir, "has no " + name + " map (.png, .tif or .exr)", "run scan synth with --res > 0, or add the map");
-}
-
-double quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const size_t k = std::min(values.size() - 1, size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
-  return values[k];
 }
 
 }  // namespace
