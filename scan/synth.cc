@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
+#include "core/parallel.h"
 #include "core/safetensors.h"
 #include "morphable/surface.h"
 
@@ -189,12 +190,14 @@ SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOp
   scan.truth_face.resize(n);
   scan.truth_barycentric.resize(n, 3);
   scan.truth_point.resize(n, 3);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const SurfacePoint p = locator.locate(deformed.row(i).transpose());
-    scan.truth_face(i) = p.face;
-    scan.truth_barycentric.row(i) = p.barycentric.transpose();
-    scan.truth_point.row(i) = p.point.transpose();
-  }
+  parallel_for(0, n, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const SurfacePoint p = locator.locate(deformed.row(i).transpose());
+      scan.truth_face(i) = p.face;
+      scan.truth_barycentric.row(i) = p.barycentric.transpose();
+      scan.truth_point.row(i) = p.point.transpose();
+    }
+  }, 1024);
   if (options.holes) {
     Eigen::MatrixX3d landmarks(68, 3);
     for (int k = 0; k < 68; ++k) landmarks.row(k) = deformed.row(face.landmark_vertices[size_t(k)]);
@@ -206,17 +209,19 @@ SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOp
   const SurfaceLocator on_template(deformed, face.mesh.F);
   scan.surface.template_point.resize(scan.mesh.V.rows(), 3);
   scan.surface.template_uv.resize(scan.mesh.V.rows(), 2);
-  for (Eigen::Index v = 0; v < scan.mesh.V.rows(); ++v) {
-    const SurfacePoint p = on_template.locate(scan.mesh.V.row(v).transpose());
-    Eigen::Vector3d point = Eigen::Vector3d::Zero();
-    Eigen::Vector2d uv = Eigen::Vector2d::Zero();
-    for (int k = 0; k < 3; ++k) {
-      point += p.barycentric[k] * face.mesh.V.row(face.mesh.F(p.face, k)).transpose();
-      uv += p.barycentric[k] * face.mesh.UV.row(face.mesh.FUV(p.face, k)).transpose();
+  parallel_for(0, scan.mesh.V.rows(), [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      const SurfacePoint p = on_template.locate(scan.mesh.V.row(v).transpose());
+      Eigen::Vector3d point = Eigen::Vector3d::Zero();
+      Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+      for (int k = 0; k < 3; ++k) {
+        point += p.barycentric[k] * face.mesh.V.row(face.mesh.F(p.face, k)).transpose();
+        uv += p.barycentric[k] * face.mesh.UV.row(face.mesh.FUV(p.face, k)).transpose();
+      }
+      scan.surface.template_point.row(v) = point.transpose();
+      scan.surface.template_uv.row(v) = uv.transpose();
     }
-    scan.surface.template_point.row(v) = point.transpose();
-    scan.surface.template_uv.row(v) = uv.transpose();
-  }
+  }, 1024);
   make_atlas(scan.mesh, scan.surface.template_uv, subject_seed(options.seed ^ 0xa71a5ull, index));
   scan.appearance = sample_appearance(subject_seed(options.seed ^ 0x5c1full, index));
   scan.surface.mesh = scan.mesh;
