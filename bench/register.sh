@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~4k nodes, blended onto the
 # dense template) side by side with the anchor, Amberg's NICP with one affine per template vertex (--nodes 0), and
-# against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row]
+# against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row] [chart.png]
+# Prints one row per configuration and, with a chart path, draws error against time (the speed-accuracy curve).
 set -euo pipefail
 bin=${1:-build/bin}
 template=${2:-out/demo/template}
 count=${3:-3}
+chart=${4:-}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 [ -f "$template/face.obj" ] || "$bin/bareskin" template -q -o "$template"
@@ -16,10 +18,13 @@ row() {  # row LABEL NOISE register-args...
       --noise "$noise" --rotation-jitter 10 --translation-jitter 30 --holes -o "$work/scans_$noise"
   rm -rf "$work/reg"
   "$bin/bareskin" scan register -q --template "$template" --scans "$work/scans_$noise" -o "$work/reg" --maps-res 0 "$@"
-  /usr/bin/python3 - "$work/reg/summary.json" "$label" "$noise" <<'PY'
+  /usr/bin/python3 - "$work/reg/summary.json" "$label" "$noise" "$work/rows.csv" <<'PY'
 import json, sys, statistics as st
 rows = json.load(open(sys.argv[1]))["scans"]
 m = lambda key, q: st.median(r[key][q] for r in rows)
+with open(sys.argv[4], "a") as csv:
+    csv.write(f"{sys.argv[2]},{sys.argv[3]},{m('correspondence_error_mm','median')},{m('correspondence_error_mm','p95')},"
+              f"{st.median(r['seconds']['total'] for r in rows)}\n")
 print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('correspondence_error_mm','median'):.3f} "
       f"p95 {m('correspondence_error_mm','p95'):.3f} | surface median {m('surface_distance_mm','median'):.3f} | "
       f"landmarks {m('landmark_error_mm','mean'):.2f} | {st.median(r['seconds']['total'] for r in rows):5.1f} s/scan")
@@ -33,3 +38,7 @@ row "ours (8k nodes)" 0 --nodes 8000
 row "ours (16k nodes)" 0 --nodes 16000
 row "ours, 1 iteration/step" 0 --iterations 1
 for noise in 0.1 0.3 0.5; do row "ours (4k nodes, default)" $noise; done
+if [ -n "$chart" ]; then
+  /usr/bin/python3 bench/register_chart.py "$work/rows.csv" "$chart"
+  echo "chart: $chart"
+fi
