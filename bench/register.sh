@@ -22,9 +22,10 @@ row() {  # row LABEL NOISE register-args...
 import json, sys, statistics as st
 rows = json.load(open(sys.argv[1]))["scans"]
 m = lambda key, q: st.median(r[key][q] for r in rows)
-with open(sys.argv[4], "a") as csv:
-    csv.write(f"{sys.argv[2]},{sys.argv[3]},{m('correspondence_error_mm','median')},{m('correspondence_error_mm','p95')},"
-              f"{st.median(r['seconds']['total'] for r in rows)}\n")
+import csv
+with open(sys.argv[4], "a", newline="") as f:
+    csv.writer(f).writerow([sys.argv[2], sys.argv[3], m("correspondence_error_mm", "median"),
+                            m("correspondence_error_mm", "p95"), st.median(r["seconds"]["total"] for r in rows)])
 print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('correspondence_error_mm','median'):.3f} "
       f"p95 {m('correspondence_error_mm','p95'):.3f} | surface median {m('surface_distance_mm','median'):.3f} | "
       f"landmarks {m('landmark_error_mm','mean'):.2f} | {st.median(r['seconds']['total'] for r in rows):5.1f} s/scan")
