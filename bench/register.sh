@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~4k nodes, blended onto the
+# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~2k nodes, blended onto the
 # dense template) side by side with the anchor, Amberg's NICP with one affine per template vertex (--nodes 0), and
 # against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row] [chart.png]
 # Prints one row per configuration and, with a chart path, draws error against time (the speed-accuracy curve).
@@ -32,13 +32,13 @@ print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('co
 PY
 }
 echo "$count scans per row, $(nproc) cores, template $(grep -c '^v ' "$template/face.obj") vertices"
-row "ours (4k nodes, default)" 0
+row "ours (2k nodes, default)" 0
 row "anchor: per-vertex NICP" 0 --nodes 0
-row "ours (2k nodes)" 0 --nodes 2000
+row "ours (4k nodes)" 0 --nodes 4000
 row "ours (8k nodes)" 0 --nodes 8000
 row "ours (16k nodes)" 0 --nodes 16000
 row "ours, 1 iteration/step" 0 --iterations 1
-for noise in 0.1 0.3 0.5; do row "ours (4k nodes, default)" $noise; done
+for noise in 0.1 0.3 0.5; do row "ours (2k nodes, default)" $noise; done
 if [ -n "$chart" ]; then
   /usr/bin/python3 bench/register_chart.py "$work/rows.csv" "$chart"
   echo "chart: $chart"

@@ -5,7 +5,7 @@
 // are rejected when the normals disagree, when the closest point lies on the scan's boundary (holes, the scan's rim),
 // or beyond a distance trimmed with the schedule; the rest get Huber weights (robust loss). Each step solves the
 // sparse normal equations with CHOLMOD (supernodal Cholesky), whose symbolic analysis is done once: the pattern never
-// changes. The transforms live on a coarser node mesh (the template remeshed, ~4k vertices) and the dense template
+// changes. The transforms live on a coarser node mesh (the template remeshed, ~2k vertices) and the dense template
 // follows by blending them; a final projection puts each accepted vertex on the scan.
 #pragma once
 #include <Eigen/Core>
@@ -31,7 +31,7 @@ struct RegisterOptions {
   bool project = true;               // finally move accepted vertices onto their closest scan point
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
-  int nodes = 4000;
+  int nodes = 2000;
   void check() const;                // InvalidInput when inconsistent
 };
 

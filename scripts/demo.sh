@@ -184,7 +184,7 @@ $expressions
 
 <h2>3. Registration (first cut)</h2>
 <p><code>bareskin scan register</code>: a similarity from the 68 landmarks (Umeyama), then optimal-step non-rigid ICP
-(Amberg et al. 2007) on about 4,000 nodes (the template remeshed) whose affine transforms the 65k-vertex template
+(Amberg et al. 2007) on about 2,000 nodes (the template remeshed) whose affine transforms the 65k-vertex template
 blends, with rejection by normal angle, scan boundary and a distance trim, Huber weights, CHOLMOD with the symbolic
 analysis done once, and a final projection onto the scan. Errors are measured against the synthetic truth. Heat maps:
 correspondence error per vertex, blue 0 to red 2 mm. The four maps are then transferred into the template UV at 1K
