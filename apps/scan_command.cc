@@ -1,4 +1,4 @@
-// bareskin scan synth: a synthetic population of scans with ground truth (registration joins `scan` later).
+// bareskin scan: `scan synth` (a synthetic population of scans with ground truth) here; `scan register` in scan_register.cc.
 #include <atomic>
 #include <filesystem>
 #include <memory>

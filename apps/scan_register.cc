@@ -111,7 +111,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   report["scan_vertices"] = scan.V.rows();
   report["scan_triangles"] = scan.F.rows();
   report["alignment"] = s.used_landmarks ? "landmarks (Umeyama similarity)"
-                                         : "FALLBACK: no landmarks; centroid + RMS radius + rigid ICP";
+                                         : "FALLBACK: no landmarks; centroid + RMS radius + similarity ICP";
   report["similarity_scale"] = s.similarity_scale;
   report["landmark_rms_after_similarity_mm"] = s.landmark_rms_after_similarity_mm;
   report["nicp_iterations"] = s.iterations;
@@ -149,7 +149,7 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
       ->capture_default_str();
   app->add_option("--template", args->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
   app->add_flag("--keep-going", args->keep_going, "Go on after a scan fails; list the failures at the end");
-  app->add_flag("--no-landmarks", args->no_landmarks, "Ignore landmarks: fallback alignment (centroid + rigid ICP)");
+  app->add_flag("--no-landmarks", args->no_landmarks, "Ignore landmarks: fallback alignment (centroid + similarity ICP)");
   app->add_option("--stiffness", args->nicp.stiffness, "NICP stiffness schedule")->capture_default_str()->group("NICP");
   app->add_option("--landmark-weight", args->nicp.landmark_weight, "Landmark weight per step")
       ->capture_default_str()->group("NICP");

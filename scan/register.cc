@@ -153,7 +153,7 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   const BoundaryTest boundary(scan);
   const double min_cos = std::cos(options.max_normal_angle_deg * M_PI / 180);
 
-  // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then rigid ICP).
+  // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then similarity ICP).
   Eigen::MatrixX3d V0;
   if (landmarks) {
     const Eigen::MatrixX3d src = landmark_points(face);
@@ -172,7 +172,7 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
       std::vector<Eigen::Index> keep;
       for (Eigen::Index i = 0; i < n; ++i)
         if (c.weight(i) > 0) keep.push_back(i);
-      if (keep.size() < 100) throw InvalidInput("scan", "rigid ICP found no overlap with the template", "give landmarks");
+      if (keep.size() < 100) throw InvalidInput("scan", "ICP found no overlap with the template", "give landmarks");
       Eigen::Matrix3Xd a(3, keep.size()), b(3, keep.size());
       for (size_t k = 0; k < keep.size(); ++k) {
         a.col(Eigen::Index(k)) = V0.row(keep[k]).transpose();

@@ -57,7 +57,7 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 
 // Registers the template to `scan`. Without landmarks (nullptr) the fallback is documented: the template is centred
 // and scaled onto the scan's centroid and RMS radius, assuming the scan is in the template's orientation (+y up, +z
-// out of the face), then rigid ICP; stats.used_landmarks says which ran.
+// out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
                            const RegisterOptions& options = {}, const ProgressCallback& progress = {});
 

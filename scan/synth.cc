@@ -61,14 +61,16 @@ std::vector<int> remove_faces(Mesh& mesh, const std::vector<bool>& keep) {
 std::vector<bool> nostril_faces_kept(const Mesh& mesh, const Eigen::MatrixX3d& landmarks) {
   const Eigen::MatrixX3d normals = face_normals(mesh.V, mesh.F);
   std::vector<bool> keep(size_t(mesh.F.rows()), true);
+  std::vector<Eigen::Vector3d> centroids(size_t(mesh.F.rows()));
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    centroids[size_t(f)] = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3;
+  }
   for (int alar : {31, 35}) {
     const Eigen::Vector3d mid = 0.5 * (landmarks.row(33) + landmarks.row(alar)).transpose();
     const double side = landmarks(alar, 0) - landmarks(33, 0);
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     double weight = 0;
-    std::vector<Eigen::Vector3d> centroids(size_t(mesh.F.rows()));
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-      centroids[size_t(f)] = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3;
       const Eigen::Vector3d& c = centroids[size_t(f)];
       if (normals(f, 1) < -0.5 && (c - mid).norm() < 8 && (c.x() - landmarks(33, 0)) * side > 1.5) {
         centre += c;
