@@ -7,11 +7,17 @@ std::function<void()> setup_template_command(CLI::App&, const Globals&);
 std::function<void()> setup_inspect_command(CLI::App&, const Globals&);
 std::function<void()> setup_render_command(CLI::App&, const Globals&);
 std::function<void()> setup_scan_command(CLI::App&, const Globals&);
+std::function<void()> setup_mm_build_command(CLI::App&, const Globals&);
+std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
 
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
       {"template", "Setup", "Build the dense template face from the MediaPipe canonical face", setup_template_command},
       {"scan", "Scans", "Synthetic scans with ground truth (synth); registration to the template (register)", setup_scan_command},
+      {"mm-build", "Model", "Build the morphable model (GPA, identity/appearance PCA, expression basis) from scans",
+       setup_mm_build_command},
+      {"mm-eval", "Model", "Model metrics: compactness, generalisation, specificity (CSV, JSON, SVG charts)",
+       setup_mm_eval_command},
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };

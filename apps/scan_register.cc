@@ -7,7 +7,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
-#include "apps/cli.h"
+#include "apps/scan_register.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -23,18 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct RegisterArgs {
-  std::string template_dir = "template", scans = "scans", output = "registered";
-  bool keep_going = false, no_landmarks = false;
-  double heat_max_mm = 2.0;
-  BakeOptions maps = [] {  // resolution 0: no texture transfer
-    BakeOptions o;
-    o.resolution = 1024;
-    return o;
-  }();
-  std::string map_format = "png";
-  RegisterOptions nicp;
-};
 
 // The scan's mesh file: mesh.obj, else mesh.ply.
 std::string scan_mesh_path(const std::string& dir) {
@@ -77,7 +65,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   Mesh registered = face.mesh;
   registered.V = reg.V;
   registered.N = vertex_normals(registered.V, registered.F);
-  write_mesh(out.path() + "/mesh.obj", registered);
+  write_mesh(out.path() + "/mesh.ply", registered);  // binary PLY: template topology, per-vertex UVs
   nlohmann::json transfer;
   if (args.maps.resolution > 0) {
     const auto t_maps = std::chrono::steady_clock::now();
@@ -140,12 +128,88 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
 
 }  // namespace
 
+std::vector<std::string> register_folder(const TemplateFace& face, const RegisterArgs& args, const Globals& globals) {
+  if (!fs::is_directory(args.scans)) {
+    throw IoError(args.scans, "is not a folder", "give the folder 'scan synth' wrote, or one of scan folders");
+  }
+  std::vector<std::string> dirs;
+  for (const auto& entry : fs::directory_iterator(args.scans)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_directory() || name.empty() || name[0] == '.' || name == "blendshapes") continue;
+    dirs.push_back(entry.path().string());
+  }
+  std::sort(dirs.begin(), dirs.end());
+  if (dirs.empty()) throw InvalidInput(args.scans, "holds no scan folders", "run 'bareskin scan synth' first");
+  make_directories(args.output);
+  std::vector<std::string> todo;
+  for (const std::string& d : dirs) {
+    if (!fs::exists(args.output + "/" + fs::path(d).filename().string() + "/report.json")) todo.push_back(d);
+  }
+  if (todo.size() < dirs.size()) spdlog::info("scan register: {} of {} scans already registered, skipped", dirs.size() - todo.size(), dirs.size());
+  ProgressBar bar = globals.progress("scan register");
+  std::atomic<int> done{0};
+  std::mutex failures_mutex;
+  std::vector<std::pair<std::string, std::string>> failures;
+  const auto one = [&](int64_t k) {
+    try {
+      register_one(face, todo[size_t(k)], args.output, args);
+    } catch (const std::exception& e) {
+      if (!args.keep_going) throw;
+      std::lock_guard<std::mutex> lock(failures_mutex);
+      failures.emplace_back(todo[size_t(k)], e.what());
+    }
+    bar.update(++done, int64_t(todo.size()), "scans");
+  };
+  if (todo.size() == 1) {
+    one(0);  // the registration's own parallel loops get every thread
+  } else {
+    parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+      for (int64_t k = b; k < e; ++k) one(k);
+    });
+  }
+  bar.finish();
+  // Summary over every registered scan (including ones from earlier runs).
+  nlohmann::json summary, rows = nlohmann::json::array();
+  for (const std::string& d : dirs) {
+    const std::string report = args.output + "/" + fs::path(d).filename().string() + "/report.json";
+    if (fs::exists(report)) rows.push_back(nlohmann::json::parse(read_file(report)));
+  }
+  summary["format"] = "bareskin.registration_summary";
+  summary["scans"] = rows;
+  summary["failures"] = nlohmann::json::array();
+  for (const auto& [dir, why] : failures) summary["failures"].push_back({{"scan", dir}, {"error", why}});
+  write_file_atomic(args.output + "/summary.json", summary.dump(1) + "\n");
+  globals.write_resolved_config(args.output + "/config.json");
+  for (const auto& r : rows) {
+    std::string line = fmt::format("{}: surface distance median {:.3f} mm", r["subject"].get<std::string>(),
+                                   r["surface_distance_mm"]["median"].get<double>());
+    if (r.contains("correspondence_error_mm")) {
+      line += fmt::format(", correspondence error median {:.3f} / p95 {:.3f} mm",
+                          r["correspondence_error_mm"]["median"].get<double>(), r["correspondence_error_mm"]["p95"].get<double>());
+    }
+    if (r.contains("landmark_error_mm")) line += fmt::format(", landmarks {:.2f} mm", r["landmark_error_mm"]["mean"].get<double>());
+    if (r.contains("maps") && r["maps"].contains("vs_truth")) {
+      line += fmt::format(", diffuse PSNR {:.1f} dB, normals {:.2f} deg", r["maps"]["vs_truth"]["diffuse_psnr_db"].get<double>(),
+                          r["maps"]["vs_truth"]["normal_angle_median_deg"].get<double>());
+    }
+    spdlog::info("{}, {:.1f} s", line, r["seconds"]["total"].get<double>());
+  }
+  if (!failures.empty()) {
+    for (const auto& [dir, why] : failures) spdlog::error("{}: {}", dir, why);
+    throw InvalidInput(args.scans, std::to_string(failures.size()) + " scan(s) failed (listed above and in summary.json)",
+                       "fix them and rerun: registered scans are skipped");
+  }
+  std::vector<std::string> registered;
+  for (const std::string& d : dirs) registered.push_back(args.output + "/" + fs::path(d).filename().string());
+  return registered;
+}
+
 CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::function<void()>& action) {
   auto args = std::make_shared<RegisterArgs>();
   CLI::App* app = scan.add_subcommand("register", "Register the template onto every scan (landmarks + NICP), with a report");
   app->add_option("--scans", args->scans, "Folder of scan folders (mesh.obj|ply, landmarks.json; truth/ is used if there)")
       ->capture_default_str();
-  app->add_option("-o,--output", args->output, "Output folder: <id>/{mesh.obj, report.json, qa_*.png}, summary.json")
+  app->add_option("-o,--output", args->output, "Output folder: <id>/{mesh.ply, maps, report.json, qa_*.png}, summary.json")
       ->capture_default_str();
   app->add_option("--template", args->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
   app->add_flag("--keep-going", args->keep_going, "Go on after a scan fails; list the failures at the end");
@@ -161,6 +225,14 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
       ->capture_default_str()->group("NICP");
   app->add_option("--max-normal-angle", args->nicp.max_normal_angle_deg, "Reject correspondences beyond this angle")
       ->capture_default_str()->group("NICP");
+  app->add_option("--consistency", args->nicp.consistency,
+                  "Stiffness: weight of neighbouring affines agreeing at the nodes")
+      ->capture_default_str()
+      ->group("NICP");
+  app->add_option("--affine-stiffness", args->nicp.affine_stiffness,
+                  "Stiffness: weight of Amberg's affine difference (--consistency 0 --affine-stiffness 1: Amberg's)")
+      ->capture_default_str()
+      ->group("NICP");
   app->add_option("--huber", args->nicp.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
   app->add_option("--maps-res", args->maps.resolution,
                   "Transfer the scan's four maps into the template UV at this resolution (0: no maps)")
@@ -172,76 +244,7 @@ CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::functio
     args->maps.format = parse_map_format(args->map_format);
     if (args->maps.resolution != 0) args->maps.check();
     const TemplateFace face = read_template(args->template_dir + "/face.obj", args->template_dir + "/landmarks.json");
-    if (!fs::is_directory(args->scans)) {
-      throw IoError(args->scans, "is not a folder", "give the folder 'scan synth' wrote, or one of scan folders");
-    }
-    std::vector<std::string> dirs;
-    for (const auto& entry : fs::directory_iterator(args->scans)) {
-      const std::string name = entry.path().filename().string();
-      if (!entry.is_directory() || name.empty() || name[0] == '.' || name == "blendshapes") continue;
-      dirs.push_back(entry.path().string());
-    }
-    std::sort(dirs.begin(), dirs.end());
-    if (dirs.empty()) throw InvalidInput(args->scans, "holds no scan folders", "run 'bareskin scan synth' first");
-    make_directories(args->output);
-    std::vector<std::string> todo;
-    for (const std::string& d : dirs) {
-      if (!fs::exists(args->output + "/" + fs::path(d).filename().string() + "/report.json")) todo.push_back(d);
-    }
-    if (todo.size() < dirs.size()) spdlog::info("scan register: {} of {} scans already registered, skipped", dirs.size() - todo.size(), dirs.size());
-    ProgressBar bar = globals.progress("scan register");
-    std::atomic<int> done{0};
-    std::mutex failures_mutex;
-    std::vector<std::pair<std::string, std::string>> failures;
-    const auto one = [&](int64_t k) {
-      try {
-        register_one(face, todo[size_t(k)], args->output, *args);
-      } catch (const std::exception& e) {
-        if (!args->keep_going) throw;
-        std::lock_guard<std::mutex> lock(failures_mutex);
-        failures.emplace_back(todo[size_t(k)], e.what());
-      }
-      bar.update(++done, int64_t(todo.size()), "scans");
-    };
-    if (todo.size() == 1) {
-      one(0);  // the registration's own parallel loops get every thread
-    } else {
-      parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
-        for (int64_t k = b; k < e; ++k) one(k);
-      });
-    }
-    bar.finish();
-    // Summary over every registered scan (including ones from earlier runs).
-    nlohmann::json summary, rows = nlohmann::json::array();
-    for (const std::string& d : dirs) {
-      const std::string report = args->output + "/" + fs::path(d).filename().string() + "/report.json";
-      if (fs::exists(report)) rows.push_back(nlohmann::json::parse(read_file(report)));
-    }
-    summary["format"] = "bareskin.registration_summary";
-    summary["scans"] = rows;
-    summary["failures"] = nlohmann::json::array();
-    for (const auto& [dir, why] : failures) summary["failures"].push_back({{"scan", dir}, {"error", why}});
-    write_file_atomic(args->output + "/summary.json", summary.dump(1) + "\n");
-    globals.write_resolved_config(args->output + "/config.json");
-    for (const auto& r : rows) {
-      std::string line = fmt::format("{}: surface distance median {:.3f} mm", r["subject"].get<std::string>(),
-                                     r["surface_distance_mm"]["median"].get<double>());
-      if (r.contains("correspondence_error_mm")) {
-        line += fmt::format(", correspondence error median {:.3f} / p95 {:.3f} mm",
-                            r["correspondence_error_mm"]["median"].get<double>(), r["correspondence_error_mm"]["p95"].get<double>());
-      }
-      if (r.contains("landmark_error_mm")) line += fmt::format(", landmarks {:.2f} mm", r["landmark_error_mm"]["mean"].get<double>());
-      if (r.contains("maps") && r["maps"].contains("vs_truth")) {
-        line += fmt::format(", diffuse PSNR {:.1f} dB, normals {:.2f} deg", r["maps"]["vs_truth"]["diffuse_psnr_db"].get<double>(),
-                            r["maps"]["vs_truth"]["normal_angle_median_deg"].get<double>());
-      }
-      spdlog::info("{}, {:.1f} s", line, r["seconds"]["total"].get<double>());
-    }
-    if (!failures.empty()) {
-      for (const auto& [dir, why] : failures) spdlog::error("{}: {}", dir, why);
-      throw InvalidInput(args->scans, std::to_string(failures.size()) + " scan(s) failed (listed above and in summary.json)",
-                         "fix them and rerun: registered scans are skipped");
-    }
+    register_folder(face, *args, globals);
   };
   return app;
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~2k nodes, blended onto the
-# dense template) side by side with the anchor, Amberg's NICP with one affine per template vertex (--nodes 0), and
-# against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row] [chart.png]
+# scan register on `scan synth` truth: accuracy and time per scan, our default (NICP on ~2k nodes with the consistency
+# stiffness, blended onto the dense template) side by side with the anchor, Amberg's NICP as published (one affine per
+# template vertex, his stiffness term), across node counts and schedules, and against measurement noise. Usage: bench/register.sh [build/bin] [template dir] [scans per row] [chart.png]
 # Prints one row per configuration and, with a chart path, draws error against time (the speed-accuracy curve).
 set -euo pipefail
 bin=${1:-build/bin}
@@ -32,13 +32,16 @@ print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('co
 PY
 }
 echo "$count scans per row, $(nproc) cores, template $(grep -c '^v ' "$template/face.obj") vertices"
-row "ours (2k nodes, default)" 0
-row "anchor: per-vertex NICP" 0 --nodes 0
-row "ours (4k nodes)" 0 --nodes 4000
-row "ours (8k nodes)" 0 --nodes 8000
-row "ours (16k nodes)" 0 --nodes 16000
+amberg="--consistency 0 --affine-stiffness 1 --stiffness 20 10 5 2 1 0.5 --landmark-weight 30 20 10 5 2 1"
+row "ours (default)" 0
+row "anchor: Amberg NICP per vertex" 0 --nodes 0 $amberg
+row "Amberg term on 2k nodes" 0 $amberg
+row "ours, 4k nodes" 0 --nodes 4000
+row "ours, 8k nodes" 0 --nodes 8000
+row "ours, stiffness x2" 0 --stiffness 8 4 2 0.8 0.4 0.2
+row "ours, stiffness /2" 0 --stiffness 2 1 0.5 0.2 0.1 0.05
 row "ours, 1 iteration/step" 0 --iterations 1
-for noise in 0.1 0.3 0.5; do row "ours (2k nodes, default)" $noise; done
+for noise in 0.1 0.3 0.5; do row "ours (default)" $noise; done
 if [ -n "$chart" ]; then
   /usr/bin/python3 bench/register_chart.py "$work/rows.csv" "$chart"
   echo "chart: $chart"

@@ -149,4 +149,31 @@ void write_blendshapes(const std::string& dir, const std::vector<Blendshape>& sh
   write_file_atomic(dir + "/names.json", names.dump(1) + "\n");
 }
 
+std::vector<Blendshape> read_blendshapes(const std::string& path) {
+  const SafeTensors st = SafeTensors::open(path);
+  const TensorView& t = st.tensor("deltas", DType::F32, {-1, -1, 3});
+  const auto& meta = st.metadata();
+  std::vector<std::string> names;
+  if (meta.count("names")) {
+    try {
+      names = nlohmann::json::parse(meta.at("names")).get<std::vector<std::string>>();
+    } catch (const std::exception&) {
+      throw InvalidInput(path, "metadata 'names' is not a JSON list of strings", "write it with one name per shape");
+    }
+  }
+  if (!names.empty() && int64_t(names.size()) != t.shape[0]) {
+    throw InvalidInput(path, "has " + std::to_string(t.shape[0]) + " shapes but " + std::to_string(names.size()) + " names", "");
+  }
+  const std::vector<float> v = t.to_vector<float>();
+  std::vector<Blendshape> shapes(static_cast<size_t>(t.shape[0]));
+  for (int64_t s = 0; s < t.shape[0]; ++s) {
+    Blendshape& b = shapes[size_t(s)];
+    b.name = names.empty() ? "shape_" + std::to_string(s) : names[size_t(s)];
+    b.delta = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>>(v.data() + s * t.shape[1] * 3,
+                                                                                         t.shape[1], 3).cast<double>();
+    if (!b.delta.allFinite()) throw InvalidInput(path, b.name + " holds NaN or Inf", "");
+  }
+  return shapes;
+}
+
 }  // namespace bareskin

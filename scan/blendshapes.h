@@ -20,5 +20,7 @@ std::vector<Blendshape> make_blendshapes(const TemplateFace& face);
 
 // dir/blendshapes.safetensors: "deltas" F32 [K, #V, 3]; metadata "names" (JSON list), units, format.
 void write_blendshapes(const std::string& dir, const std::vector<Blendshape>& shapes);
+// Reads such a file (a user's own set works too). InvalidInput naming the file when it is not one.
+std::vector<Blendshape> read_blendshapes(const std::string& path);
 
 }  // namespace bareskin

@@ -1,6 +1,7 @@
 // `scan register`: brings the template onto a scan (DESIGN.md §2). A similarity from the 68 landmarks (Umeyama), then
 // optimal-step non-rigid ICP (Amberg, Romdhani & Vetter 2007): one affine transform per template vertex, a stiffness
-// term on neighbouring transforms that is relaxed step by step, a landmark term whose weight decays to zero, and a data
+// term on neighbouring transforms that is relaxed step by step (neighbours must agree at the nodes, as in embedded
+// deformation, plus a little of Amberg's affine difference), a landmark term whose weight decays, and a data
 // term to the closest points of the scan (projections onto its triangles, found in a CGAL AABB tree). Correspondences
 // are rejected when the normals disagree, when the closest point lies on the scan's boundary (holes, the scan's rim),
 // or beyond a distance trimmed with the schedule; the rest get Huber weights (robust loss). Each step solves the
@@ -21,10 +22,12 @@ namespace bareskin {
 
 struct RegisterOptions {
   // Stiffness schedule (alpha, relaxed step by step) and the landmark weight at each step (beta, decaying to 0).
-  std::vector<double> stiffness = {20, 10, 5, 2, 1, 0.5};
-  std::vector<double> landmark_weight = {30, 20, 10, 5, 2, 1};
+  std::vector<double> stiffness = {4, 2, 1, 0.4, 0.2, 0.1};
+  std::vector<double> landmark_weight = {90, 60, 30, 15, 6, 3};
   int iterations_per_step = 3;       // inner ICP iterations at one stiffness (stops early when converged)
-  double gamma = 1;                  // weight of the translation part of the stiffness (Amberg's G = diag(1,1,1,gamma))
+  double consistency = 1;            // stiffness: weight of neighbouring affines agreeing at the nodes
+  double affine_stiffness = 0.03;    // stiffness: weight of Amberg's affine difference (consistency 0, this 1: Amberg)
+  double gamma = 1;                  // weight of its translation part (Amberg's G = diag(1,1,1,gamma))
   double max_normal_angle_deg = 60;  // reject a correspondence whose normals differ more
   std::vector<double> trim_mm = {20, 10, 5, 3, 2, 2};  // reject beyond this distance, per step
   double huber_mm = 1.0;             // robust loss: weight min(1, huber / distance)

@@ -31,7 +31,7 @@ done
 [ -f "$out/img/template_full.png" ] || "$bareskin" render "$out/template/face.obj" --view front --size 4096 \
     --landmarks "$out/template/landmarks.json" -o "$out/img/template_full.png"
 # 2. Synthetic scan population: geometry, maps in each scan's own atlas, truth, blendshapes -----------------------------
-subjects=${DEMO_SUBJECTS:-6}
+subjects=${DEMO_SUBJECTS:-10}
 map_res=${DEMO_MAP_RES:-1024}
 if [ ! -f "$out/scans/manifest.json" ]; then
   stage "synthesising $subjects scans (maps at $map_res)"
@@ -120,6 +120,41 @@ print("\n".join(out + ["</table>"]))
 PY2
 )
 
+# 4. Morphable model from the registered population (mm-build reuses the registrations above) --------------------------
+if [ ! -f "$out/model/model.safetensors" ]; then
+  stage "building the morphable model"
+  timed "mm-build" "$bareskin" mm-build "$out/scans" --template "$out/template" --registered "$out/registered" \
+      -o "$out/model/model.safetensors" --export-obj "$out/model/obj"
+fi
+if [ ! -f "$out/model/model_metrics/metrics.csv" ]; then
+  timed "mm-eval" "$bareskin" mm-eval "$out/model/model.safetensors" "$out/registered"
+fi
+sweeps=""
+for name in mean shape1_minus3sd shape1_plus3sd shape2_minus3sd shape2_plus3sd shape3_minus3sd shape3_plus3sd expression1_plus3sd expression2_plus3sd; do
+  for view in front left; do
+    [ -f "$out/img/model_${name}_$view.png" ] || "$bareskin" render "$out/model/obj/$name.obj" --no-wireframe --size 384 \
+        --texture "$out/model/obj/appearance_mean.png" --view "$view" -o "$out/img/model_${name}_$view.png"
+  done
+  sweeps+="<figure><img src=\"img/model_${name}_front.png\" style=\"width:120px;border:0\"><img src=\"img/model_${name}_left.png\" style=\"width:120px;border:0\"><figcaption>${name//_/ }</figcaption></figure>"
+done
+appearance=""
+for name in appearance_mean appearance1_minus3sd appearance1_plus3sd appearance2_minus3sd appearance2_plus3sd; do
+  appearance+="<figure><img src=\"model/obj/$name.png\" style=\"width:180px\"><figcaption>${name//_/ }</figcaption></figure>"
+done
+model_summary=$(/usr/bin/python3 - "$out/model/model.build.json" "$out/model/model_metrics/metrics.json" <<'PY3'
+import json, sys
+b, m = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+c, s = b["components"], b["seconds"]
+print(f"{b['subjects']} subjects; {c['shape']} identity, {c['expression']} expression and {c['appearance']} appearance "
+      f"components ({100 * b['variance_explained']['shape']:.1f}% / {100 * b['variance_explained']['appearance']:.1f}% of "
+      f"the shape / appearance variance); build {s['total']:.1f} s (registration cache reused: {s['register']:.1f} s; "
+      f"read {s['read_shapes']:.1f}, GPA {s['gpa']:.2f}, shape PCA {s['shape_pca']:.2f}, maps {s['read_maps']:.1f}, "
+      f"appearance PCA {s['appearance_pca']:.2f}, expression {s['expression']:.1f}). "
+      f"At {m['components'][-1]} components: generalisation {m['generalization_mm'][-1]:.2f} mm, specificity "
+      f"{m['specificity_mm'][-1]:.2f} mm ({m['samples']} samples), compactness {m['compactness'][-1]:.3f}.")
+PY3
+)
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -182,10 +217,11 @@ landmarks, ARKit names ("_L" = the subject's left). Posed with
 $blendshape_names.</p>
 $expressions
 
-<h2>3. Registration (first cut)</h2>
+<h2>3. Registration</h2>
 <p><code>bareskin scan register</code>: a similarity from the 68 landmarks (Umeyama), then optimal-step non-rigid ICP
 (Amberg et al. 2007) on about 2,000 nodes (the template remeshed) whose affine transforms the 65k-vertex template
-blends, with rejection by normal angle, scan boundary and a distance trim, Huber weights, CHOLMOD with the symbolic
+blends. The stiffness asks neighbouring affines to agree at the nodes (embedded-deformation consistency, which does not
+depend on where the origin is) plus a little of Amberg's affine difference; rejection by normal angle, scan boundary and a distance trim, Huber weights, CHOLMOD with the symbolic
 analysis done once, and a final projection onto the scan. Errors are measured against the synthetic truth. Heat maps:
 correspondence error per vertex, blue 0 to red 2 mm. The four maps are then transferred into the template UV at 1K
 (closest scan point, its atlas UV, bilinear lookups; normals from the scan's tangent frames to the template's) and
@@ -194,6 +230,23 @@ $registration
 <figure><img src="registered/subject_0000/diffuse.png" style="width:260px"><figcaption>subject_0000 diffuse, transferred into the template UV</figcaption></figure>
 <figure><img src="scans/subject_0000/truth/maps/diffuse.png" style="width:260px"><figcaption>truth (baked in the template UV)</figcaption></figure>
 <figure><img src="img/transfer_error.png" style="width:260px"><figcaption>|difference| ×8</figcaption></figure>
+
+<h2>4. Morphable model</h2>
+<p><code>bareskin mm-build scans/ -o model.safetensors</code> registers what is not registered yet (here: nothing, the
+registrations above are reused), aligns the registered meshes by generalised Procrustes, and builds the identity shape
+PCA (α), the appearance PCA of the diffuse maps in the template UV (δ; linear RGB, 256², masked to the UV layout) and the
+expression basis (β) from the blendshapes moved onto the mean face and orthonormalised. $model_summary
+Files: <a href="model/model.safetensors">model.safetensors</a>, <a href="model/model.build.json">model.build.json</a>,
+<a href="model/model_metrics/metrics.csv">metrics.csv</a>.</p>
+<h3>Mean and ±3σ along the first components (mean appearance)</h3>
+$sweeps
+<h3>Appearance: mean and ±3σ along the first two components</h3>
+$appearance
+<h3>Metrics (<code>bareskin mm-eval</code>; RMS vertex distance in correspondence)</h3>
+<figure><img src="model/model_metrics/compactness.svg" style="width:340px"><figcaption>compactness</figcaption></figure>
+<figure><img src="model/model_metrics/generalization.svg" style="width:340px"><figcaption>generalisation (leave-one-out)</figcaption></figure>
+<figure><img src="model/model_metrics/specificity.svg" style="width:340px"><figcaption>specificity</figcaption></figure>
+<figure><img src="model/model_metrics/generalization_regions.svg" style="width:340px"><figcaption>generalisation per face region</figcaption></figure>
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>

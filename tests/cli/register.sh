@@ -23,7 +23,7 @@ for r in rows:
     assert r["surface_distance_mm"]["median"] < 0.05, r["surface_distance_mm"]
     assert r["maps"]["vs_truth"]["normal_angle_median_deg"] < 5, r["maps"]
 PY
-for f in mesh.obj diffuse.png normal.png roughness.png specular.png qa_front.png report.json; do
+for f in mesh.ply diffuse.png normal.png roughness.png specular.png qa_front.png report.json; do
   [ -f "$work/r/subject_0000/$f" ] || fail "missing $f"
 done
 oiiotool --info "$work/r/subject_0000/normal.png" | grep -q "64 x  *64, 3 channel, uint16 png" || fail "transferred normal map"

@@ -1,0 +1,290 @@
+// bareskin mm-build / mm-eval: the morphable model from registered scans (registering what is not yet registered),
+// and its metrics (compactness, generalisation, specificity; per region).
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "apps/scan_register.h"
+#include "apps/svg_chart.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "morphable/build.h"
+#include "morphable/metrics.h"
+#include "scan/blendshapes.h"
+
+namespace bareskin::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Registered subject folders under `dir`: the ones holding a mesh.
+std::vector<std::string> registered_subjects(const std::string& dir) {
+  if (!fs::is_directory(dir)) throw IoError(dir, "is not a folder", "give registered scans, or scans to register");
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.is_directory() && (fs::exists(e.path() / "mesh.ply") || fs::exists(e.path() / "mesh.obj"))) {
+      out.push_back(e.path().string());
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// An R x R linear RGB appearance (row-major floats) as an sRGB PNG; texels outside the mask grey.
+void write_appearance(const std::string& path, const std::vector<float>& rgb, const MorphableModel& m) {
+  const int R = m.appearance_resolution;
+  Image img(R, R, 3, ColorSpace::Linear, 0.2f);
+  for (size_t p = 0; p < m.appearance_mask.size(); ++p) {
+    if (!m.appearance_mask[p]) continue;
+    for (int c = 0; c < 3; ++c) img.pixels[3 * p + size_t(c)] = std::clamp(rgb[3 * p + size_t(c)], 0.f, 1.f);
+  }
+  write_image(path, to_srgb(img));
+}
+
+// Mean, ±3σ along the first shape components (and expression ones), and appearance textures, for looking at.
+void export_objs(const std::string& dir, const MorphableModel& m) {
+  make_directories(dir);
+  const auto write = [&](const std::string& name, const Eigen::MatrixX3d& V) {
+    Mesh mesh = m.topology;
+    mesh.V = V;
+    mesh.N = vertex_normals(V, mesh.F);
+    write_mesh(dir + "/" + name + ".obj", mesh);
+  };
+  write("mean", m.topology.V);
+  for (int k = 0; k < std::min<int>(3, int(m.shape_basis.rows())); ++k) {
+    for (double s : {-3.0, 3.0}) {
+      Eigen::VectorXd alpha = Eigen::VectorXd::Zero(k + 1);
+      alpha(k) = s;
+      write(fmt::format("shape{}_{}3sd", k + 1, s < 0 ? "minus" : "plus"), m.shape(alpha));
+    }
+  }
+  for (int k = 0; k < std::min<int>(2, int(m.expression_basis.rows())); ++k) {
+    Eigen::VectorXd beta = Eigen::VectorXd::Zero(k + 1);
+    beta(k) = 3;
+    write(fmt::format("expression{}_plus3sd", k + 1), m.shape(Eigen::VectorXd(), beta));
+  }
+  if (m.appearance_resolution > 0 && !m.appearance_mask.empty()) {
+    write_appearance(dir + "/appearance_mean.png", m.appearance(Eigen::VectorXd()), m);
+    for (int k = 0; k < std::min<int>(2, int(m.appearance_basis.rows())); ++k) {
+      for (double s : {-3.0, 3.0}) {
+        Eigen::VectorXd delta = Eigen::VectorXd::Zero(k + 1);
+        delta(k) = s;
+        write_appearance(dir + fmt::format("/appearance{}_{}3sd.png", k + 1, s < 0 ? "minus" : "plus"), m.appearance(delta), m);
+      }
+    }
+  }
+}
+
+std::string stem_path(const std::string& model_path) {
+  const fs::path p(model_path);
+  return (p.parent_path() / p.stem()).string();
+}
+
+}  // namespace
+
+std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string scans, registered, output = "model.safetensors", template_dir = "template", blendshapes, export_obj;
+    int maps_res = 1024;
+    BuildOptions build;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("scans", opt->scans,
+                 "Scans to register first (scan folders; already registered ones are reused). Omit to build from "
+                 "--registered alone");
+  app.add_option("-o,--output", opt->output, "Model file (safetensors)")->capture_default_str();
+  app.add_option("--registered", opt->registered, "Registered subjects (cache of 'scan register'); default: "
+                                                  "'registered' beside the model");
+  app.add_option("--template", opt->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
+  app.add_option("--maps-res", opt->maps_res, "Map resolution when registering scans")->capture_default_str();
+  CLI::Option* shape_k = app.add_option("--shape-components", opt->build.shape_components,
+                                        "Identity components (alpha); clamped to subjects - 1 unless given")
+                             ->capture_default_str()->group("Model");
+  app.add_option("--shape-variance", opt->build.shape_variance,
+                 "Keep only as many identity components as explain this variance fraction (0: off)")
+      ->capture_default_str()->group("Model");
+  CLI::Option* app_k = app.add_option("--appearance-components", opt->build.appearance_components,
+                                      "Appearance components (delta; 0: no appearance model)")
+                           ->capture_default_str()->group("Model");
+  app.add_option("--appearance-res", opt->build.appearance_resolution, "Appearance map size in the model (R x R)")
+      ->capture_default_str()->group("Model");
+  CLI::Option* exp_k = app.add_option("--expression-components", opt->build.expression_components,
+                                      "Expression components (beta); at most the blendshape count")
+                           ->capture_default_str()->group("Model");
+  app.add_option("--blendshapes", opt->blendshapes,
+                 "Blendshape set (safetensors 'deltas' [K,V,3]); default: the set made on the template")
+      ->group("Model");
+  app.add_flag("--procrustes-scale", opt->build.procrustes_scale, "Align subjects with scale (similarity GPA)")
+      ->group("Model");
+  app.add_option("--export-obj", opt->export_obj, "Also write OBJs of the mean and of +-3 sd, and appearance PNGs, here");
+  return [opt, shape_k, app_k, exp_k, &globals] {
+    const auto t0 = std::chrono::steady_clock::now();
+    opt->build.check();
+    opt->build.clamp_components = !(shape_k->count() || app_k->count() || exp_k->count());
+    const fs::path out_dir = fs::path(opt->output).parent_path();
+    if (opt->registered.empty()) opt->registered = (out_dir / "registered").string();
+    const TemplateFace face = read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");
+
+    std::vector<std::string> subjects;
+    double register_seconds = 0;
+    if (!opt->scans.empty()) {
+      RegisterArgs reg;
+      reg.template_dir = opt->template_dir;
+      reg.scans = opt->scans;
+      reg.output = opt->registered;
+      reg.maps.resolution = opt->maps_res;
+      if (opt->maps_res > 0) reg.maps.check();
+      if (opt->build.appearance_components > 0 && opt->maps_res == 0) {
+        throw InvalidInput("", "--maps-res 0 leaves no diffuse maps for the appearance model",
+                           "give --maps-res 1024, or --appearance-components 0");
+      }
+      subjects = register_folder(face, reg, globals);
+      register_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    } else {
+      subjects = registered_subjects(opt->registered);
+    }
+    std::vector<NamedShape> blendshapes;
+    for (const Blendshape& b : opt->blendshapes.empty() ? make_blendshapes(face) : read_blendshapes(opt->blendshapes)) {
+      blendshapes.push_back({b.name, b.delta});
+    }
+
+    ProgressBar bar = globals.progress("mm-build");
+    BuildReport report;
+    MorphableModel model = build_model(face, subjects, blendshapes, opt->build, report, bar.callback());
+    bar.finish();
+    model.metadata["provenance"] = fmt::format("bareskin mm-build {}: {} subjects from {}, template {}", BARESKIN_VERSION,
+                                               subjects.size(), opt->registered, opt->template_dir);
+    model.metadata["config"] = nlohmann::json{{"procrustes_scale", opt->build.procrustes_scale},
+                                              {"shape_variance", opt->build.shape_variance},
+                                              {"appearance_resolution", opt->build.appearance_resolution},
+                                              {"blendshapes", opt->blendshapes.empty() ? "template set" : opt->blendshapes}}
+                                   .dump();
+    const auto t_write = std::chrono::steady_clock::now();
+    if (!out_dir.empty()) make_directories(out_dir.string());
+    write_model(opt->output, model);
+    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
+    if (!opt->export_obj.empty()) export_objs(opt->export_obj, model);
+
+    nlohmann::json summary = {
+        {"model", opt->output},
+        {"subjects", report.subjects},
+        {"components", {{"shape", model.shape_basis.rows()}, {"expression", model.expression_basis.rows()},
+                        {"appearance", model.appearance_basis.rows()}}},
+        {"variance_explained", {{"shape", report.shape_variance_explained},
+                                {"appearance", report.appearance_variance_explained}}},
+        {"gpa_iterations", report.gpa_iterations},
+        {"notes", report.notes},
+        {"seconds", {{"register", register_seconds},
+                     {"read_shapes", report.seconds_read_shapes},
+                     {"gpa", report.seconds_gpa},
+                     {"shape_pca", report.seconds_shape_pca},
+                     {"read_maps", report.seconds_read_maps},
+                     {"appearance_pca", report.seconds_appearance_pca},
+                     {"expression", report.seconds_expression},
+                     {"write", write_seconds},
+                     {"total", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()}}}};
+    write_file_atomic(stem_path(opt->output) + ".build.json", summary.dump(1) + "\n");
+    globals.write_resolved_config(stem_path(opt->output) + ".config.json");
+    spdlog::info("mm-build: {} subjects -> {} ({} identity, {} expression, {} appearance components; {:.1f}% / {:.1f}% "
+                 "of shape / appearance variance); {:.1f} s (read {:.1f}, GPA {:.1f}, PCA {:.1f}, maps {:.1f}, "
+                 "appearance PCA {:.1f})",
+                 report.subjects, opt->output, model.shape_basis.rows(), model.expression_basis.rows(),
+                 model.appearance_basis.rows(), 100 * report.shape_variance_explained,
+                 100 * report.appearance_variance_explained, summary["seconds"]["total"].get<double>(),
+                 report.seconds_read_shapes, report.seconds_gpa, report.seconds_shape_pca, report.seconds_read_maps,
+                 report.seconds_appearance_pca);
+  };
+}
+
+std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string model, registered, output;
+    MetricsOptions metrics;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("model", opt->model, "Model from 'bareskin mm-build'")->required();
+  app.add_option("registered", opt->registered, "Registered subjects (the model's training set)")->required();
+  app.add_option("-o,--output", opt->output, "Output folder (metrics.csv, metrics.json, *.svg); default: "
+                                             "<model>_metrics beside the model");
+  app.add_option("--samples", opt->metrics.samples, "Random model shapes for specificity")->capture_default_str();
+  app.add_option("--max-components", opt->metrics.max_components, "Largest component count evaluated")->capture_default_str();
+  app.add_option("--max-held-out", opt->metrics.max_held_out, "Subjects left out in turn for generalisation (at most)")
+      ->capture_default_str();
+  app.add_option("--seed", opt->metrics.seed, "Sampling seed")->capture_default_str();
+  return [opt, &globals] {
+    if (opt->metrics.samples < 1 || opt->metrics.max_components < 1 || opt->metrics.max_held_out < 1) {
+      throw InvalidInput("", "--samples, --max-components and --max-held-out must be >= 1", "");
+    }
+    const MorphableModel model = read_model(opt->model);
+    if (opt->output.empty()) opt->output = stem_path(opt->model) + "_metrics";
+    std::vector<std::string> dirs;
+    for (const std::string& s : model.subjects) {
+      const std::string d = opt->registered + "/" + s;
+      if (!fs::is_directory(d)) {
+        throw InvalidInput(d, "is missing: the model was trained on subject " + s,
+                           "give the registered folder the model was built from");
+      }
+      dirs.push_back(d);
+    }
+    TemplateFace face;
+    face.mesh = model.topology;
+    face.landmark_vertices = model.landmark_vertices;
+    RowMatrixXf X = read_shapes(face, dirs);
+    // Into the model frame with the model's own Procrustes transforms.
+    for (Eigen::Index i = 0; i < X.rows(); ++i) {
+      const Eigen::Matrix4d& T = model.procrustes.at(size_t(i));
+      Eigen::Map<Eigen::Matrix<float, 3, Eigen::Dynamic>> P(X.row(i).data(), 3, X.cols() / 3);
+      P = ((T.topLeftCorner<3, 3>() * P.cast<double>()).colwise() + T.topRightCorner<3, 1>()).cast<float>();
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const ModelMetrics m = model_metrics(X, model.vertex_region, model.region_names, opt->metrics);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    AtomicDirectory out(opt->output);
+    std::string csv = "components,compactness,generalization_mm,specificity_mm";
+    for (const std::string& r : m.regions) csv += ",generalization_" + r + "_mm";
+    csv += "\n";
+    for (size_t q = 0; q < m.components.size(); ++q) {
+      csv += fmt::format("{},{:.6f},{:.5f},{:.5f}", m.components[q], m.compactness[q], m.generalization_mm[q],
+                         m.specificity_mm[q]);
+      for (const auto& r : m.generalization_region_mm) csv += fmt::format(",{:.5f}", r[q]);
+      csv += "\n";
+    }
+    write_file_atomic(out.path() + "/metrics.csv", csv);
+    nlohmann::json j = {{"model", opt->model},
+                        {"subjects", m.subjects},
+                        {"held_out", m.held_out},
+                        {"samples", m.samples},
+                        {"distance", "RMS over vertices of the per-vertex Euclidean distance, mm, in the model frame"},
+                        {"components", m.components},
+                        {"compactness", m.compactness},
+                        {"generalization_mm", m.generalization_mm},
+                        {"specificity_mm", m.specificity_mm},
+                        {"seconds", seconds}};
+    for (size_t r = 0; r < m.regions.size(); ++r) j["generalization_region_mm"][m.regions[r]] = m.generalization_region_mm[r];
+    write_file_atomic(out.path() + "/metrics.json", j.dump(1) + "\n");
+    std::vector<double> k(m.components.begin(), m.components.end());
+    const auto chart = [&](const std::string& name, const std::string& title, const std::string& y,
+                           std::vector<ChartSeries> series) {
+      write_file_atomic(out.path() + "/" + name + ".svg", svg_line_chart({title, "components", y, std::move(series)}));
+    };
+    chart("compactness", "Compactness", "explained variance fraction", {{"shape", k, m.compactness}});
+    chart("generalization", "Generalisation (leave-one-out)", "RMS vertex error, mm", {{"all vertices", k, m.generalization_mm}});
+    chart("specificity", "Specificity", "RMS distance to nearest training shape, mm", {{"shape", k, m.specificity_mm}});
+    std::vector<ChartSeries> regions;
+    for (size_t r = 0; r < m.regions.size(); ++r) regions.push_back({m.regions[r], k, m.generalization_region_mm[r]});
+    chart("generalization_regions", "Generalisation per region", "RMS vertex error, mm", regions);
+    globals.write_resolved_config(out.path() + "/config.json");
+    out.commit();
+    spdlog::info("mm-eval: {} subjects; at {} components: compactness {:.3f}, generalisation {:.3f} mm, specificity "
+                 "{:.3f} mm ({:.1f} s) -> {}",
+                 m.subjects, m.components.back(), m.compactness.back(), m.generalization_mm.back(),
+                 m.specificity_mm.back(), seconds, opt->output);
+  };
+}
+
+}  // namespace bareskin::cli

@@ -1,0 +1,273 @@
+#include "morphable/build.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/mesh_io.h"
+#include "core/parallel.h"
+#include "morphable/pca.h"
+#include "morphable/procrustes.h"
+
+namespace bareskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string find_file(const std::string& dir, const std::string& stem, std::initializer_list<const char*> extensions,
+                      const std::string& hint) {
+  for (const char* ext : extensions)
+    if (fs::exists(dir + "/" + stem + ext)) return dir + "/" + stem + ext;
+  throw InvalidInput(dir, "has no " + stem + " file", hint);
+}
+
+// Component count: the asked one, clamped to what the data allows (with a note) or refused.
+int settle(int asked, int available, const char* what, const BuildOptions& options, BuildReport& report) {
+  if (asked <= available) return asked;
+  const std::string line = std::string(what) + ": " + std::to_string(asked) + " components asked, the data gives " +
+                           std::to_string(available);
+  if (!options.clamp_components) throw InvalidInput("", line, "ask for at most " + std::to_string(available));
+  report.notes.push_back(line + "; using " + std::to_string(available));
+  spdlog::info("mm-build: {}", report.notes.back());
+  return available;
+}
+
+RowMatrixXf to_float(const Eigen::MatrixXd& M) { return M.cast<float>(); }
+
+}  // namespace
+
+void BuildOptions::check() const {
+  if (shape_components < 1) throw InvalidInput("", "--shape-components must be >= 1", "");
+  if (!(shape_variance >= 0 && shape_variance <= 1)) throw InvalidInput("", "--shape-variance must lie in [0, 1]", "");
+  if (appearance_components < 0 || expression_components < 0) {
+    throw InvalidInput("", "component counts must be >= 0", "");
+  }
+  if (appearance_resolution < 8 || appearance_resolution > 4096) {
+    throw InvalidInput("", "--appearance-res must lie in [8, 4096]", "");
+  }
+}
+
+std::vector<uint8_t> face_regions(const TemplateFace& face, std::vector<std::string>& names) {
+  names = {"forehead", "brows", "eyes", "nose", "mouth", "cheeks_jaw"};
+  const auto group = [](int landmark) -> uint8_t {
+    if (landmark <= 16) return 5;
+    if (landmark <= 26) return 1;
+    if (landmark <= 35) return 3;
+    if (landmark <= 47) return 2;
+    return 4;
+  };
+  if (face.landmark_vertices.size() != 68) throw InvalidInput("template", "needs 68 landmark vertices", "");
+  double brow_y = 0;
+  for (int k = 17; k <= 26; ++k) brow_y += face.mesh.V(face.landmark_vertices[size_t(k)], 1) / 10;
+  std::vector<uint8_t> region(size_t(face.mesh.V.rows()));
+  parallel_for(0, face.mesh.V.rows(), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      int best = 0;
+      double best_d = 1e300;
+      for (int k = 0; k < 68; ++k) {
+        const double d = (face.mesh.V.row(i) - face.mesh.V.row(face.landmark_vertices[size_t(k)])).squaredNorm();
+        if (d < best_d) best_d = d, best = k;
+      }
+      uint8_t g = group(best);
+      if ((g == 1 && face.mesh.V(i, 1) > brow_y + 8) || (g == 5 && face.mesh.V(i, 1) > brow_y)) g = 0;
+      region[size_t(i)] = g;
+    }
+  }, 1024);
+  return region;
+}
+
+std::vector<uint8_t> uv_mask(const Mesh& mesh, int R) {
+  if (!mesh.has_uv()) throw InvalidInput("template", "has no UVs", "use a template with UVs");
+  std::vector<uint8_t> mask(size_t(R) * size_t(R), 0);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
+    Eigen::Vector2d p[3];
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector2d uv = mesh.UV.row(mesh.FUV(f, k)).transpose();
+      p[k] = {uv.x() * R, (1 - uv.y()) * R};  // pixel space, y down
+    }
+    const double area = (p[1] - p[0]).x() * (p[2] - p[0]).y() - (p[1] - p[0]).y() * (p[2] - p[0]).x();
+    if (std::abs(area) < 1e-18) continue;
+    const int x0 = std::max(0, int(std::floor(std::min({p[0].x(), p[1].x(), p[2].x()})))),
+              x1 = std::min(R - 1, int(std::ceil(std::max({p[0].x(), p[1].x(), p[2].x()})))),
+              y0 = std::max(0, int(std::floor(std::min({p[0].y(), p[1].y(), p[2].y()})))),
+              y1 = std::min(R - 1, int(std::ceil(std::max({p[0].y(), p[1].y(), p[2].y()}))));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const Eigen::Vector2d c(x + 0.5, y + 0.5);
+        double w[3];
+        for (int k = 0; k < 3; ++k) {
+          const Eigen::Vector2d a = p[(k + 1) % 3] - c, b = p[(k + 2) % 3] - c;
+          w[k] = (a.x() * b.y() - a.y() * b.x()) / area;
+        }
+        if (w[0] >= -1e-9 && w[1] >= -1e-9 && w[2] >= -1e-9) mask[size_t(y) * size_t(R) + size_t(x)] = 1;
+      }
+  }
+  return mask;
+}
+
+RowMatrixXf read_shapes(const TemplateFace& face, const std::vector<std::string>& dirs, const ProgressCallback& progress) {
+  const Eigen::Index V = face.mesh.V.rows();
+  RowMatrixXf X(Eigen::Index(dirs.size()), 3 * V);
+  std::atomic<int64_t> done{0};
+  parallel_for(0, int64_t(dirs.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const std::string path = find_file(dirs[size_t(i)], "mesh", {".ply", ".obj"}, "run 'bareskin scan register' first");
+      const Mesh m = read_mesh(path);
+      if (m.V.rows() != V) {
+        throw InvalidInput(path, "has " + std::to_string(m.V.rows()) + " vertices, the template " + std::to_string(V),
+                           "register every scan with the same template");
+      }
+      if (m.F != face.mesh.F) {
+        throw InvalidInput(path, "has a different triangle list from the template's",
+                           "register every scan with the same template");
+      }
+      const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> v = m.V.cast<float>();
+      X.row(i) = Eigen::Map<const Eigen::RowVectorXf>(v.data(), 3 * V);
+      report(progress, ++done, int64_t(dirs.size()), "reading shapes");
+    }
+  }, 1);
+  return X;
+}
+
+MorphableModel build_model(const TemplateFace& face, const std::vector<std::string>& dirs,
+                           const std::vector<NamedShape>& blendshapes, const BuildOptions& options, BuildReport& report,
+                           const ProgressCallback& progress) {
+  options.check();
+  const int n = int(dirs.size());
+  if (n < 3) {
+    throw InvalidInput("", "a morphable model needs at least 3 subjects, got " + std::to_string(n), "add subjects");
+  }
+  report.subjects = n;
+  MorphableModel model;
+  for (const std::string& d : dirs) model.subjects.push_back(fs::path(d).filename().string());
+
+  // Shape: read, align (GPA), PCA.
+  auto t = std::chrono::steady_clock::now();
+  RowMatrixXf X = read_shapes(face, dirs, progress);
+  report.seconds_read_shapes = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  GpaOptions gpa;
+  gpa.scale = options.procrustes_scale;
+  const GpaResult aligned = generalized_procrustes(X, face.mesh.V, gpa);
+  model.procrustes = aligned.transforms;
+  report.gpa_iterations = aligned.iterations;
+  report.seconds_gpa = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  const int shape_k = settle(options.shape_components, n - 1, "shape", options, report);
+  const Pca shape = pca(X, shape_k, options.shape_variance, "shape");
+  model.topology = face.mesh;
+  model.topology.N.resize(0, 3);
+  model.topology.V = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(shape.mean.data(),
+                                                                                                 face.mesh.V.rows(), 3);
+  model.shape_basis = to_float(shape.basis);
+  model.shape_stddev = shape.variance.cwiseSqrt().cast<float>();
+  report.shape_variance_explained = shape.variance.sum() / shape.total_variance;
+  report.seconds_shape_pca = seconds_since(t);
+  X.resize(0, 0);
+
+  // Appearance: diffuse maps in the template UV, linear light, box-filtered to R x R, texels inside the layout only.
+  const int R = options.appearance_resolution;
+  model.appearance_resolution = R;
+  model.appearance_mask = uv_mask(face.mesh, R);
+  model.appearance_mean = Eigen::VectorXf::Zero(3 * R * R);
+  model.appearance_basis.resize(0, 3 * R * R);
+  if (options.appearance_components > 0) {
+    t = std::chrono::steady_clock::now();
+    std::vector<int64_t> texels;
+    for (size_t p = 0; p < model.appearance_mask.size(); ++p)
+      if (model.appearance_mask[p]) texels.push_back(int64_t(p));
+    RowMatrixXf A(n, 3 * Eigen::Index(texels.size()));
+    std::atomic<int64_t> done{0};
+    parallel_for(0, n, [&](int64_t b, int64_t e) {
+      for (int64_t i = b; i < e; ++i) {
+        const std::string path = find_file(dirs[size_t(i)], "diffuse", {".png", ".tif", ".tiff", ".exr"},
+                                           "register with maps (scan register --maps-res 1024), or use "
+                                           "--appearance-components 0");
+        Image img = read_image(path);
+        if (img.color_space == ColorSpace::sRGB) img = to_linear(img);
+        if (img.width != img.height || img.width % R != 0 || img.channels < 3) {
+          throw InvalidInput(path, "is " + std::to_string(img.width) + "x" + std::to_string(img.height) + "x" +
+                                       std::to_string(img.channels) + "; the appearance model needs square RGB maps "
+                                       "whose size is a multiple of " + std::to_string(R),
+                             "choose --appearance-res dividing the map size");
+        }
+        const int f = img.width / R;
+        for (size_t k = 0; k < texels.size(); ++k) {
+          const int x = int(texels[k] % R), y = int(texels[k] / R);
+          for (int c = 0; c < 3; ++c) {
+            double sum = 0;
+            for (int dy = 0; dy < f; ++dy)
+              for (int dx = 0; dx < f; ++dx) sum += img.at(x * f + dx, y * f + dy, c);
+            A(i, Eigen::Index(3 * k) + c) = float(sum / (f * f));
+          }
+        }
+        if (!A.row(i).allFinite()) throw InvalidInput(path, "holds NaN or Inf", "re-transfer the maps");
+        bareskin::report(progress, ++done, n, "reading maps");
+      }
+    }, 1);
+    report.seconds_read_maps = seconds_since(t);
+    t = std::chrono::steady_clock::now();
+    const int k = settle(options.appearance_components, n - 1, "appearance", options, report);
+    const Pca appearance = pca(A, k, 0, "appearance");
+    model.appearance_basis = RowMatrixXf::Zero(k, 3 * R * R);
+    for (size_t q = 0; q < texels.size(); ++q)
+      for (int c = 0; c < 3; ++c) {
+        model.appearance_mean(3 * texels[q] + c) = float(appearance.mean(Eigen::Index(3 * q) + c));
+        model.appearance_basis.col(3 * texels[q] + c) = appearance.basis.col(Eigen::Index(3 * q) + c).cast<float>();
+      }
+    model.appearance_stddev = appearance.variance.cwiseSqrt().cast<float>();
+    report.appearance_variance_explained = appearance.variance.sum() / appearance.total_variance;
+    report.seconds_appearance_pca = seconds_since(t);
+  }
+
+  // Expression: each blendshape's deltas turned by the rotation taking the template's normal to the mean's at that
+  // vertex (the mean identity's local frame), then an orthonormal basis by SVD (through the K x K Gram matrix); the
+  // standard deviation of a component is its singular value / sqrt(K), the RMS over the blendshapes.
+  t = std::chrono::steady_clock::now();
+  const Eigen::Index V = face.mesh.V.rows();
+  if (options.expression_components > 0 && !blendshapes.empty()) {
+    const Eigen::MatrixX3d Nt = vertex_normals(face.mesh.V, face.mesh.F), Nm = vertex_normals(model.topology.V, face.mesh.F);
+    const Eigen::Index K = Eigen::Index(blendshapes.size());
+    Eigen::MatrixXd D(3 * V, K);
+    for (Eigen::Index b = 0; b < K; ++b) {
+      const NamedShape& s = blendshapes[size_t(b)];
+      if (s.delta.rows() != V) {
+        throw InvalidInput("blendshapes", s.name + " has " + std::to_string(s.delta.rows()) + " vertices, the template " +
+                                              std::to_string(V), "give blendshapes made on this template");
+      }
+      model.expression_names.push_back(s.name);
+      for (Eigen::Index i = 0; i < V; ++i) {
+        const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(Nt.row(i).transpose(), Nm.row(i).transpose());
+        D.block<3, 1>(3 * i, b) = q * s.delta.row(i).transpose();
+      }
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(D.transpose() * D);
+    const Eigen::VectorXd lambda = eig.eigenvalues().reverse();
+    int rank = 0;
+    while (rank < K && lambda(rank) > lambda(0) * 1e-12) ++rank;
+    const int k = settle(options.expression_components, rank, "expression", options, report);
+    const Eigen::MatrixXd W = eig.eigenvectors().rowwise().reverse().leftCols(k) *
+                              lambda.head(k).cwiseSqrt().cwiseInverse().asDiagonal();
+    model.expression_basis = to_float((D * W).transpose());
+    model.expression_stddev = (lambda.head(k) / double(K)).cwiseSqrt().cast<float>();
+  } else {
+    model.expression_basis.resize(0, 3 * V);
+    model.expression_stddev.resize(0);
+  }
+  report.seconds_expression = seconds_since(t);
+
+  model.landmark_vertices = face.landmark_vertices;
+  model.vertex_region = face_regions(face, model.region_names);
+  return model;
+}
+
+}  // namespace bareskin

@@ -1,0 +1,97 @@
+#!/usr/bin/env bash
+# mm-build / mm-eval through the command line. "Registered" subjects are made from `scan synth` truth (perfect
+# registrations + truth maps in the template UV); the numpy oracle (tests/python/mm_oracle.py) checks GPA, the PCA
+# against numpy's SVD, the appearance mean and the metrics. Then bad input: a different vertex count, a different
+# triangle list, a NaN vertex, too few subjects, identical subjects, too many components asked, a missing diffuse map:
+# each one line naming the problem, exit 3, no model written. Last, mm-build from scans is killed with -9 while it
+# registers and rerun: the model is identical to an uninterrupted build.
+set -u
+bin=$1
+here=$(cd "$(dirname "$0")" && pwd)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+py=/usr/bin/python3
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+"$bin" scan synth -q --template "$work/t" --count 8 --vertices 8000 --res 64 --truth-res 64 -o "$work/s" || fail "synth"
+for s in "$work"/s/subject_*; do
+  id=$(basename "$s")
+  mkdir -p "$work/r/$id"
+  cp "$s/truth/maps/diffuse.png" "$work/r/$id/"
+  $py - "$here/../python" "$work/t/face.obj" "$s/truth/correspondence.safetensors" "$work/r/$id/mesh.obj" <<'PY' || fail "truth mesh"
+import sys
+sys.path.insert(0, sys.argv[1])
+from safetensors_oracle import read_safetensors
+P = read_safetensors(sys.argv[3])[1]["template_to_scan_point"]
+out, k = [], 0
+for line in open(sys.argv[2]):
+    if line.startswith("vn "):
+        continue
+    if line.startswith("v "):
+        line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
+    out.append(line)
+open(sys.argv[4], "w").writelines(out)
+PY
+done
+build() { "$bin" mm-build -q --template "$work/t" --appearance-res 32 "$@"; }
+
+build --registered "$work/r" -o "$work/m/model.safetensors" --export-obj "$work/m/obj" || fail "mm-build"
+for f in model.safetensors model.build.json model.config.json obj/mean.obj obj/shape1_plus3sd.obj obj/appearance_mean.png; do
+  [ -f "$work/m/$f" ] || fail "missing $f"
+done
+"$bin" mm-eval -q "$work/m/model.safetensors" "$work/r" || fail "mm-eval"
+for f in metrics.csv metrics.json compactness.svg generalization.svg specificity.svg generalization_regions.svg; do
+  [ -f "$work/m/model_metrics/$f" ] || fail "missing metrics/$f"
+done
+$py "$here/../python/mm_oracle.py" "$work/m/model.safetensors" "$work/r" "$work/m/model_metrics/metrics.csv" || fail "oracle"
+
+# Bad input: one line, exit 3, no model.
+broken() {  # broken NAME: a copy of the registered set to break
+  cp -r "$work/r" "$work/b_$1"
+  echo "$work/b_$1"
+}
+expect_error() {  # expect_error NAME NEEDLE mm-build-args...
+  local name=$1 needle=$2
+  shift 2
+  build "$@" -o "$work/out_$name/model.safetensors" 2> "$work/err"
+  local code=$?
+  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
+    && [ ! -e "$work/out_$name/model.safetensors" ] || fail "$name: exit $code: $(cat "$work/err")"
+}
+d=$(broken vertices)
+$py -c "import sys; p=sys.argv[1]; l=open(p).readlines(); i=max(k for k,x in enumerate(l) if x.startswith('v ')); open(p,'w').writelines(l[:i+1]+[l[i]]+l[i+1:])" \
+  "$d/subject_0003/mesh.obj"
+expect_error vertices "subject_0003/mesh.obj: has .* vertices, the template" --registered "$d"
+d=$(broken triangles)
+$py -c "import sys; p=sys.argv[1]; l=open(p).readlines(); i=[k for k,x in enumerate(l) if x.startswith('f ')]; l[i[0]],l[i[1]]=l[i[1]],l[i[0]]; open(p,'w').writelines(l)" \
+  "$d/subject_0002/mesh.obj"
+expect_error triangles "different triangle list" --registered "$d"
+d=$(broken nan)
+sed -i '0,/^v /s/^v [^ ]*/v nan/' "$d/subject_0001/mesh.obj"
+expect_error nan "subject_0001/mesh.obj" --registered "$d"
+mkdir -p "$work/b_few" && cp -r "$work/r/subject_0000" "$work/r/subject_0001" "$work/b_few/"
+expect_error few "at least 3 subjects" --registered "$work/b_few"
+mkdir -p "$work/b_same" && for k in 1 2 3 4; do cp -r "$work/r/subject_0000" "$work/b_same/subject_$k"; done
+expect_error same "no variance" --registered "$work/b_same"
+expect_error components "50 components asked" --registered "$work/r" --shape-components 50
+d=$(broken nomap)
+rm "$d/subject_0004/diffuse.png"
+expect_error nomap "subject_0004: has no diffuse" --registered "$d"
+
+# kill -9 while registering, rerun: identical model (same paths, so the same provenance line).
+clean_build() { build "$work/s" --registered "$work/k/registered" --maps-res 64 -o "$work/k/model.safetensors"; }
+clean_build || fail "mm-build from scans"
+mv "$work/k/model.safetensors" "$work/reference.safetensors" && rm -rf "$work/k"
+clean_build &
+pid=$!
+for _ in $(seq 200); do
+  [ "$(ls "$work/k/registered" 2> /dev/null | grep -c subject_)" -ge 2 ] && break
+  sleep 0.05
+done
+kill -9 $pid 2> /dev/null
+wait $pid 2> /dev/null
+[ -e "$work/k/model.safetensors" ] && fail "killed build left a model"
+[ "$(ls "$work/k/registered" | grep -c subject_)" -lt 8 ] || fail "kill came too late to test resuming"
+clean_build || fail "resumed mm-build"
+cmp -s "$work/reference.safetensors" "$work/k/model.safetensors" || fail "resumed model differs"
+echo "11 passed, 0 failed"
