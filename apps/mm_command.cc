@@ -102,7 +102,7 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
   app.add_option("--template", opt->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
   app.add_option("--maps-res", opt->maps_res, "Map resolution when registering scans")->capture_default_str();
   CLI::Option* shape_k = app.add_option("--shape-components", opt->build.shape_components,
-                                        "Identity components (alpha); clamped to subjects - 1 unless given")
+                                        "Identity components (alpha); the default is clamped to subjects - 1, a given count is not")
                              ->capture_default_str()->group("Model");
   app.add_option("--shape-variance", opt->build.shape_variance,
                  "Keep only as many identity components as explain this variance fraction (0: off)")
@@ -124,7 +124,9 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
   return [opt, shape_k, app_k, exp_k, &globals] {
     const auto t0 = std::chrono::steady_clock::now();
     opt->build.check();
-    opt->build.clamp_components = !(shape_k->count() || app_k->count() || exp_k->count());
+    opt->build.exact.shape = shape_k->count() > 0;
+    opt->build.exact.appearance = app_k->count() > 0;
+    opt->build.exact.expression = exp_k->count() > 0;
     const fs::path out_dir = fs::path(opt->output).parent_path();
     if (opt->registered.empty()) opt->registered = (out_dir / "registered").string();
     const TemplateFace face = read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");

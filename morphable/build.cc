@@ -31,11 +31,11 @@ std::string find_file(const std::string& dir, const std::string& stem, std::init
 }
 
 // Component count: the asked one, clamped to what the data allows (with a note) or refused.
-int settle(int asked, int available, const char* what, const BuildOptions& options, BuildReport& report) {
+int settle(int asked, int available, const char* what, bool exact, BuildReport& report) {
   if (asked <= available) return asked;
   const std::string line = std::string(what) + ": " + std::to_string(asked) + " components asked, the data gives " +
                            std::to_string(available);
-  if (!options.clamp_components) throw InvalidInput("", line, "ask for at most " + std::to_string(available));
+  if (exact) throw InvalidInput("", line, "ask for at most " + std::to_string(available));
   report.notes.push_back(line + "; using " + std::to_string(available));
   spdlog::info("mm-build: {}", report.notes.back());
   return available;
@@ -162,7 +162,7 @@ MorphableModel build_model(const TemplateFace& face, const std::vector<std::stri
   report.gpa_iterations = aligned.iterations;
   report.seconds_gpa = seconds_since(t);
   t = std::chrono::steady_clock::now();
-  const int shape_k = settle(options.shape_components, n - 1, "shape", options, report);
+  const int shape_k = settle(options.shape_components, n - 1, "shape", options.exact.shape, report);
   const Pca shape = pca(X, shape_k, options.shape_variance, "shape");
   model.topology = face.mesh;
   model.topology.N.resize(0, 3);
@@ -216,7 +216,7 @@ MorphableModel build_model(const TemplateFace& face, const std::vector<std::stri
     }, 1);
     report.seconds_read_maps = seconds_since(t);
     t = std::chrono::steady_clock::now();
-    const int k = settle(options.appearance_components, n - 1, "appearance", options, report);
+    const int k = settle(options.appearance_components, n - 1, "appearance", options.exact.appearance, report);
     const Pca appearance = pca(A, k, 0, "appearance");
     model.appearance_basis = RowMatrixXf::Zero(k, 3 * R * R);
     for (size_t q = 0; q < texels.size(); ++q)
@@ -254,7 +254,7 @@ MorphableModel build_model(const TemplateFace& face, const std::vector<std::stri
     const Eigen::VectorXd lambda = eig.eigenvalues().reverse();
     int rank = 0;
     while (rank < K && lambda(rank) > lambda(0) * 1e-12) ++rank;
-    const int k = settle(options.expression_components, rank, "expression", options, report);
+    const int k = settle(options.expression_components, rank, "expression", options.exact.expression, report);
     const Eigen::MatrixXd W = eig.eigenvectors().rowwise().reverse().leftCols(k) *
                               lambda.head(k).cwiseSqrt().cwiseInverse().asDiagonal();
     model.expression_basis = to_float((D * W).transpose());

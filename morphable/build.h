@@ -18,7 +18,10 @@ struct BuildOptions {
   int appearance_resolution = 256;  // R: the diffuse maps are box-filtered in linear light down to R x R
   int expression_components = 120;  // at most the number of blendshapes
   bool procrustes_scale = false;    // GPA with scale (a similarity) instead of rigid
-  bool clamp_components = true;     // ask for more than the data has: clamp (logged) instead of InvalidInput
+  // Counts given explicitly: asking for more than the data gives is InvalidInput (otherwise clamped, with a note).
+  struct {
+    bool shape = false, appearance = false, expression = false;
+  } exact;
   void check() const;
 };
 

@@ -84,7 +84,7 @@ void write_model(const std::string& path, const MorphableModel& m) {
   const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> tri = m.topology.F, uvtri = m.topology.FUV;
   const Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> uv = m.topology.UV.cast<float>();
   w.add("triangles", DType::I32, {F, 3}, tri.data(), size_t(tri.size()) * 4);
-  w.add("uv", DType::F32, {uv.rows(), 2}, uv.data(), size_t(uv.size()) * 4);
+  w.add("uvs", DType::F32, {uv.rows(), 2}, uv.data(), size_t(uv.size()) * 4);
   w.add("uv_triangles", DType::I32, {F, 3}, uvtri.data(), size_t(uvtri.size()) * 4);
   std::vector<int32_t> landmarks(m.landmark_vertices.begin(), m.landmark_vertices.end());
   w.add("landmark_vertices", std::vector<int64_t>{int64_t(landmarks.size())}, landmarks);
@@ -131,8 +131,8 @@ MorphableModel read_model(const std::string& path) {
   m.topology.V = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>>(mean.data(), V, 3).cast<double>();
   const std::vector<int32_t> tri = values<int32_t>(st, "triangles", DType::I32, {F, 3});
   m.topology.F = Eigen::Map<const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>>(tri.data(), F, 3);
-  const int64_t T = st.tensor("uv").shape.at(0);
-  const std::vector<float> uv = values<float>(st, "uv", DType::F32, {T, 2});
+  const int64_t T = st.tensor("uvs").shape.at(0);
+  const std::vector<float> uv = values<float>(st, "uvs", DType::F32, {T, 2});
   m.topology.UV = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>>(uv.data(), T, 2).cast<double>();
   const std::vector<int32_t> uvtri = values<int32_t>(st, "uv_triangles", DType::I32, {F, 3});
   m.topology.FUV = Eigen::Map<const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor>>(uvtri.data(), F, 3);

@@ -5,7 +5,7 @@
 //
 // File (safetensors, docs/file_formats.md): shape_mean [V,3], shape_basis [K_id,V,3], shape_stddev [K_id],
 // expression_basis [K_exp,V,3], expression_stddev [K_exp], appearance_mean [R,R,3], appearance_basis [K_a,R,R,3],
-// appearance_stddev [K_a], appearance_mask [R,R] (U8), triangles [F,3], uv [T,2], uv_triangles [F,3],
+// appearance_stddev [K_a], appearance_mask [R,R] (U8), triangles [F,3], uvs [T,2], uv_triangles [F,3],
 // landmark_vertices [68], vertex_region [V] (U8, names in metadata), procrustes [N,4,4] (subject → model frame).
 #pragma once
 #include <Eigen/Core>
