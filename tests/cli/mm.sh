@@ -43,7 +43,8 @@ done
 for f in metrics.csv metrics.json compactness.svg generalization.svg specificity.svg generalization_regions.svg; do
   [ -f "$work/m/model_metrics/$f" ] || fail "missing metrics/$f"
 done
-$py "$here/../python/mm_oracle.py" "$work/m/model.safetensors" "$work/r" "$work/m/model_metrics/metrics.csv" || fail "oracle"
+$py "$here/../python/mm_oracle.py" "$work/m/model.safetensors" "$work/r" "$work/m/model_metrics/metrics.csv" "$work/m/obj" \
+  || fail "oracle"
 
 # Bad input: one line, exit 3, no model.
 broken() {  # broken NAME: a copy of the registered set to break

@@ -9,7 +9,9 @@ meshes and maps it was built from, and checks
 - mm-eval's metrics.csv against explicit leave-one-out PCA (generalisation), the eigenvalues (compactness) and
   independent sampling (specificity, loosely).
 
-usage: mm_oracle.py MODEL REGISTERED_DIR METRICS_CSV
+- the C++ evaluator, through `mm-build --export-obj`: shape1_plus3sd.obj = mean + 3 sd_1 U_1.
+
+usage: mm_oracle.py MODEL REGISTERED_DIR METRICS_CSV [EXPORT_DIR]
 """
 import csv
 import json
@@ -67,7 +69,7 @@ def check(name, ok, detail):
     return ok
 
 
-def main(model_path, registered, metrics_csv):
+def main(model_path, registered, metrics_csv, export=None):
     meta, t = read_safetensors(model_path)
     subjects = json.loads(meta["subjects"])
     mean = t["shape_mean"].astype(np.float64)
@@ -124,6 +126,11 @@ def main(model_path, registered, metrics_csv):
         err = np.abs(acc[mask] - t["appearance_mean"][mask]).max()
         good &= check("appearance mean", err < 1e-4, f"max difference over {mask.sum()} texels {err:.2e}")
 
+    if export:
+        want = mean + 3 * t["shape_stddev"][0] * t["shape_basis"][0]
+        err = np.abs(obj_vertices(export + "/shape1_plus3sd.obj") - want).max()
+        good &= check("model evaluation", err < 1e-4, f"exported +3 sd shape vs numpy: max {err:.2e} mm")
+
     # Metrics
     rows = list(csv.DictReader(open(metrics_csv)))
     lam = S ** 2
@@ -155,4 +162,4 @@ def main(model_path, registered, metrics_csv):
 
 
 if __name__ == "__main__":
-    sys.exit(main(*sys.argv[1:4]))
+    sys.exit(main(*sys.argv[1:5]))
