@@ -9,6 +9,7 @@ std::function<void()> setup_render_command(CLI::App&, const Globals&);
 std::function<void()> setup_scan_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_build_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
+std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
 
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
@@ -18,6 +19,8 @@ const std::vector<Command>& commands() {
        setup_mm_build_command},
       {"mm-eval", "Model", "Model metrics: compactness, generalisation, specificity (CSV, JSON, SVG charts)",
        setup_mm_eval_command},
+      {"uvtools", "Maps", "UV-space tools: bake (resize 16K map sets to 4K/1K out of core, seam-aware)",
+       setup_uvtools_command},
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };

@@ -289,4 +289,42 @@ void ImageStreamWriter::commit() {
   s.file.commit();
 }
 
+struct ImageStreamReader::Impl {
+  std::string path;
+  std::unique_ptr<OIIO::ImageInput> in;
+  ImageFileInfo info;
+};
+
+ImageStreamReader::ImageStreamReader(const std::string& path, std::optional<ColorSpace> assume)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->path = path;
+  impl_->info = probe_image(path);
+  if (assume) impl_->info.color_space = *assume;
+  impl_->in = open_input(path);
+}
+
+ImageStreamReader::~ImageStreamReader() = default;
+
+const ImageFileInfo& ImageStreamReader::info() const { return impl_->info; }
+
+void ImageStreamReader::read_rows(int y_begin, int y_end, float* pixels) {
+  const ImageFileInfo& info = impl_->info;
+  bool decoded;
+  {
+    SilencedStderr silence(std::string(impl_->in->format_name()) == "png");
+    decoded = impl_->in->read_scanlines(0, 0, y_begin, y_end, 0, 0, info.channels, OIIO::TypeDesc::FLOAT, pixels);
+  }
+  if (!decoded) {
+    throw InvalidInput(impl_->path, "cannot decode rows " + std::to_string(y_begin) + "-" + std::to_string(y_end) + " (" +
+                                        one_line(impl_->in->geterror()) + ")",
+                       "the file is truncated or corrupt");
+  }
+  const size_t n = size_t(y_end - y_begin) * size_t(info.width) * size_t(info.channels);
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(pixels[i])) {
+      throw InvalidInput(impl_->path, "image holds NaN or infinite values", "repair the image (e.g. oiiotool --fixnan box3)");
+    }
+  }
+}
+
 }  // namespace bareskin

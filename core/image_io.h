@@ -54,4 +54,20 @@ class ImageStreamWriter {
   std::unique_ptr<Impl> impl_;
 };
 
+// Reads a scanline or tiled image a band of rows at a time (top mip level, as float), so that 16K maps never sit in
+// memory whole. The colour space is the file's (see read_image) unless `assume` overrides it.
+class ImageStreamReader {
+ public:
+  explicit ImageStreamReader(const std::string& path, std::optional<ColorSpace> assume = std::nullopt);
+  ~ImageStreamReader();
+  const ImageFileInfo& info() const;
+  // Rows [y_begin, y_end) into `pixels` (width * rows * channels floats). InvalidInput naming the file when the rows
+  // cannot be decoded (truncated file) or hold NaN/Inf.
+  void read_rows(int y_begin, int y_end, float* pixels);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 }  // namespace bareskin

@@ -1,0 +1,63 @@
+// bareskin uvtools: UV-space tools. `bake`: a set of maps (up to 16K) resized to smaller sizes in one streamed,
+// seam-aware pass (uvtools/bake.h).
+#include <chrono>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/mesh_io.h"
+#include "uvtools/bake.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string input, output, layout = "template/face.obj", sizes = "4096,1024";
+    MapResizeOptions resize;
+  };
+  auto opt = std::make_shared<Options>();
+  app.require_subcommand(1);
+  CLI::App* bake = app.add_subcommand("bake", "Resize a set of UV maps (16K → 4K, 1K, ...) out of core, seam-aware");
+  bake->add_option("input", opt->input, "Folder with diffuse/normal/roughness/specular .exr|.tif|.png")->required();
+  bake->add_option("-o,--output", opt->output, "Output folder: <size>/<map>.<format>")->required();
+  bake->add_option("--sizes", opt->sizes, "Output sizes, comma-separated; each must divide the input size")
+      ->capture_default_str();
+  bake->add_option("--layout", opt->layout, "Mesh whose UV islands the maps follow (the template)")->capture_default_str();
+  bake->add_option("--format", opt->resize.format, "exr (half, zip, tiled), png or tif (16-bit)")->capture_default_str();
+  bake->add_flag("--mipmap", opt->resize.mipmap, "EXR/TIFF: also write the mip chain");
+  bake->add_flag("--toksvig", opt->resize.toksvig, "Roughness absorbs the variance of the averaged normals");
+  bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
+  return [opt, &globals] {
+    opt->resize.sizes.clear();
+    std::stringstream list(opt->sizes);
+    for (std::string item; std::getline(list, item, ',');) {
+      try {
+        size_t used = 0;
+        opt->resize.sizes.push_back(std::stoi(item, &used));
+        if (used != item.size()) throw std::invalid_argument(item);
+      } catch (const std::exception&) {
+        throw InvalidInput("", "--sizes: '" + item + "' is not a whole number", "give e.g. --sizes 4096,1024");
+      }
+    }
+    opt->resize.check();
+    const Mesh layout = read_mesh(opt->layout);
+    const auto t0 = std::chrono::steady_clock::now();
+    ProgressBar bar = globals.progress("uvtools bake");
+    const MapResizeReport r = resize_maps(opt->input, layout, opt->resize, opt->output, bar.callback());
+    bar.finish();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    nlohmann::json j = {{"input", opt->input},           {"input_size", r.input_size},
+                        {"sizes", opt->resize.sizes},    {"maps", r.maps},
+                        {"island_fraction", r.island_fraction}, {"flipped_uv_triangles", r.flipped_triangles},
+                        {"overlapping_texels", r.overlapping_texels}, {"seconds", seconds}};
+    write_file_atomic(opt->output + "/bake.json", j.dump(1) + "\n");
+    globals.write_resolved_config(opt->output + "/config.json");
+    spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({:.1f}% of texels in UV islands)", r.maps.size(),
+                 r.input_size, opt->sizes, seconds, 100 * r.island_fraction);
+  };
+}
+
+}  // namespace bareskin::cli

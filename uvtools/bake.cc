@@ -1,0 +1,342 @@
+#include "uvtools/bake.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/parallel.h"
+
+namespace bareskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+enum class Kind { Colour, Normal, Scalar };
+
+struct MapFile {
+  std::string name, path;
+  Kind kind;
+};
+
+// The layout's UV triangles in input pixel space (y down), bucketed by the bands of rows they touch; a band's island
+// mask is found by scanline spans, one row at a time.
+class IslandRaster {
+ public:
+  IslandRaster(const Mesh& layout, int size, int band_rows) : size_(size), band_rows_(band_rows) {
+    const int bands = (size + band_rows - 1) / band_rows;
+    buckets_.resize(size_t(bands));
+    int positive = 0;
+    std::vector<double> area(size_t(layout.F.rows()));
+    for (Eigen::Index f = 0; f < layout.F.rows(); ++f) {
+      Triangle t;
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector2d uv = layout.UV.row(layout.FUV(f, k)).transpose();
+        t.p[k] = {uv.x() * size, (1 - uv.y()) * size};
+      }
+      area[size_t(f)] = (t.p[1] - t.p[0]).x() * (t.p[2] - t.p[0]).y() - (t.p[1] - t.p[0]).y() * (t.p[2] - t.p[0]).x();
+      if (area[size_t(f)] > 0) ++positive;
+      const double y0 = std::min({t.p[0].y(), t.p[1].y(), t.p[2].y()}), y1 = std::max({t.p[0].y(), t.p[1].y(), t.p[2].y()});
+      if (std::abs(area[size_t(f)]) < 1e-12 || y1 < 0 || y0 > size) continue;
+      const int id = int(triangles_.size());
+      triangles_.push_back(t);
+      for (int b = std::max(0, int(y0) / band_rows); b <= std::min(bands - 1, int(y1) / band_rows); ++b) {
+        buckets_[size_t(b)].push_back(id);
+      }
+    }
+    const bool majority_positive = 2 * positive >= layout.F.rows();
+    for (double a : area)
+      if (a != 0 && (a > 0) != majority_positive) ++flipped;
+  }
+
+  // Island mask of band b (rows [b * band_rows, ...), `rows` of them) into mask[rows * size]; overlaps counts texel
+  // centres strictly inside two or more triangles.
+  void band(int b, int rows, std::vector<uint8_t>& mask, std::atomic<int64_t>& overlaps) const {
+    mask.assign(size_t(rows) * size_t(size_), 0);
+    parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
+      std::vector<uint8_t> hits(static_cast<size_t>(size_));
+      for (int64_t r = r0; r < r1; ++r) {
+        const double yc = double(b) * band_rows_ + double(r) + 0.5;
+        std::fill(hits.begin(), hits.end(), 0);
+        for (int id : buckets_[size_t(b)]) {
+          const Triangle& t = triangles_[size_t(id)];
+          double x0 = 1e300, x1 = -1e300;
+          for (int k = 0; k < 3; ++k) {
+            const Eigen::Vector2d &a = t.p[k], &c = t.p[(k + 1) % 3];
+            if ((a.y() - yc) * (c.y() - yc) > 0 || a.y() == c.y()) {
+              if (a.y() == yc) x0 = std::min(x0, a.x()), x1 = std::max(x1, a.x());
+              continue;
+            }
+            const double x = a.x() + (yc - a.y()) / (c.y() - a.y()) * (c.x() - a.x());
+            x0 = std::min(x0, x), x1 = std::max(x1, x);
+          }
+          if (x0 > x1) continue;
+          const int c0 = std::max(0, int(std::ceil(x0 - 0.5))), c1 = std::min(size_ - 1, int(std::floor(x1 - 0.5)));
+          for (int c = c0; c <= c1; ++c) {
+            mask[size_t(r) * size_t(size_) + size_t(c)] = 1;
+            if (c + 0.5 > x0 && c + 0.5 < x1 && hits[size_t(c)] < 255) ++hits[size_t(c)];
+          }
+        }
+        int64_t n = 0;
+        for (uint8_t h : hits) n += h > 1;
+        if (n) overlaps += n;
+      }
+    }, 4);
+  }
+
+  int flipped = 0;
+
+ private:
+  struct Triangle {
+    Eigen::Vector2d p[3];
+  };
+  int size_, band_rows_;
+  std::vector<Triangle> triangles_;
+  std::vector<std::vector<int>> buckets_;
+};
+
+std::vector<MapFile> find_maps(const std::string& dir) {
+  const std::pair<const char*, Kind> names[] = {
+      {"diffuse", Kind::Colour}, {"normal", Kind::Normal}, {"roughness", Kind::Scalar}, {"specular", Kind::Scalar}};
+  std::vector<MapFile> maps;
+  for (const auto& [name, kind] : names) {
+    for (const char* ext : {".exr", ".tif", ".tiff", ".png"}) {
+      const std::string p = dir + "/" + name + ext;
+      if (fs::exists(p)) {
+        maps.push_back({name, p, kind});
+        break;
+      }
+    }
+  }
+  if (maps.empty()) {
+    throw InvalidInput(dir, "holds no diffuse, normal, roughness or specular map (.exr, .tif, .png)",
+                       "point at a folder of maps");
+  }
+  return maps;
+}
+
+// Output texels with no island texel under them take the mean of their filled 8-neighbours, `passes` times.
+void fill_gutter(std::vector<float>& value, std::vector<uint8_t>& filled, int s, int channels, int passes) {
+  for (int pass = 0; pass < passes; ++pass) {
+    std::vector<uint8_t> next = filled;
+    parallel_for(0, s, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y)
+        for (int x = 0; x < s; ++x) {
+          const size_t i = size_t(y) * size_t(s) + size_t(x);
+          if (filled[i]) continue;
+          float sum[4] = {0, 0, 0, 0};
+          int n = 0;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int64_t yy = y + dy, xx = x + dx;
+              if (yy < 0 || yy >= s || xx < 0 || xx >= s) continue;
+              const size_t j = size_t(yy) * size_t(s) + size_t(xx);
+              if (!filled[j]) continue;
+              for (int c = 0; c < channels; ++c) sum[c] += value[j * size_t(channels) + size_t(c)];
+              ++n;
+            }
+          if (!n) continue;
+          for (int c = 0; c < channels; ++c) value[i * size_t(channels) + size_t(c)] = sum[c] / float(n);
+          next[i] = 1;
+        }
+    }, 16);
+    filled.swap(next);
+  }
+}
+
+}  // namespace
+
+void MapResizeOptions::check() const {
+  if (sizes.empty()) throw InvalidInput("", "no output sizes", "give --sizes, e.g. 4096,1024");
+  for (int s : sizes)
+    if (s < 1 || s > 65536) throw InvalidInput("", "output sizes must lie in [1, 65536]", "");
+  if (format != "exr" && format != "png" && format != "tif") {
+    throw InvalidInput("", "unknown format '" + format + "'", "use exr, png or tif");
+  }
+  if (gutter < 0 || gutter > 256) throw InvalidInput("", "--gutter must lie in [0, 256]", "");
+}
+
+MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const MapResizeOptions& options,
+                            const std::string& out_dir, const ProgressCallback& progress) {
+  options.check();
+  if (!layout.has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
+  std::vector<MapFile> maps = find_maps(in_dir);
+  MapResizeReport result;
+  // Every map: square, one size for the set, each output size dividing it.
+  const ImageFileInfo first = probe_image(maps.front().path);
+  const int N = first.width;
+  for (const MapFile& m : maps) {
+    const ImageFileInfo info = probe_image(m.path);
+    if (info.width != info.height) {
+      throw InvalidInput(m.path, "is " + std::to_string(info.width) + "x" + std::to_string(info.height) + ", not square",
+                         "UV maps must be square");
+    }
+    if (info.width != N) {
+      throw InvalidInput(m.path, "is " + std::to_string(info.width) + " wide, " + maps.front().path + " is " +
+                                     std::to_string(N), "give one set of maps of one size");
+    }
+    if (m.kind == Kind::Normal && info.channels < 3) {
+      throw InvalidInput(m.path, "a normal map needs 3 channels, it has " + std::to_string(info.channels), "");
+    }
+  }
+  std::vector<int> sizes = options.sizes;
+  std::sort(sizes.begin(), sizes.end(), std::greater<int>());
+  sizes.erase(std::unique(sizes.begin(), sizes.end()), sizes.end());
+  for (int s : sizes) {
+    if (s > N || N % s != 0) {
+      throw InvalidInput(maps.front().path, "is " + std::to_string(N) + " wide; " + std::to_string(s) +
+                                                " does not divide it", "choose sizes that divide the input size");
+    }
+  }
+  result.input_size = N;
+  const int F = N / sizes.back();                       // the largest factor
+  const int band_rows = F * std::max(1, 128 / F);        // input rows per pass: a multiple of every factor
+  const IslandRaster raster(layout, N, band_rows);
+  result.flipped_triangles = raster.flipped;
+  if (raster.flipped) spdlog::warn("uvtools bake: {} UV triangles are flipped against the others", raster.flipped);
+
+  // Normal before roughness, so that Toksvig can use the normals' lengths.
+  std::stable_sort(maps.begin(), maps.end(), [](const MapFile& a, const MapFile& b) {
+    return a.kind == Kind::Normal && b.kind != Kind::Normal;
+  });
+  std::map<int, std::vector<float>> normal_length;  // per output size, for Toksvig
+  AtomicDirectory out(out_dir);
+  for (int s : sizes) make_directories(out.path() + "/" + std::to_string(s));
+  const int64_t bands = (N + band_rows - 1) / band_rows;
+  int64_t covered_total = 0;
+  std::atomic<int64_t> overlaps{0};
+  for (size_t mi = 0; mi < maps.size(); ++mi) {
+    const MapFile& m = maps[mi];
+    result.maps.push_back(m.name);
+    ImageStreamReader in(m.path, m.kind == Kind::Colour ? std::nullopt : std::optional<ColorSpace>(ColorSpace::Data));
+    const int C = std::min(in.info().channels, 4);
+    const int Cin = in.info().channels;
+    const bool decode_srgb = m.kind == Kind::Colour && in.info().color_space == ColorSpace::sRGB;
+    struct Output {
+      int size, factor;
+      std::vector<float> value;
+      std::vector<uint8_t> filled;
+      std::vector<float> length;  // normals
+    };
+    std::vector<Output> outs;
+    for (int s : sizes) {
+      Output o{s, N / s, std::vector<float>(size_t(s) * size_t(s) * size_t(C), 0.f), std::vector<uint8_t>(size_t(s) * size_t(s), 0), {}};
+      if (m.kind == Kind::Normal) o.length.assign(size_t(s) * size_t(s), 1.f);
+      outs.push_back(std::move(o));
+    }
+    std::vector<float> band(size_t(band_rows) * size_t(N) * size_t(Cin));
+    std::vector<uint8_t> mask;
+    for (int64_t b = 0; b < bands; ++b) {
+      const int y0 = int(b * band_rows), rows = std::min(band_rows, N - y0);
+      in.read_rows(y0, y0 + rows, band.data());
+      raster.band(int(b), rows, mask, overlaps);
+      if (mi == 0) covered_total += std::count(mask.begin(), mask.end(), uint8_t(1));
+      // Decode in place: sRGB → linear, normals (v + 1) / 2 → v; a zero normal inside an island is an error.
+      parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
+        for (int64_t r = r0; r < r1; ++r)
+          for (int x = 0; x < N; ++x) {
+            float* p = &band[(size_t(r) * size_t(N) + size_t(x)) * size_t(Cin)];
+            if (decode_srgb) {
+              for (int c = 0; c < std::min(C, 3); ++c) p[c] = srgb_to_linear(p[c]);
+            } else if (m.kind == Kind::Normal) {
+              for (int c = 0; c < 3; ++c) p[c] = 2 * p[c] - 1;
+              if (mask[size_t(r) * size_t(N) + size_t(x)] && p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 0.0025f) {
+                throw InvalidInput(m.path, "holds a zero normal vector at texel (" + std::to_string(x) + ", " +
+                                               std::to_string(y0 + r) + ") inside a UV island",
+                                   "repair the normal map (unit vectors encoded as (n + 1) / 2)");
+              }
+            }
+          }
+      }, 8);
+      // Box filter per output size over the island texels only.
+      for (Output& o : outs) {
+        const int f = o.factor, out_rows = rows / f;
+        parallel_for(0, int64_t(out_rows) * o.size, [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) {
+            const int oy = int(t / o.size), ox = int(t % o.size);
+            double sum[4] = {0, 0, 0, 0};
+            int n = 0;
+            for (int dy = 0; dy < f; ++dy) {
+              const size_t row = size_t(oy * f + dy) * size_t(N);
+              for (int dx = 0; dx < f; ++dx) {
+                const size_t i = row + size_t(ox * f + dx);
+                if (!mask[i]) continue;
+                const float* p = &band[i * size_t(Cin)];
+                for (int c = 0; c < C; ++c) sum[c] += p[c];
+                ++n;
+              }
+            }
+            if (!n) continue;
+            const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
+            o.filled[o_i] = 1;
+            float* v = &o.value[o_i * size_t(C)];
+            for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
+            if (m.kind == Kind::Normal) {
+              const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+              o.length[o_i] = len;
+              for (int c = 0; c < 3; ++c) v[c] /= std::max(len, 1e-12f);
+            }
+          }
+        }, 256);
+      }
+      report(progress, int64_t(mi) * bands + b + 1, int64_t(maps.size()) * bands, "resizing " + m.name);
+    }
+    if (mi == 0) {
+      result.island_fraction = double(covered_total) / (double(N) * N);
+      result.overlapping_texels = overlaps.load();
+      if (result.overlapping_texels) {
+        spdlog::warn("uvtools bake: {} texels lie in two or more UV triangles (overlapping islands)", result.overlapping_texels);
+      }
+    }
+    // Toksvig: the averaged normal's length L < 1 measures the normal variance under the texel; with GGX alpha =
+    // roughness^2, alpha'^2 = alpha^2 + (1 - L) / L.
+    if (m.kind == Kind::Normal) {
+      for (Output& o : outs) normal_length[o.size] = o.length;
+    }
+    if (options.toksvig && m.name == "roughness" && !normal_length.empty()) {
+      for (Output& o : outs) {
+        const std::vector<float>& L = normal_length[o.size];
+        for (size_t i = 0; i < o.filled.size(); ++i) {
+          if (!o.filled[i]) continue;
+          const double l = std::clamp(double(L[i]), 1e-3, 1.0);
+          for (int c = 0; c < C; ++c) {
+            const double a = double(o.value[i * size_t(C) + size_t(c)]) * o.value[i * size_t(C) + size_t(c)];
+            o.value[i * size_t(C) + size_t(c)] = float(std::sqrt(std::min(1.0, std::sqrt(a * a + (1 - l) / l))));
+          }
+        }
+      }
+    }
+    // Gutters, then the files.
+    for (Output& o : outs) {
+      fill_gutter(o.value, o.filled, o.size, C, options.gutter);
+      Image img(o.size, o.size, C, m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data);
+      for (size_t i = 0; i < o.filled.size(); ++i) {
+        for (int c = 0; c < C; ++c) {
+          float v = o.value[i * size_t(C) + size_t(c)];
+          if (m.kind == Kind::Normal && c < 3) v = o.filled[i] ? 0.5f * (v + 1) : (c == 2 ? 1.f : 0.5f);
+          img.pixels[i * size_t(C) + size_t(c)] = v;
+        }
+      }
+      ImageWriteOptions w;
+      if (options.format == "exr") {
+        w.type = PixelType::Half;
+        w.compression = "zip";
+        w.tiled = true;
+      } else {
+        w.type = PixelType::UInt16;
+        if (m.kind == Kind::Colour) img = to_srgb(img);
+      }
+      w.mipmap = options.mipmap && options.format != "png";
+      write_image(out.path() + "/" + std::to_string(o.size) + "/" + m.name + "." + options.format, img, w);
+    }
+  }
+  out.commit();
+  return result;
+}
+
+}  // namespace bareskin

@@ -1,0 +1,42 @@
+// `uvtools bake`: a set of UV maps (diffuse, normal, roughness, specular; 16K and below) resized to smaller sizes in
+// one streamed pass, seam-aware and per map type:
+// - the input is read a band of rows at a time (ImageStreamReader), so memory does not grow with the input size;
+// - each output texel averages the input texels under it (box filter, an integer factor) that lie inside a UV island
+//   of the layout mesh, so texels outside the islands never bleed in; output texels with no island texel under them
+//   are then filled from their neighbours for `gutter` texels (the padding later filtering needs);
+// - diffuse is filtered in linear light (sRGB files are decoded first), normals as vectors and renormalised,
+//   roughness and specular as they are; `toksvig` lets the roughness absorb the normal variance the averaging lost.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+#include "core/progress.h"
+
+namespace bareskin {
+
+struct MapResizeOptions {
+  std::vector<int> sizes = {4096, 1024};  // each must divide the input size
+  std::string format = "exr";             // exr (half, zip, tiled), png or tif (16-bit; diffuse sRGB-encoded)
+  bool mipmap = false;                    // EXR/TIFF: write the mip chain too
+  bool toksvig = false;                   // roughness += the variance of the averaged normals
+  int gutter = 8;                         // output texels filled beyond the islands
+  void check() const;                     // InvalidInput when out of range
+};
+
+struct MapResizeReport {
+  int input_size = 0;
+  std::vector<std::string> maps;      // the map names found, in processing order
+  double island_fraction = 0;         // of input texels inside a UV island
+  int flipped_triangles = 0;          // UV triangles wound against the majority
+  int64_t overlapping_texels = 0;     // input texel centres strictly inside two or more UV triangles
+};
+
+// Reads in_dir/{diffuse,normal,roughness,specular}.{exr,tif,tiff,png} (those present; all square and the same size)
+// and writes out_dir/<size>/<map>.<format> for every size, atomically (a failure leaves no out_dir). `layout`: a mesh
+// whose UVs define the islands (the template). InvalidInput naming the file for mixed sizes, non-square maps, sizes
+// that do not divide the input, a zero normal inside an island, truncated or NaN pixels.
+MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const MapResizeOptions& options,
+                            const std::string& out_dir, const ProgressCallback& progress = {});
+
+}  // namespace bareskin
