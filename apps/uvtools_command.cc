@@ -55,6 +55,13 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
                         {"overlapping_texels", r.overlapping_texels}, {"seconds", seconds}};
     write_file_atomic(opt->output + "/bake.json", j.dump(1) + "\n");
     globals.write_resolved_config(opt->output + "/config.json");
+    if (r.flipped_triangles) {
+      spdlog::warn("uvtools bake: {}: {} UV triangles are flipped against the others", opt->layout, r.flipped_triangles);
+    }
+    if (r.overlapping_texels) {
+      spdlog::warn("uvtools bake: {}: {} texels lie in two or more UV triangles (overlapping islands)", opt->layout,
+                   r.overlapping_texels);
+    }
     spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({:.1f}% of texels in UV islands)", r.maps.size(),
                  r.input_size, opt->sizes, seconds, 100 * r.island_fraction);
   };

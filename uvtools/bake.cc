@@ -9,7 +9,6 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
-#include "core/log.h"
 #include "core/parallel.h"
 
 namespace bareskin {
@@ -198,7 +197,6 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
   const int band_rows = F * std::max(1, 128 / F);        // input rows per pass: a multiple of every factor
   const IslandRaster raster(layout, N, band_rows);
   result.flipped_triangles = raster.flipped;
-  if (raster.flipped) spdlog::warn("uvtools bake: {} UV triangles are flipped against the others", raster.flipped);
 
   // Normal before roughness, so that Toksvig can use the normals' lengths.
   std::stable_sort(maps.begin(), maps.end(), [](const MapFile& a, const MapFile& b) {
@@ -289,9 +287,6 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
     if (mi == 0) {
       result.island_fraction = double(covered_total) / (double(N) * N);
       result.overlapping_texels = overlaps.load();
-      if (result.overlapping_texels) {
-        spdlog::warn("uvtools bake: {} texels lie in two or more UV triangles (overlapping islands)", result.overlapping_texels);
-      }
     }
     // Toksvig: the averaged normal's length L < 1 measures the normal variance under the texel; with GGX alpha =
     // roughness^2, alpha'^2 = alpha^2 + (1 - L) / L.

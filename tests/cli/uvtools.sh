@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# uvtools bake through the command line: truth maps in the template UV (`scan synth --truth-res`) resized to two sizes,
+# checked by the numpy + oiiotool oracle (tests/python/bake_oracle.py) in PNG and EXR (tiled half with mip levels);
+# --toksvig raises roughness where normals vary; bad input (mixed sizes, non-square, a size that does not divide, a
+# zero normal, a truncated EXR, a size that is not a number) gets one line, exit 3, and no output folder.
+set -u
+bin=$1
+here=$(cd "$(dirname "$0")" && pwd)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+py=/usr/bin/python3
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+"$bin" scan synth -q --template "$work/t" --count 1 --vertices 8000 --res 0 --truth-res 256 -o "$work/s" || fail "synth"
+maps=$work/s/subject_0000/truth/maps
+bake() { "$bin" uvtools bake -q --layout "$work/t/face.obj" "$@"; }
+
+bake "$maps" -o "$work/png" --sizes 128,64 --format png || fail "bake png"
+$py "$here/../python/bake_oracle.py" "$work/t/face.obj" "$maps" "$work/png" 128 64 || fail "oracle png"
+bake "$maps" -o "$work/exr" --sizes 128,64 --format exr --mipmap || fail "bake exr"
+oiiotool --info -v "$work/exr/128/diffuse.exr" | grep -q "MIP-map levels: 128x128 64x64" || fail "exr mip levels"
+oiiotool --info "$work/exr/128/normal.exr" | grep -q "half" || fail "exr half"
+$py "$here/../python/bake_oracle.py" "$work/t/face.obj" "$maps" "$work/exr" 128 64 || fail "oracle exr"
+bake "$maps" -o "$work/tok" --sizes 64 --format exr --toksvig || fail "bake toksvig"
+$py - "$here/../python" "$work/t/face.obj" "$maps" "$work/exr/64/roughness.exr" "$work/tok/64/roughness.exr" <<'PY' \
+  || fail "toksvig"
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import island_mask, read
+# r' = sqrt(sqrt(r^4 + (1 - L) / L)) with L the length of the island-averaged normal (GGX alpha = r^2).
+n = 2 * read(sys.argv[3] + "/normal.png")[..., :3] - 1
+N, s = n.shape[0], 64
+mask = island_mask(sys.argv[2], N)
+w = mask.reshape(s, N // s, s, N // s).sum((1, 3))
+L = np.linalg.norm((n * mask[..., None]).reshape(s, N // s, s, N // s, 3).sum((1, 3)), axis=2) / np.maximum(w, 1)
+r, got = read(sys.argv[4])[..., 0], read(sys.argv[5])[..., 0]
+L = np.clip(L, 1e-3, 1)
+want = np.sqrt(np.minimum(1, np.sqrt(r ** 4 + (1 - L) / L)))
+err = np.abs(want - got)[w > 0].max()
+assert err < 2e-3, f"Toksvig roughness off by {err}"
+assert (got >= r - 1e-3)[w > 0].all(), "Toksvig lowered roughness"
+print(f"ok   toksvig: max |ours - formula| {err:.1e}, roughness raised on {(got > r + 1e-4)[w > 0].mean():.1%} of texels")
+PY
+
+expect_error() {  # expect_error NAME NEEDLE bake-args...
+  local name=$1 needle=$2
+  shift 2
+  bake "$@" -o "$work/out_$name" 2> "$work/err"
+  local code=$?
+  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
+    && [ ! -e "$work/out_$name" ] || fail "$name: exit $code: $(cat "$work/err")"
+}
+broken() { cp -r "$maps" "$work/b_$1" && echo "$work/b_$1"; }
+d=$(broken mixed)
+oiiotool "$d/roughness.png" --resize 128x128 -o "$d/roughness.png"
+expect_error mixed "roughness.png: is 128 wide" "$d" --sizes 64
+d=$(broken square)
+oiiotool "$d/diffuse.png" --resize 256x128 -o "$d/diffuse.png"
+expect_error square "not square" "$d" --sizes 64
+expect_error divide "100 does not divide" "$maps" --sizes 100
+d=$(broken zero)
+oiiotool "$d/normal.png" --mulc 0 --addc 0.5 -o "$d/normal.png"
+expect_error zero "zero normal vector" "$d" --sizes 64
+mkdir -p "$work/b_trunc"
+oiiotool "$maps/diffuse.png" -d half -o "$work/full.exr"
+head -c $(( $(stat -c %s "$work/full.exr") / 2 )) "$work/full.exr" > "$work/b_trunc/diffuse.exr"
+expect_error trunc "diffuse.exr" "$work/b_trunc" --sizes 64
+expect_error sizes "not a whole number" "$maps" --sizes 64,abc
+echo "10 passed, 0 failed"
