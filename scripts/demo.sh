@@ -155,6 +155,22 @@ print(f"{b['subjects']} subjects; {c['shape']} identity, {c['expression']} expre
 PY3
 )
 
+# 5. uvtools bake: the first subject's transferred 1K maps to 512 and 256, seam-aware ---------------------------------
+if [ ! -f "$out/baked/bake.json" ]; then
+  stage "baking maps to 512 and 256"
+  timed "uvtools bake" "$bareskin" uvtools bake "$out/registered/subject_0000" -o "$out/baked" --sizes 512,256 \
+      --format png --layout "$out/template/face.obj"
+fi
+reg0="$out/registered/subject_0000"
+if [ ! -f "$out/img/bake_ours.png" ]; then
+  oiiotool "$reg0/diffuse.png" --cut 128x128+448+896 --resample 256x256 -o "$out/img/bake_input.png"
+  oiiotool "$reg0/diffuse.png" --colorconvert sRGB linear --resize:filter=box 256x256 --colorconvert linear sRGB \
+      --cut 32x32+112+224 --resample 256x256 -o "$out/img/bake_naive.png"
+  oiiotool "$out/baked/256/diffuse.png" --cut 32x32+112+224 --resample 256x256 -o "$out/img/bake_ours.png"
+  oiiotool "$out/baked/256/normal.png" --resize 512x512 -o "$out/img/bake_normal.png"
+fi
+bake_summary=$(/usr/bin/python3 -c "import json,sys; b=json.load(open(sys.argv[1])); print(f\"{len(b['maps'])} maps {b['input_size']}² → {', '.join(str(s) for s in b['sizes'])} in {b['seconds']:.1f} s; {100 * b['island_fraction']:.1f}% of texels in UV islands; {b['flipped_uv_triangles']} flipped UV triangles in the template\")" "$out/baked/bake.json")
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -247,6 +263,16 @@ $appearance
 <figure><img src="model/model_metrics/generalization.svg" style="width:340px"><figcaption>generalisation (leave-one-out)</figcaption></figure>
 <figure><img src="model/model_metrics/specificity.svg" style="width:340px"><figcaption>specificity</figcaption></figure>
 <figure><img src="model/model_metrics/generalization_regions.svg" style="width:340px"><figcaption>generalisation per face region</figcaption></figure>
+
+<h2>5. Maps resized for training (uvtools bake)</h2>
+<p><code>bareskin uvtools bake registered/subject_0000 --sizes 512,256</code> reads each map a band of rows at a time and
+writes every size from one read: each output texel averages the input texels under it that lie in a UV island of the
+template (diffuse in linear light, normals as vectors then renormalised), then gutters are filled outward from the
+islands. $bake_summary. A crop at the chin's rim, 256² output shown ×8:</p>
+<figure><img src="img/bake_input.png" style="width:220px"><figcaption>input (1K)</figcaption></figure>
+<figure><img src="img/bake_naive.png" style="width:220px"><figcaption>plain box resize: black bleeds into the rim</figcaption></figure>
+<figure><img src="img/bake_ours.png" style="width:220px"><figcaption>uvtools bake: islands only, gutter filled</figcaption></figure>
+<figure><img src="img/bake_normal.png" style="width:220px"><figcaption>baked normal map (256²)</figcaption></figure>
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>

@@ -309,14 +309,19 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
     // Gutters, then the files.
     for (Output& o : outs) {
       fill_gutter(o.value, o.filled, o.size, C, options.gutter);
-      Image img(o.size, o.size, C, m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data);
-      for (size_t i = 0; i < o.filled.size(); ++i) {
-        for (int c = 0; c < C; ++c) {
-          float v = o.value[i * size_t(C) + size_t(c)];
-          if (m.kind == Kind::Normal && c < 3) v = o.filled[i] ? 0.5f * (v + 1) : (c == 2 ? 1.f : 0.5f);
-          img.pixels[i * size_t(C) + size_t(c)] = v;
-        }
+      if (m.kind == Kind::Normal) {  // encode (n + 1) / 2; beyond the gutter, +z
+        for (size_t i = 0; i < o.filled.size(); ++i)
+          for (int c = 0; c < 3; ++c) {
+            float& v = o.value[i * size_t(C) + size_t(c)];
+            v = o.filled[i] ? 0.5f * (v + 1) : (c == 2 ? 1.f : 0.5f);
+          }
       }
+      Image img;  // takes the values over: no second copy of a 4K map
+      img.width = img.height = o.size;
+      img.channels = C;
+      img.color_space = m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data;
+      img.pixels = std::move(o.value);
+      std::vector<uint8_t>().swap(o.filled);
       ImageWriteOptions w;
       if (options.format == "exr") {
         w.type = PixelType::Half;
