@@ -1,5 +1,8 @@
-// bareskin render: pictures of a mesh (shaded + wireframe + landmarks from front/left/right, or its UV layout).
+// bareskin render: pictures of a mesh. Previews (shaded + wireframe + landmarks from front/left/right, or its UV
+// layout), or with --camera the renderer proper: a pinhole or weak-perspective camera, SH lighting, and the passes
+// colour, albedo, depth, normal and mask from one rasterization.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -11,8 +14,40 @@
 #include "core/mesh_io.h"
 #include "core/safetensors.h"
 #include "render/preview.h"
+#include "render/sh.h"
+#include "render/shade.h"
 
 namespace bareskin::cli {
+
+namespace {
+
+std::string expand(std::string pattern, const std::string& key, const std::string& value) {
+  for (size_t at; (at = pattern.find(key)) != std::string::npos;) pattern.replace(at, key.size(), value);
+  return pattern;
+}
+
+// The 27 SH coefficients from --sh.
+std::array<double, 27> lighting(const std::string& sh) {
+  if (sh == "default") return default_lighting();
+  std::array<double, 27> g{};
+  if (sh == "none") {
+    for (int c = 0; c < 3; ++c) g[size_t(9 * c)] = kDeep3dAmbient;
+    return g;
+  }
+  const auto doc = nlohmann::json::parse(read_file(sh), nullptr, false);
+  if (doc.is_discarded() || !doc.is_array() || doc.size() != 27) {
+    throw InvalidInput(sh, "is not a JSON list of 27 numbers", "give 9 SH coefficients per RGB channel, channel-major");
+  }
+  for (size_t k = 0; k < 27; ++k) {
+    if (!doc[k].is_number() || !std::isfinite(doc[k].get<double>())) {
+      throw InvalidInput(sh, "coefficient " + std::to_string(k) + " is not a finite number", "");
+    }
+    g[k] = doc[k].get<double>();
+  }
+  return g;
+}
+
+}  // namespace
 
 std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   struct Options {
@@ -21,6 +56,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     std::string view = "front";
     PreviewOptions preview;
     bool no_wireframe = false, no_shading = false;
+    std::string camera, sh = "default";
+    std::vector<std::string> views, passes = {"colour"};
+    bool cull = false;
   };
   auto opt = std::make_shared<Options>();
   app.add_option("mesh", opt->mesh, "Mesh to draw (.obj or .ply)")->required()->check(CLI::ExistingFile);
@@ -37,6 +75,18 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       ->check(CLI::ExistingFile);
   app.add_flag("--no-wireframe", opt->no_wireframe, "Shading only");
   app.add_flag("--no-shading", opt->no_shading, "Wireframe only");
+  app.add_option("--camera", opt->camera, "Render with a camera instead of a preview: pinhole (Deep3DFaceRecon's, 1 m "
+                                          "away) or weak")
+      ->check(CLI::IsMember({"pinhole", "weak"}))->group("Camera");
+  app.add_option("--views", opt->views, "With --camera: views to render (front,left,right); -o takes {view}")
+      ->delimiter(',')->check(CLI::IsMember({"front", "left", "right"}))->group("Camera");
+  app.add_option("--passes", opt->passes, "With --camera: colour, albedo, depth, normal, mask; -o takes {pass}")
+      ->delimiter(',')->check(CLI::IsMember({"colour", "albedo", "depth", "normal", "mask"}))
+      ->capture_default_str()->group("Camera");
+  app.add_option("--sh", opt->sh, "With --camera: 'default' (Deep3DFaceRecon ambient + a soft key light), 'none' "
+                                  "(ambient only) or a JSON file with 27 coefficients (RGB, 9 each)")
+      ->capture_default_str()->group("Camera");
+  app.add_flag("--cull", opt->cull, "With --camera: drop back faces")->group("Camera");
   return [opt] {
     Mesh mesh = read_mesh(opt->mesh);
     if (!opt->expression.empty() && opt->blendshapes.empty()) {
@@ -68,6 +118,52 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
           for (int c = 0; c < 3; ++c) mesh.V(Eigen::Index(i), c) += weight * d[(k * n + i) * 3 + size_t(c)];
       }
       mesh.N.resize(0, 3);  // recomputed for the posed shape
+    }
+    if (!opt->camera.empty()) {
+      const std::vector<std::string> views = opt->views.empty() ? std::vector<std::string>{opt->view} : opt->views;
+      if ((views.size() > 1 && opt->output.find("{view}") == std::string::npos) ||
+          (opt->passes.size() > 1 && opt->output.find("{pass}") == std::string::npos)) {
+        throw InvalidInput("", "several views or passes need {view} / {pass} in -o", "e.g. -o out/face_{view}_{pass}.png");
+      }
+      ShadeOptions shade;
+      shade.gamma = lighting(opt->sh);
+      shade.cull_back_faces = opt->cull;
+      Image texture;
+      if (!opt->texture.empty()) {
+        texture = read_image(opt->texture);
+        if (texture.color_space == ColorSpace::sRGB) texture = to_linear(texture);
+        shade.texture = &texture;
+      }
+      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      const double extent = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff();
+      for (const std::string& view : views) {
+        if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
+        Camera cam = view_camera(view, opt->preview.size, centre);
+        if (opt->camera == "weak") {
+          cam.model = Camera::Model::WeakPerspective;
+          cam.scale = 0.8 * opt->preview.size / std::max(extent, 1e-9);
+        }
+        const Frame frame = render_frame(mesh, cam, shade);
+        if (frame.dropped_behind) spdlog::warn("render: {} triangles behind the camera were dropped", frame.dropped_behind);
+        for (const std::string& pass : opt->passes) {
+          const std::string path = expand(expand(opt->output, "{view}", view), "{pass}", pass);
+          const bool exr = path.size() > 4 && path.substr(path.size() - 4) == ".exr";
+          Image img = pass == "colour" ? frame.colour : pass == "albedo" ? frame.albedo : pass == "normal" ? frame.normal
+                                                                                      : pass == "mask" ? frame.mask : frame.depth;
+          if (pass == "depth" && !exr) {  // nearer brighter, over the covered range
+            float lo = 1e30f, hi = -1e30f;
+            for (size_t i = 0; i < img.pixels.size(); ++i)
+              if (frame.mask.pixels[i] > 0) lo = std::min(lo, img.pixels[i]), hi = std::max(hi, img.pixels[i]);
+            for (size_t i = 0; i < img.pixels.size(); ++i)
+              img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
+          }
+          if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
+          ImageWriteOptions w;
+          if (!exr && (pass == "depth" || pass == "normal")) w.type = PixelType::UInt16;
+          write_image(path, img, w);
+        }
+      }
+      return;
     }
     opt->preview.view = parse_preview_view(opt->view);
     opt->preview.wireframe = !opt->no_wireframe;

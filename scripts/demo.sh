@@ -171,6 +171,20 @@ if [ ! -f "$out/img/bake_ours.png" ]; then
 fi
 bake_summary=$(/usr/bin/python3 -c "import json,sys; b=json.load(open(sys.argv[1])); print(f\"{len(b['maps'])} maps {b['input_size']}² → {', '.join(str(s) for s in b['sizes'])} in {b['seconds']:.1f} s; {100 * b['island_fraction']:.1f}% of texels in UV islands; {b['flipped_uv_triangles']} flipped UV triangles in the template\")" "$out/baked/bake.json")
 
+# 6. Renderer: every scan from three views, with and without light (one rasterization per view) ----------------------
+renders=""
+for dir in "$out"/scans/subject_*/; do
+  id=$(basename "$dir")
+  [ -f "$out/img/render_${id}_right_colour.png" ] || "$bareskin" render "$dir/mesh.obj" --texture "$dir/diffuse.png" \
+      --camera pinhole --views front,left,right --passes colour,albedo --size 224 -o "$out/img/render_${id}_{view}_{pass}.png"
+  cells=""
+  for v in front left right; do cells+="<img src=\"img/render_${id}_${v}_colour.png\" style=\"width:112px;border:0\">"; done
+  cells+="<img src=\"img/render_${id}_front_albedo.png\" style=\"width:112px;border:0\">"
+  renders+="<figure>$cells<figcaption>$id: lit front / left / right · albedo</figcaption></figure>"
+done
+[ -f "$out/img/render_passes_depth.png" ] || "$bareskin" render "$out/scans/subject_0000/mesh.obj" --camera pinhole \
+    --passes depth,normal,mask --size 224 -o "$out/img/render_passes_{pass}.png"
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -273,6 +287,14 @@ islands. $bake_summary. A crop at the chin's rim, 256² output shown ×8:</p>
 <figure><img src="img/bake_naive.png" style="width:220px"><figcaption>plain box resize: black bleeds into the rim</figcaption></figure>
 <figure><img src="img/bake_ours.png" style="width:220px"><figcaption>uvtools bake: islands only, gutter filled</figcaption></figure>
 <figure><img src="img/bake_normal.png" style="width:220px"><figcaption>baked normal map (256²)</figcaption></figure>
+
+<h2>6. Renderer</h2>
+<p><code>bareskin render mesh.obj --texture diffuse.png --camera pinhole --views front,left,right --passes colour,albedo</code>:
+Deep3DFaceRecon's camera (focal 1015 px at 224², 1 m away), the tiled CPU rasterizer (perspective-correct barycentrics,
+depth test), and order-2 SH lighting with Deep3DFaceRecon's basis (ambient 0.8 plus a soft key light); the albedo pass
+comes from the same rasterization. 224² here.</p>
+$renders
+<figure><img src="img/render_passes_depth.png" style="width:160px"><img src="img/render_passes_normal.png" style="width:160px"><img src="img/render_passes_mask.png" style="width:160px"><figcaption>depth, camera-frame normals, mask</figcaption></figure>
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>

@@ -1,0 +1,75 @@
+#include "render/shade.h"
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "render/rasterize.h"
+#include "render/sh.h"
+
+namespace bareskin {
+
+std::array<double, 27> default_lighting() {
+  std::array<double, 27> g{};
+  for (int c = 0; c < 3; ++c) {
+    g[size_t(9 * c)] = kDeep3dAmbient;
+    g[size_t(9 * c + 1)] = -0.12;  // basis 1 is -y: light from above
+    g[size_t(9 * c + 2)] = 0.2;    // basis 2 is z: light from the camera's side
+  }
+  return g;
+}
+
+Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& options) {
+  if (mesh.V.rows() == 0 || mesh.F.rows() == 0) throw InvalidInput("", "the mesh is empty", "give a mesh with triangles");
+  if (!mesh.V.allFinite()) throw InvalidInput("", "the mesh has NaN or infinite vertices", "repair the mesh");
+  if (options.texture && !mesh.has_uv()) throw InvalidInput("", "a texture needs a mesh with UVs", "");
+  std::vector<float> z;
+  const std::vector<float> xyw = project_vertices(mesh.V, camera, z);
+  const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F;
+  RasterInput in;
+  in.xyw = xyw.data();
+  in.z = z.empty() ? nullptr : z.data();
+  in.triangles = F.data();
+  in.vertex_count = mesh.V.rows();
+  in.triangle_count = mesh.F.rows();
+  in.width = camera.width;
+  in.height = camera.height;
+  in.cull_back_faces = options.cull_back_faces;
+  const RasterOutput r = rasterize(in);
+
+  const Eigen::MatrixX3d N = mesh.has_normals() ? mesh.N : vertex_normals(mesh.V, mesh.F);
+  const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> Nc = (N * camera.R.transpose()).cast<float>();
+  const std::vector<float> normal = interpolate(r, F.data(), Nc.data(), 3);
+  std::vector<float> uv;
+  if (options.texture) {
+    const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> FUV = mesh.FUV;
+    const Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> UV = mesh.UV.cast<float>();
+    uv = interpolate(r, FUV.data(), UV.data(), 2);
+  }
+  const int W = camera.width, H = camera.height;
+  Frame out;
+  out.colour = Image(W, H, 3, ColorSpace::Linear);
+  out.albedo = Image(W, H, 3, ColorSpace::Linear);
+  out.depth = Image(W, H, 1, ColorSpace::Data);
+  out.normal = Image(W, H, 3, ColorSpace::Data);
+  out.mask = Image(W, H, 1, ColorSpace::Data);
+  out.dropped_behind = r.dropped_behind;
+  parallel_for(0, int64_t(W) * H, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      if (r.triangle[size_t(i)] < 0) continue;
+      const Eigen::Vector3d n = Eigen::Vector3d(normal[3 * size_t(i)], normal[3 * size_t(i) + 1], normal[3 * size_t(i) + 2]).normalized();
+      const Eigen::Vector3f a = options.texture
+                                    ? sample_bilinear(*options.texture, {uv[2 * size_t(i)], uv[2 * size_t(i) + 1]})
+                                    : options.albedo;
+      const Eigen::Vector3d e = sh_irradiance(n, options.gamma.data());
+      for (int c = 0; c < 3; ++c) {
+        out.albedo.pixels[3 * size_t(i) + size_t(c)] = a[c];
+        out.colour.pixels[3 * size_t(i) + size_t(c)] = float(a[c] * e[c]);
+        out.normal.pixels[3 * size_t(i) + size_t(c)] = float(0.5 * (n[c] + 1));
+      }
+      out.depth.pixels[size_t(i)] = r.depth[size_t(i)];
+      out.mask.pixels[size_t(i)] = 1;
+    }
+  }, 4096);
+  return out;
+}
+
+}  // namespace bareskin

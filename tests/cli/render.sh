@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# render --camera through the command line: three views x four passes from one call, the mask agrees with the
+# colour's background, a weak-perspective camera and an SH file work; bad input (several views without {view}, an SH
+# file without 27 numbers, a NaN vertex) gets one line and exit 3, and no image.
+set -u
+bin=$1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+mesh=$work/t/face.obj
+"$bin" render -q "$mesh" --camera pinhole --views front,left,right --passes colour,albedo,depth,mask --size 96 \
+  -o "$work/r_{view}_{pass}.png" || fail "render"
+for v in front left right; do
+  for p in colour albedo depth mask; do [ -f "$work/r_${v}_${p}.png" ] || fail "missing ${v}_${p}"; done
+done
+/usr/bin/python3 - "$work" <<'PY' || fail "mask vs colour"
+import subprocess, sys, tempfile
+import numpy as np
+from skimage import io
+def read(p):
+    with tempfile.TemporaryDirectory() as d:
+        subprocess.run(["oiiotool", p, "-d", "float", "--compression", "none", "-o", d + "/x.tif"], check=True)
+        return io.imread(d + "/x.tif")
+for v in ("front", "left", "right"):
+    c, m = read(f"{sys.argv[1]}/r_{v}_colour.png"), read(f"{sys.argv[1]}/r_{v}_mask.png")
+    m = m if m.ndim == 2 else m[..., 0]
+    assert 0.15 < (m > 0.5).mean() < 0.9, (v, (m > 0.5).mean())
+    assert (c[m < 0.5] == 0).all() and (c[m > 0.5].max(axis=-1) > 0).mean() > 0.99, v
+PY
+echo '[0.8,0,0,0,0,0,0,0,0, 0.8,0,0,0,0,0,0,0,0, 0.8,0,0,0,0,0,0,0,0]' > "$work/sh.json"
+"$bin" render -q "$mesh" --camera weak --sh "$work/sh.json" --size 64 -o "$work/weak.png" || fail "weak + sh file"
+expect_error() {  # expect_error NAME NEEDLE render-args...
+  local name=$1 needle=$2
+  shift 2
+  "$bin" render -q "$@" -o "$work/bad_$name.png" 2> "$work/err"
+  local code=$?
+  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
+    && [ ! -e "$work/bad_$name.png" ] || fail "$name: exit $code: $(cat "$work/err")"
+}
+expect_error views "{view}" "$mesh" --camera pinhole --views front,left
+echo '[1, 2, 3]' > "$work/short.json"
+expect_error sh "27 numbers" "$mesh" --camera pinhole --sh "$work/short.json"
+sed '0,/^v /s/^v [^ ]*/v nan/' "$mesh" > "$work/nan.obj"
+expect_error nan "nan.obj" "$work/nan.obj" --camera pinhole
+echo "6 passed, 0 failed"
