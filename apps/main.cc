@@ -19,7 +19,7 @@ const std::vector<Command>& commands() {
        setup_mm_build_command},
       {"mm-eval", "Model", "Model metrics: compactness, generalisation, specificity (CSV, JSON, SVG charts)",
        setup_mm_eval_command},
-      {"uvtools", "Maps", "UV-space tools: bake (resize 16K map sets to 4K/1K out of core, seam-aware)",
+      {"uvtools", "Maps", "UV-space tools: bake (16K map sets to 4K/1K, seam-aware), unwarp (image into UV, visibility)",
        setup_uvtools_command},
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},

@@ -1,6 +1,8 @@
 // bareskin uvtools: UV-space tools. `bake`: a set of maps (up to 16K) resized to smaller sizes in one streamed,
-// seam-aware pass (uvtools/bake.h).
+// seam-aware pass (uvtools/bake.h). `unwarp`: an image into the mesh's UV through a camera, with visibility
+// (uvtools/unwarp.h).
 #include <chrono>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -9,9 +11,13 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
+#include "core/image_io.h"
 #include "uvtools/bake.h"
+#include "uvtools/unwarp.h"
 
 namespace bareskin::cli {
+
+namespace fs = std::filesystem;
 
 std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
   struct Options {
@@ -30,7 +36,51 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   bake->add_flag("--mipmap", opt->resize.mipmap, "EXR/TIFF: also write the mip chain");
   bake->add_flag("--toksvig", opt->resize.toksvig, "Roughness absorbs the variance of the averaged normals");
   bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
-  return [opt, &globals] {
+  struct UnwarpArgs {
+    std::string image, mesh, output, view = "front", camera = "pinhole";
+    UnwarpOptions unwarp;
+  };
+  auto un = std::make_shared<UnwarpArgs>();
+  CLI::App* unwarp_app = app.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
+  unwarp_app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
+  unwarp_app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image")->required();
+  unwarp_app->add_option("-o,--output", un->output, "UV map, RGB (.exr linear, .png/.tif sRGB 16-bit); the confidence "
+                                                    "(cos of the view angle, 0 = unseen) goes beside it as <name>_confidence")
+      ->required();
+  unwarp_app->add_option("--view", un->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+      ->check(CLI::IsMember({"front", "left", "right"}));
+  unwarp_app->add_option("--camera", un->camera, "pinhole or weak, as 'render --camera'")->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "weak"}));
+  unwarp_app->add_option("--size", un->unwarp.size, "UV map size")->capture_default_str();
+  unwarp_app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
+      ->capture_default_str();
+  return [opt, un, unwarp_app, &globals] {
+    if (unwarp_app->parsed()) {
+      const Image image = read_image(un->image);
+      const Mesh mesh = read_mesh(un->mesh);
+      // The camera of 'render --camera' for this mesh and image size.
+      if (image.width != image.height) {
+        throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
+      }
+      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      Camera cam = view_camera(un->view, image.width, centre);
+      if (un->camera == "weak") {
+        cam.model = Camera::Model::WeakPerspective;
+        cam.scale = 0.8 * image.width / std::max((mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff(), 1e-9);
+      }
+      const UnwarpResult r = unwarp(image, mesh, cam, un->unwarp);
+      const fs::path out_path(un->output);
+      const bool exr = out_path.extension() == ".exr";
+      ImageWriteOptions w;
+      if (!exr) w.type = PixelType::UInt16;
+      const std::string confidence_path =
+          (out_path.parent_path() / (out_path.stem().string() + "_confidence" + out_path.extension().string())).string();
+      write_image(un->output, exr ? r.colour : to_srgb(r.colour), w);
+      write_image(confidence_path, r.confidence, w);
+      spdlog::info("uvtools unwarp: {} of {} texels of the UV layout seen ({:.1f}%) -> {}", r.seen, r.in_layout,
+                   100.0 * double(r.seen) / double(std::max<int64_t>(r.in_layout, 1)), un->output);
+      return;
+    }
     opt->resize.sizes.clear();
     std::stringstream list(opt->sizes);
     for (std::string item; std::getline(list, item, ',');) {

@@ -43,6 +43,25 @@ assert (got >= r - 1e-3)[w > 0].all(), "Toksvig lowered roughness"
 print(f"ok   toksvig: max |ours - formula| {err:.1e}, roughness raised on {(got > r + 1e-4)[w > 0].mean():.1%} of texels")
 PY
 
+# unwarp: a render of the template with the truth diffuse, unwarped back, reproduces the map where seen.
+"$bin" render -q "$work/t/face.obj" --texture "$maps/diffuse.png" --camera pinhole --passes albedo --size 512 \
+  -o "$work/render.png" || fail "render"
+"$bin" uvtools unwarp -q "$work/render.png" --mesh "$work/t/face.obj" --size 256 -o "$work/uv.png" || fail "unwarp"
+$py - "$here/../python" "$work/uv.png" "$work/uv_confidence.png" "$maps/diffuse.png" <<'PY' || fail "unwarp round trip"
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import read
+u, c, t = read(sys.argv[2])[..., :3], read(sys.argv[3])[..., 0], read(sys.argv[4])[..., :3]
+seen = c > 0.5
+psnr = 10 * np.log10(1 / ((u - t)[seen] ** 2).mean())
+assert seen.mean() > 0.3 and psnr > 35, (seen.mean(), psnr)
+print(f"ok   unwarp round trip: PSNR {psnr:.1f} dB over {seen.sum()} texels seen at confidence > 0.5")
+PY
+oiiotool "$work/render.png" --resize 512x256 -o "$work/wide.png"
+"$bin" uvtools unwarp -q "$work/wide.png" --mesh "$work/t/face.obj" -o "$work/bad_uv.png" 2> "$work/err"
+[ $? -eq 3 ] && grep -q "not square" "$work/err" && [ ! -e "$work/bad_uv.png" ] || fail "unwarp non-square: $(cat "$work/err")"
+
 expect_error() {  # expect_error NAME NEEDLE bake-args...
   local name=$1 needle=$2
   shift 2
@@ -67,4 +86,4 @@ oiiotool "$maps/diffuse.png" -d half -o "$work/full.exr"
 head -c $(( $(stat -c %s "$work/full.exr") / 2 )) "$work/full.exr" > "$work/b_trunc/diffuse.exr"
 expect_error trunc "diffuse.exr" "$work/b_trunc" --sizes 64
 expect_error sizes "not a whole number" "$maps" --sizes 64,abc
-echo "10 passed, 0 failed"
+echo "12 passed, 0 failed"

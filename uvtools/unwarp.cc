@@ -1,0 +1,79 @@
+#include "uvtools/unwarp.h"
+
+#include <atomic>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "render/rasterize.h"
+
+namespace bareskin {
+
+UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, const UnwarpOptions& options) {
+  if (!mesh.has_uv()) throw InvalidInput("", "the mesh has no UVs to unwarp into", "give a mesh with UVs");
+  if (image.width != camera.width || image.height != camera.height) {
+    throw InvalidInput("", "the image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                               ", the camera " + std::to_string(camera.width) + "x" + std::to_string(camera.height),
+                       "give the image the camera was fitted to");
+  }
+  if (options.size < 1 || options.size > 16384) throw InvalidInput("", "--size must lie in [1, 16384]", "");
+  const Image lin = image.color_space == ColorSpace::sRGB ? to_linear(image) : image;
+
+  // The depth buffer seen from the camera.
+  std::vector<float> z;
+  const std::vector<float> xyw = project_vertices(mesh.V, camera, z);
+  const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F;
+  RasterInput in;
+  in.xyw = xyw.data();
+  in.z = z.empty() ? nullptr : z.data();
+  in.triangles = F.data();
+  in.vertex_count = mesh.V.rows();
+  in.triangle_count = mesh.F.rows();
+  in.width = camera.width;
+  in.height = camera.height;
+  const RasterOutput view = rasterize(in);
+
+  const RasterOutput uv = rasterize_uv(mesh, options.size);
+  const Eigen::MatrixX3d N = vertex_normals(mesh.V, mesh.F);
+  const Eigen::Vector3d centre = -camera.R.transpose() * camera.t;           // pinhole: the camera's position
+  const Eigen::Vector3d toward = camera.R.transpose() * Eigen::Vector3d::UnitZ();  // weak perspective: its direction
+  const bool pinhole = camera.model == Camera::Model::Pinhole;
+
+  UnwarpResult out;
+  const int S = options.size;
+  out.colour = Image(S, S, 3, ColorSpace::Linear);
+  out.confidence = Image(S, S, 1, ColorSpace::Data);
+  std::atomic<int64_t> seen{0}, in_layout{0};
+  parallel_for(0, int64_t(S) * S, [&](int64_t b, int64_t e) {
+    int64_t s = 0, l = 0;
+    for (int64_t i = b; i < e; ++i) {
+      const int32_t f = uv.triangle[size_t(i)];
+      if (f < 0) continue;
+      ++l;
+      const double w[3] = {1.0 - uv.bary[2 * size_t(i)] - uv.bary[2 * size_t(i) + 1], uv.bary[2 * size_t(i)],
+                           uv.bary[2 * size_t(i) + 1]};
+      Eigen::Vector3d P = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) {
+        P += w[k] * mesh.V.row(mesh.F(f, k)).transpose();
+        n += w[k] * N.row(mesh.F(f, k)).transpose();
+      }
+      const Eigen::Vector3d p = camera.project(P);
+      if (!(p.x() >= 0 && p.x() < camera.width && p.y() >= 0 && p.y() < camera.height)) continue;
+      const size_t pixel = size_t(int(p.y())) * size_t(camera.width) + size_t(int(p.x()));
+      if (!(std::abs(p.z() - view.depth[pixel]) <= options.depth_tolerance)) continue;  // occluded (or background)
+      const double cosine = n.normalized().dot(pinhole ? (centre - P).normalized() : toward);
+      if (cosine <= 0) continue;
+      const Eigen::Vector3f c = sample_bilinear(lin, {p.x() / camera.width, 1 - p.y() / camera.height});
+      for (int k = 0; k < 3; ++k) out.colour.pixels[3 * size_t(i) + size_t(k)] = c[k];
+      out.confidence.pixels[size_t(i)] = float(cosine);
+      ++s;
+    }
+    seen += s;
+    in_layout += l;
+  }, 4096);
+  out.seen = seen;
+  out.in_layout = in_layout;
+  return out;
+}
+
+}  // namespace bareskin

@@ -1,0 +1,73 @@
+// unwarp against the renderer: a textured template rendered from the front (albedo pass) and unwarped back into UV
+// reproduces the texture where it is seen; a profile view sees less of the face and nothing facing away.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "core/error.h"
+#include "render/rasterize.h"
+#include "render/shade.h"
+#include "scan/test_template.h"
+#include "uvtools/unwarp.h"
+
+namespace bareskin {
+namespace {
+
+Image pattern(int size) {
+  Image t(size, size, 3, ColorSpace::Linear);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double u = (x + 0.5) / size, v = (y + 0.5) / size;
+      t.at(x, y, 0) = float(0.5 + 0.3 * std::sin(12 * u) * std::cos(9 * v));
+      t.at(x, y, 1) = float(0.4 + 0.25 * std::cos(15 * v + 2 * u));
+      t.at(x, y, 2) = float(0.3 + 0.2 * std::sin(10 * (u + v)));
+    }
+  return t;
+}
+
+TEST(Unwarp, RoundTripReproducesTheSeenTexels) {
+  const Mesh& mesh = testing::test_template().mesh;
+  const Image texture = pattern(256);
+  const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+  ShadeOptions shade;
+  shade.texture = &texture;
+  const Camera front = view_camera("front", 1024, centre);
+  const Frame frame = render_frame(mesh, front, shade);
+  UnwarpOptions options;
+  options.size = 256;
+  const UnwarpResult r = unwarp(frame.albedo, mesh, front, options);
+  ASSERT_GT(r.in_layout, 10000);
+  EXPECT_GT(double(r.seen) / double(r.in_layout), 0.6);
+  double se = 0;
+  int64_t n = 0;
+  for (size_t i = 0; i < r.confidence.pixels.size(); ++i) {
+    if (r.confidence.pixels[i] < 0.5) continue;
+    for (int c = 0; c < 3; ++c) se += std::pow(double(r.colour.pixels[3 * i + size_t(c)]) - texture.pixels[3 * i + size_t(c)], 2);
+    n += 3;
+  }
+  ASSERT_GT(n, 30000);
+  const double psnr = 10 * std::log10(1 / (se / double(n)));
+  EXPECT_GT(psnr, 35) << "round trip at 256 through a 1024 render";
+  std::cout << "round trip: PSNR " << psnr << " dB over " << n / 3 << " texels (confidence >= 0.5), seen "
+            << r.seen << " of " << r.in_layout << "\n";
+
+  const UnwarpResult left = unwarp(render_frame(mesh, view_camera("left", 1024, centre), shade).albedo, mesh,
+                                   view_camera("left", 1024, centre), options);
+  EXPECT_LT(left.seen, r.seen);
+  // Seen from the face's left (+x), no texel on the far right side of the face (x well below the centre) is seen.
+  const RasterOutput uv = rasterize_uv(mesh, 256);
+  for (size_t i = 0; i < left.confidence.pixels.size(); ++i) {
+    if (left.confidence.pixels[i] <= 0 || uv.triangle[i] < 0) continue;
+    const Eigen::Vector3d p = mesh.V.row(mesh.F(uv.triangle[i], 0)).transpose();
+    EXPECT_GT(p.x(), centre.x() - 45) << "texel " << i;
+  }
+}
+
+TEST(Unwarp, RefusesAnImageOfAnotherSize) {
+  const Mesh& mesh = testing::test_template().mesh;
+  EXPECT_THROW(unwarp(Image(100, 100, 3), mesh, view_camera("front", 224, Eigen::Vector3d::Zero())), InvalidInput);
+}
+
+}  // namespace
+}  // namespace bareskin
