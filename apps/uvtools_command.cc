@@ -2,6 +2,7 @@
 // seam-aware pass (uvtools/bake.h). `unwarp`: an image into the mesh's UV through a camera, with visibility
 // (uvtools/unwarp.h).
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,8 @@
 #include "core/mesh_io.h"
 #include "core/image_io.h"
 #include "uvtools/bake.h"
+#include "render/shade.h"
+#include "uvtools/mask.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::cli {
@@ -54,7 +57,93 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   unwarp_app->add_option("--size", un->unwarp.size, "UV map size")->capture_default_str();
   unwarp_app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
       ->capture_default_str();
-  return [opt, un, unwarp_app, &globals] {
+  struct MaskArgs {
+    std::string labels, mesh, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
+    int size = 1024, image_size = 512;
+    uint64_t seed = 1;
+  };
+  auto mk = std::make_shared<MaskArgs>();
+  CLI::App* mask_app = app.add_subcommand("mask", "Face-parsing labels (CelebAMask-HQ) → a UV mask of the seen, uncovered "
+                                                  "face; or synthetic occluders (hair, glasses, hand, hat)");
+  mask_app->add_option("labels", mk->labels, "Label image: one channel of CelebAMask-HQ class indices (0-18, 19 = hand)");
+  mask_app->add_option("--mesh", mk->mesh, "Mesh with UVs, posed as in the image")->required();
+  mask_app->add_option("-o,--output", mk->output, "UV mask (8-bit PNG: 255 = face seen and uncovered)")->required();
+  mask_app->add_option("--view", mk->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+      ->check(CLI::IsMember({"front", "left", "right"}));
+  mask_app->add_option("--camera", mk->camera, "pinhole or weak")->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "weak"}));
+  mask_app->add_option("--size", mk->size, "UV mask size")->capture_default_str();
+  mask_app->add_option("--synthetic", mk->synthetic, "Instead of a label image: the face as seen, covered by these "
+                                                     "occluders drawn at random (hair,glasses,hand,hat)")->group("Synthetic");
+  mask_app->add_option("--landmarks", mk->landmarks, "Landmark JSON with the mesh's \"vertex_ids\" (for --synthetic)")
+      ->group("Synthetic");
+  mask_app->add_option("--seed", mk->seed, "Random seed of the occluders' shapes")->capture_default_str()->group("Synthetic");
+  mask_app->add_option("--image-size", mk->image_size, "Size of the synthetic label image")->capture_default_str()
+      ->group("Synthetic");
+  mask_app->add_option("--labels-out", mk->labels_out, "Also write the synthetic label image here (PNG)")->group("Synthetic");
+  return [opt, un, unwarp_app, mk, mask_app, &globals] {
+    if (mask_app->parsed()) {
+      if (mk->labels.empty() == mk->synthetic.empty()) {
+        throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
+      }
+      const Mesh mesh = read_mesh(mk->mesh);
+      LabelImage labels;
+      if (!mk->labels.empty()) {
+        const Image img = read_image(mk->labels, ColorSpace::Data);
+        if (img.channels != 1) {
+          throw InvalidInput(mk->labels, "has " + std::to_string(img.channels) + " channels; labels are one channel of "
+                                         "class indices", "convert the label map to a single-channel index PNG");
+        }
+        labels.width = img.width;
+        labels.height = img.height;
+        for (float v : img.pixels) {
+          const int l = int(std::lround(v * 255));
+          if (l > kHand) throw InvalidInput(mk->labels, "holds label " + std::to_string(l) + ", above 19", "use CelebAMask-HQ indices");
+          labels.label.push_back(uint8_t(l));
+        }
+      } else {
+        labels.width = labels.height = mk->image_size;
+      }
+      if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
+      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      Camera cam = view_camera(mk->view, labels.width, centre);
+      if (mk->camera == "weak") {
+        cam.model = Camera::Model::WeakPerspective;
+        cam.scale = 0.8 * labels.width / std::max((mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff(), 1e-9);
+      }
+      if (!mk->synthetic.empty()) {
+        const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
+        if (mk->landmarks.empty()) throw InvalidInput("", "--synthetic needs --landmarks", "pass template/landmarks.json");
+        const auto doc = nlohmann::json::parse(read_file(mk->landmarks), nullptr, false);
+        if (doc.is_discarded() || !doc.contains("vertex_ids") || doc["vertex_ids"].size() != 68) {
+          throw InvalidInput(mk->landmarks, "has no 68 \"vertex_ids\"", "pass the template's landmarks.json");
+        }
+        std::vector<Eigen::Vector2d> lm;
+        for (const auto& id : doc["vertex_ids"]) {
+          if (!id.is_number_integer() || id.get<int>() < 0 || id.get<int>() >= mesh.V.rows()) {
+            throw InvalidInput(mk->landmarks, "vertex_ids names a vertex outside " + mk->mesh, "use the mesh's landmarks");
+          }
+          const Eigen::Vector3d p = cam.project(mesh.V.row(id.get<int>()).transpose());
+          lm.emplace_back(p.x(), p.y());
+        }
+        const Frame frame = render_frame(mesh, cam, ShadeOptions());
+        for (float m : frame.mask.pixels) labels.label.push_back(m > 0 ? kSkin : kBackground);
+        std::mt19937_64 rng(mk->seed);
+        for (Occluder o : occluders) draw_occluder(labels, o, lm, rng);
+        if (!mk->labels_out.empty()) {
+          Image out(labels.width, labels.height, 1, ColorSpace::Data);
+          for (size_t i = 0; i < labels.label.size(); ++i) out.pixels[i] = labels.label[i] / 255.f;
+          write_image(mk->labels_out, out);
+        }
+      }
+      int64_t kept = 0;
+      const std::vector<uint8_t> mask = uv_face_mask(labels, mesh, cam, mk->size, &kept);
+      Image out(mk->size, mk->size, 1, ColorSpace::Data);
+      for (size_t i = 0; i < mask.size(); ++i) out.pixels[i] = mask[i];
+      write_image(mk->output, out);
+      spdlog::info("uvtools mask: {} texels of the face seen and uncovered -> {}", kept, mk->output);
+      return;
+    }
     if (unwarp_app->parsed()) {
       const Image image = read_image(un->image);
       const Mesh mesh = read_mesh(un->mesh);

@@ -193,6 +193,18 @@ for v in front left; do
   [ -f "$out/unwarp/uv_$v.png" ] || "$bareskin" uvtools unwarp "$out/unwarp/render_$v.png" --mesh "$reg0/mesh.ply" \
       --view "$v" --size 1024 -o "$out/unwarp/uv_$v.png"
 done
+occluders=""
+seed=1
+for o in hair glasses hand hat hair,glasses,hand; do
+  name=${o//,/_}
+  if [ ! -f "$out/unwarp/mask_$name.png" ]; then
+    "$bareskin" uvtools mask -q --mesh "$reg0/mesh.ply" --synthetic "$o" --landmarks "$out/template/landmarks.json" \
+        --seed "$seed" --image-size 512 --size 512 --labels-out "$out/unwarp/labels_$name.png" -o "$out/unwarp/mask_$name.png"
+    oiiotool "$out/unwarp/labels_$name.png" --mulc 12 -o "$out/img/labels_$name.png"
+  fi
+  occluders+="<figure><img src=\"img/labels_$name.png\" style=\"width:130px\"><img src=\"unwarp/mask_$name.png\" style=\"width:130px\"><figcaption>${o//,/ + }</figcaption></figure>"
+  seed=$((seed + 1))
+done
 unwarp_summary=$(/usr/bin/python3 - "$(dirname "$0")/../tests/python" "$out/unwarp" "$reg0/diffuse.png" <<'PY4'
 import sys
 sys.path.insert(0, sys.argv[1])
@@ -330,6 +342,10 @@ subject_0000 (registered mesh and its transferred diffuse, rendered at 1024² an
 <figure><img src="unwarp/uv_left.png" style="width:220px"><figcaption>unwarped into the template UV</figcaption></figure>
 <figure><img src="unwarp/uv_left_confidence.png" style="width:220px"><figcaption>confidence (black: unseen)</figcaption></figure>
 <figure><img src="unwarp/uv_front.png" style="width:220px"><figcaption>front view, unwarped</figcaption></figure>
+<p><code>bareskin uvtools mask --synthetic hair,glasses,hand --landmarks template/landmarks.json</code>: occluders drawn in
+image space from the projected landmarks with random shapes (label images in CelebAMask-HQ's classes, brightened ×12),
+and the UV masks of the face seen and uncovered they give (white); a real label image takes the same path.</p>
+$occluders
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>

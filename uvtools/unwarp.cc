@@ -59,10 +59,14 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
       }
       const Eigen::Vector3d p = camera.project(P);
       if (!(p.x() >= 0 && p.x() < camera.width && p.y() >= 0 && p.y() < camera.height)) continue;
-      const size_t pixel = size_t(int(p.y())) * size_t(camera.width) + size_t(int(p.x()));
-      if (!(std::abs(p.z() - view.depth[pixel]) <= options.depth_tolerance)) continue;  // occluded (or background)
       const double cosine = n.normalized().dot(pinhole ? (centre - P).normalized() : toward);
       if (cosine <= 0) continue;
+      // Seen when the depth buffer agrees: within the tolerance plus what the surface's slope spans in one pixel
+      // (at grazing angles the depth changes by footprint x tan(angle) from one pixel to the next).
+      const size_t pixel = size_t(int(p.y())) * size_t(camera.width) + size_t(int(p.x()));
+      const double footprint = pinhole ? p.z() / camera.focal : 1 / camera.scale;  // mm per pixel
+      const double slope = std::min(20.0, std::sqrt(std::max(0.0, 1 - cosine * cosine)) / std::max(cosine, 0.05));
+      if (!(std::abs(p.z() - view.depth[pixel]) <= options.depth_tolerance + 1.5 * footprint * slope)) continue;
       const Eigen::Vector3f c = sample_bilinear(lin, {p.x() / camera.width, 1 - p.y() / camera.height});
       for (int k = 0; k < 3; ++k) out.colour.pixels[3 * size_t(i) + size_t(k)] = c[k];
       out.confidence.pixels[size_t(i)] = float(cosine);

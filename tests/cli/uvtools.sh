@@ -62,6 +62,31 @@ oiiotool "$work/render.png" --resize 512x256 -o "$work/wide.png"
 "$bin" uvtools unwarp -q "$work/wide.png" --mesh "$work/t/face.obj" -o "$work/bad_uv.png" 2> "$work/err"
 [ $? -eq 3 ] && grep -q "not square" "$work/err" && [ ! -e "$work/bad_uv.png" ] || fail "unwarp non-square: $(cat "$work/err")"
 
+# mask: synthetic occluders cover part of the face; the written labels give the same mask back through the label path.
+lm=$work/t/landmarks.json
+"$bin" uvtools mask -q --mesh "$work/t/face.obj" --synthetic glasses,hand --landmarks "$lm" --seed 2 --image-size 256 \
+  --size 128 --labels-out "$work/labels.png" -o "$work/mask_synth.png" || fail "mask synthetic"
+"$bin" uvtools mask -q "$work/labels.png" --mesh "$work/t/face.obj" --size 128 -o "$work/mask_labels.png" || fail "mask labels"
+"$bin" uvtools mask -q --mesh "$work/t/face.obj" --synthetic hair --landmarks "$lm" --seed 2 --image-size 256 --size 128 \
+  -o "$work/mask_hair.png" || fail "mask hair"
+$py - "$here/../python" "$work" <<'PY' || fail "mask"
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import read
+w = sys.argv[2]
+a, b, c = (read(f"{w}/{n}.png")[..., 0] for n in ("mask_synth", "mask_labels", "mask_hair"))
+u = read(f"{w}/uv_confidence.png")[..., 0]  # the unobstructed front view at 256 (unwarp test above)
+seen = u[::2, ::2] > 0
+assert (a == b).all(), "labels written by --synthetic do not give the same mask back"
+assert 0.2 * seen.sum() < a.sum() < 0.95 * seen.sum(), (a.sum(), seen.sum())
+assert 0.2 * seen.sum() < c.sum() < 0.97 * seen.sum(), (c.sum(), seen.sum())
+print(f"ok   mask: glasses + hand keep {a.sum() / seen.sum():.0%} and a fringe {c.sum() / seen.sum():.0%} of the seen texels")
+PY
+oiiotool "$work/labels.png" --ch 0,0,0 -o "$work/labels_rgb.png"
+"$bin" uvtools mask -q "$work/labels_rgb.png" --mesh "$work/t/face.obj" -o "$work/bad_mask.png" 2> "$work/err"
+[ $? -eq 3 ] && grep -q "one channel" "$work/err" && [ ! -e "$work/bad_mask.png" ] || fail "mask rgb labels: $(cat "$work/err")"
+
 expect_error() {  # expect_error NAME NEEDLE bake-args...
   local name=$1 needle=$2
   shift 2
@@ -86,4 +111,4 @@ oiiotool "$maps/diffuse.png" -d half -o "$work/full.exr"
 head -c $(( $(stat -c %s "$work/full.exr") / 2 )) "$work/full.exr" > "$work/b_trunc/diffuse.exr"
 expect_error trunc "diffuse.exr" "$work/b_trunc" --sizes 64
 expect_error sizes "not a whole number" "$maps" --sizes 64,abc
-echo "12 passed, 0 failed"
+echo "14 passed, 0 failed"
