@@ -12,7 +12,10 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
+#include <Eigen/Geometry>
+
 #include "core/image_io.h"
+#include "morphable/model.h"
 #include "uvtools/bake.h"
 #include "render/shade.h"
 #include "uvtools/mask.h"
@@ -21,6 +24,49 @@
 namespace bareskin::cli {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// The mesh to unwarp through: --mesh, or the morphable model evaluated at a fit's coefficients (JSON: "alpha", "beta"
+// lists, standardised; "rotation" [rx, ry, rz] radians applied as Rz Ry Rx, "translation" [tx, ty, tz] mm; missing
+// entries are zero).
+Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path) {
+  if (mesh_path.empty() == model_path.empty()) {
+    throw InvalidInput("", "give --mesh, or --model with --coeffs", "see --help");
+  }
+  if (!mesh_path.empty()) return read_mesh(mesh_path);
+  if (coeffs_path.empty()) throw InvalidInput("", "--model needs --coeffs", "pass the fit's coefficients (JSON)");
+  const MorphableModel model = read_model(model_path);
+  const auto doc = nlohmann::json::parse(read_file(coeffs_path), nullptr, false);
+  if (doc.is_discarded() || !doc.is_object()) throw InvalidInput(coeffs_path, "is not a JSON object", "");
+  const auto numbers = [&](const char* key, size_t expected) {
+    std::vector<double> v;
+    if (!doc.contains(key)) return std::vector<double>(expected ? expected : 0, 0.0);
+    if (!doc[key].is_array()) throw InvalidInput(coeffs_path, std::string(key) + " is not a list", "");
+    for (const auto& x : doc[key]) {
+      if (!x.is_number() || !std::isfinite(x.get<double>())) {
+        throw InvalidInput(coeffs_path, std::string(key) + " holds a value that is not a finite number", "");
+      }
+      v.push_back(x.get<double>());
+    }
+    if (expected && v.size() != expected) {
+      throw InvalidInput(coeffs_path, std::string(key) + " needs " + std::to_string(expected) + " numbers", "");
+    }
+    return v;
+  };
+  const std::vector<double> a = numbers("alpha", 0), b = numbers("beta", 0), r = numbers("rotation", 3),
+                            t = numbers("translation", 3);
+  Mesh mesh = model.topology;
+  mesh.V = model.shape(Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size())),
+                       Eigen::Map<const Eigen::VectorXd>(b.data(), Eigen::Index(b.size())));
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(r[2], Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r[1], Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(r[0], Eigen::Vector3d::UnitX())).toRotationMatrix();
+  mesh.V = ((mesh.V * R.transpose()).rowwise() + Eigen::RowVector3d(t[0], t[1], t[2])).eval();
+  mesh.N.resize(0, 3);
+  return mesh;
+}
+
+}  // namespace
 
 std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
   struct Options {
@@ -40,13 +86,15 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   bake->add_flag("--toksvig", opt->resize.toksvig, "Roughness absorbs the variance of the averaged normals");
   bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
   struct UnwarpArgs {
-    std::string image, mesh, output, view = "front", camera = "pinhole";
+    std::string image, mesh, model, coeffs, output, view = "front", camera = "pinhole";
     UnwarpOptions unwarp;
   };
   auto un = std::make_shared<UnwarpArgs>();
   CLI::App* unwarp_app = app.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
   unwarp_app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
-  unwarp_app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image")->required();
+  unwarp_app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image");
+  unwarp_app->add_option("--model", un->model, "Or a morphable model (mm-build) ...");
+  unwarp_app->add_option("--coeffs", un->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
   unwarp_app->add_option("-o,--output", un->output, "UV map, RGB (.exr linear, .png/.tif sRGB 16-bit); the confidence "
                                                     "(cos of the view angle, 0 = unseen) goes beside it as <name>_confidence")
       ->required();
@@ -58,7 +106,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   unwarp_app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
       ->capture_default_str();
   struct MaskArgs {
-    std::string labels, mesh, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
+    std::string labels, mesh, model, coeffs, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
     int size = 1024, image_size = 512;
     uint64_t seed = 1;
   };
@@ -66,7 +114,9 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   CLI::App* mask_app = app.add_subcommand("mask", "Face-parsing labels (CelebAMask-HQ) → a UV mask of the seen, uncovered "
                                                   "face; or synthetic occluders (hair, glasses, hand, hat)");
   mask_app->add_option("labels", mk->labels, "Label image: one channel of CelebAMask-HQ class indices (0-18, 19 = hand)");
-  mask_app->add_option("--mesh", mk->mesh, "Mesh with UVs, posed as in the image")->required();
+  mask_app->add_option("--mesh", mk->mesh, "Mesh with UVs, posed as in the image");
+  mask_app->add_option("--model", mk->model, "Or a morphable model (mm-build) ...");
+  mask_app->add_option("--coeffs", mk->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
   mask_app->add_option("-o,--output", mk->output, "UV mask (8-bit PNG: 255 = face seen and uncovered)")->required();
   mask_app->add_option("--view", mk->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
       ->check(CLI::IsMember({"front", "left", "right"}));
@@ -75,7 +125,8 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   mask_app->add_option("--size", mk->size, "UV mask size")->capture_default_str();
   mask_app->add_option("--synthetic", mk->synthetic, "Instead of a label image: the face as seen, covered by these "
                                                      "occluders drawn at random (hair,glasses,hand,hat)")->group("Synthetic");
-  mask_app->add_option("--landmarks", mk->landmarks, "Landmark JSON with the mesh's \"vertex_ids\" (for --synthetic)")
+  mask_app->add_option("--landmarks", mk->landmarks, "Landmark JSON with the mesh's \"vertex_ids\" (for --synthetic; "
+                                                     "a --model has its own)")
       ->group("Synthetic");
   mask_app->add_option("--seed", mk->seed, "Random seed of the occluders' shapes")->capture_default_str()->group("Synthetic");
   mask_app->add_option("--image-size", mk->image_size, "Size of the synthetic label image")->capture_default_str()
@@ -86,7 +137,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       if (mk->labels.empty() == mk->synthetic.empty()) {
         throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
       }
-      const Mesh mesh = read_mesh(mk->mesh);
+      const Mesh mesh = posed_mesh(mk->mesh, mk->model, mk->coeffs);
       LabelImage labels;
       if (!mk->labels.empty()) {
         const Image img = read_image(mk->labels, ColorSpace::Data);
@@ -113,13 +164,20 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       }
       if (!mk->synthetic.empty()) {
         const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
-        if (mk->landmarks.empty()) throw InvalidInput("", "--synthetic needs --landmarks", "pass template/landmarks.json");
-        const auto doc = nlohmann::json::parse(read_file(mk->landmarks), nullptr, false);
-        if (doc.is_discarded() || !doc.contains("vertex_ids") || doc["vertex_ids"].size() != 68) {
-          throw InvalidInput(mk->landmarks, "has no 68 \"vertex_ids\"", "pass the template's landmarks.json");
+        nlohmann::json ids;
+        if (!mk->landmarks.empty()) {
+          const auto doc = nlohmann::json::parse(read_file(mk->landmarks), nullptr, false);
+          if (doc.is_discarded() || !doc.contains("vertex_ids") || doc["vertex_ids"].size() != 68) {
+            throw InvalidInput(mk->landmarks, "has no 68 \"vertex_ids\"", "pass the template's landmarks.json");
+          }
+          ids = doc["vertex_ids"];
+        } else if (!mk->model.empty()) {
+          ids = read_model(mk->model).landmark_vertices;
+        } else {
+          throw InvalidInput("", "--synthetic needs --landmarks (or --model)", "pass template/landmarks.json");
         }
         std::vector<Eigen::Vector2d> lm;
-        for (const auto& id : doc["vertex_ids"]) {
+        for (const auto& id : ids) {
           if (!id.is_number_integer() || id.get<int>() < 0 || id.get<int>() >= mesh.V.rows()) {
             throw InvalidInput(mk->landmarks, "vertex_ids names a vertex outside " + mk->mesh, "use the mesh's landmarks");
           }
@@ -145,8 +203,8 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       return;
     }
     if (unwarp_app->parsed()) {
+      const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
       const Image image = read_image(un->image);
-      const Mesh mesh = read_mesh(un->mesh);
       // The camera of 'render --camera' for this mesh and image size.
       if (image.width != image.height) {
         throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");

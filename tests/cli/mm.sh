@@ -46,6 +46,21 @@ done
 $py "$here/../python/mm_oracle.py" "$work/m/model.safetensors" "$work/r" "$work/m/model_metrics/metrics.csv" "$work/m/obj" \
   || fail "oracle"
 
+# uvtools through the model: unwarping a render of the mean face via --model/--coeffs equals doing it via the mesh.
+echo '{"alpha": [], "rotation": [0, 0, 0], "translation": [0, 0, 0]}' > "$work/zero.json"
+"$bin" render -q "$work/m/obj/mean.obj" --texture "$work/m/obj/appearance_mean.png" --camera pinhole --passes albedo \
+  --size 128 -o "$work/mean.png" || fail "render mean"
+"$bin" uvtools unwarp -q "$work/mean.png" --mesh "$work/m/obj/mean.obj" --size 64 -o "$work/uv_mesh.exr" || fail "unwarp mesh"
+"$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --size 64 \
+  -o "$work/uv_model.exr" || fail "unwarp model"
+oiiotool "$work/uv_mesh_confidence.exr" "$work/uv_model_confidence.exr" --diff --fail 1e-3 > /dev/null || fail "model vs mesh"
+"$bin" uvtools mask -q --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --synthetic hand --size 64 \
+  --image-size 128 -o "$work/mask_model.png" || fail "mask via model"
+echo '{"alpha": [1, "x"]}' > "$work/badc.json"
+"$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr" \
+  2> "$work/err"
+[ $? -eq 3 ] && grep -q "alpha holds a value" "$work/err" || fail "bad coefficients: $(cat "$work/err")"
+
 # Bad input: one line, exit 3, no model.
 broken() {  # broken NAME: a copy of the registered set to break
   cp -r "$work/r" "$work/b_$1"
@@ -95,4 +110,4 @@ wait $pid 2> /dev/null
 [ "$(ls "$work/k/registered" | grep -c subject_)" -lt 8 ] || fail "kill came too late to test resuming"
 clean_build || fail "resumed mm-build"
 cmp -s "$work/reference.safetensors" "$work/k/model.safetensors" || fail "resumed model differs"
-echo "11 passed, 0 failed"
+echo "13 passed, 0 failed"
