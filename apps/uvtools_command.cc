@@ -91,6 +91,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
   };
   auto un = std::make_shared<UnwarpArgs>();
   CLI::App* unwarp_app = app.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
+  unwarp_app->alias("unwrap");  // DESIGN.md's name
   unwarp_app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
   unwarp_app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image");
   unwarp_app->add_option("--model", un->model, "Or a morphable model (mm-build) ...");
