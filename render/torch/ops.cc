@@ -1,0 +1,89 @@
+#include "render/torch/ops.h"
+
+#include <stdexcept>
+#include <string>
+
+#include "render/rasterize.h"
+
+namespace bareskin::render_torch {
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("render_torch: " + what);
+}
+
+}  // namespace
+
+Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t height, int64_t width, bool cull) {
+  require(pos.dim() == 3 && pos.size(2) == 3, "pos must be [B, V, 3]");
+  require(tri.dim() == 2 && tri.size(1) == 3, "tri must be [F, 3]");
+  require(height > 0 && width > 0, "the image size must be positive");
+  const torch::Tensor p = pos.detach().to(torch::kCPU, torch::kFloat).contiguous();
+  require(torch::isfinite(p).all().item<bool>(), "pos holds NaN or Inf");
+  const torch::Tensor t = tri.to(torch::kCPU, torch::kInt).contiguous();
+  const int64_t B = p.size(0);
+  Raster out{torch::full({B, height, width}, -1, torch::kLong), torch::zeros({B, height, width, 2}, torch::kFloat)};
+  for (int64_t b = 0; b < B; ++b) {
+    const torch::Tensor pb = p[b].contiguous();
+    RasterInput in;
+    in.xyw = pb.data_ptr<float>();
+    in.triangles = t.data_ptr<int32_t>();
+    in.vertex_count = p.size(1);
+    in.triangle_count = t.size(0);
+    in.width = int(width);
+    in.height = int(height);
+    in.cull_back_faces = cull;
+    RasterOutput r;
+    try {
+      r = bareskin::rasterize(in);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(std::string("render_torch: ") + e.what());
+    }
+    out.triangle[b].copy_(torch::from_blob(r.triangle.data(), {height, width}, torch::kInt).to(torch::kLong));
+    out.bary[b].copy_(torch::from_blob(r.bary.data(), {height, width, 2}, torch::kFloat));
+  }
+  out.bary = out.bary.to(pos.dtype());
+  return out;
+}
+
+torch::Tensor interpolate(const torch::Tensor& attr, const torch::Tensor& pos, const torch::Tensor& tri, const Raster& r) {
+  require(attr.dim() == 3 && attr.size(0) == pos.size(0) && attr.size(1) == pos.size(1), "attr must be [B, V, C]");
+  const int64_t B = pos.size(0), V = pos.size(1), H = r.triangle.size(1), W = r.triangle.size(2), C = attr.size(2);
+  const torch::Tensor flat = r.triangle.reshape({-1});
+  const torch::Tensor covered = (flat >= 0).nonzero().squeeze(1);  // pixel indices in [0, B*H*W)
+  torch::Tensor out = torch::zeros({B * H * W, C}, attr.options());
+  if (covered.numel() == 0) return out.reshape({B, H, W, C});
+  const torch::Tensor face = flat.index_select(0, covered);
+  const torch::Tensor batch = torch::div(covered, H * W, "floor");
+  const torch::Tensor pixel = covered - batch * (H * W);
+  const torch::Tensor corners = tri.to(torch::kLong).index_select(0, face) + (batch * V).unsqueeze(1);  // [N, 3]
+  const torch::Tensor P = pos.reshape({B * V, 3}).index_select(0, corners.reshape({-1})).reshape({-1, 3, 3});
+  const torch::Tensor cx = torch::remainder(pixel, W).to(pos.dtype()) + 0.5, cy = torch::div(pixel, W, "floor").to(pos.dtype()) + 0.5;
+  const torch::Tensor x = P.select(2, 0), y = P.select(2, 1), w = P.select(2, 2);  // [N, 3]
+  const auto X = [&](int k) { return x.select(1, k); };
+  const auto Y = [&](int k) { return y.select(1, k); };
+  const torch::Tensor area = (X(1) - X(0)) * (Y(2) - Y(0)) - (Y(1) - Y(0)) * (X(2) - X(0));
+  std::vector<torch::Tensor> lw;  // l_k / w_k with l_k the screen-space barycentric of corner k
+  for (int k = 0; k < 3; ++k) {
+    const int a = (k + 1) % 3, b = (k + 2) % 3;
+    const torch::Tensor l = ((X(a) - cx) * (Y(b) - cy) - (Y(a) - cy) * (X(b) - cx)) / area;
+    lw.push_back(l / w.select(1, k));
+  }
+  const torch::Tensor q = lw[0] + lw[1] + lw[2];
+  const torch::Tensor A = attr.reshape({B * V, C}).index_select(0, corners.reshape({-1})).reshape({-1, 3, C});
+  const torch::Tensor value = (lw[0] / q).unsqueeze(1) * A.select(1, 0) + (lw[1] / q).unsqueeze(1) * A.select(1, 1) +
+                              (lw[2] / q).unsqueeze(1) * A.select(1, 2);
+  out = out.index_copy(0, covered, value);
+  return out.reshape({B, H, W, C});
+}
+
+torch::Tensor texture(const torch::Tensor& tex, const torch::Tensor& uv) {
+  require(tex.dim() == 4 && uv.dim() == 4 && uv.size(3) == 2 && tex.size(0) == uv.size(0), "texture [B,C,Ht,Wt], uv [B,H,W,2]");
+  // grid_sample's (-1, -1) is the top-left corner; v is up in UVs.
+  const torch::Tensor grid = torch::stack({2 * uv.select(3, 0) - 1, 1 - 2 * uv.select(3, 1)}, 3);
+  namespace F = torch::nn::functional;
+  const torch::Tensor s = F::grid_sample(tex, grid, F::GridSampleFuncOptions().mode(torch::kBilinear).padding_mode(torch::kBorder).align_corners(false));
+  return s.permute({0, 2, 3, 1});
+}
+
+}  // namespace bareskin::render_torch

@@ -1,0 +1,29 @@
+// Differentiable rendering ops in LibTorch on the rasterizer kernel (render/rasterize.h), in the nvdiffrast style:
+// - rasterize: per pixel the nearest triangle and its barycentrics; visibility carries no gradient;
+// - interpolate: vertex attributes at the pixels, with the barycentrics recomputed from the gathered vertex positions
+//   by the same edge functions as the kernel, so gradients reach both the attributes and the positions (the pixels a
+//   triangle covers are held fixed: no silhouette gradients, as nvdiffrast without antialiasing);
+// - texture: bilinear lookups in a texture by interpolated UVs (grid_sample, border padding), origin bottom-left.
+// Batches of B meshes sharing one triangle list; float or double. CPU tensors (a CUDA kernel joins later).
+#pragma once
+#include <torch/torch.h>
+
+namespace bareskin::render_torch {
+
+struct Raster {
+  torch::Tensor triangle;  // [B, H, W] int64: triangle id, or -1
+  torch::Tensor bary;      // [B, H, W, 2]: b1, b2 (perspective-correct), no gradient
+};
+
+// pos: [B, V, 3] pixel x, pixel y (row 0 at the top) and depth w > 0; tri: [F, 3] integer. Throws std::invalid_argument
+// for wrong shapes, indices out of range or NaN positions.
+Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t height, int64_t width,
+                 bool cull_back_faces = false);
+
+// attr: [B, V, C] → [B, H, W, C] (zero at background), differentiable in attr and pos.
+torch::Tensor interpolate(const torch::Tensor& attr, const torch::Tensor& pos, const torch::Tensor& tri, const Raster& raster);
+
+// texture: [B, C, Ht, Wt]; uv: [B, H, W, 2] in [0, 1] with v up → [B, H, W, C].
+torch::Tensor texture(const torch::Tensor& tex, const torch::Tensor& uv);
+
+}  // namespace bareskin::render_torch

@@ -1,0 +1,109 @@
+// The Torch ops against the kernel and against finite differences: interpolate equals the kernel's interpolation;
+// its gradients in double match central differences (the covered pixels held fixed); texture equals core's bilinear
+// lookup; bad shapes and NaN are refused.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/image.h"
+#include "render/rasterize.h"
+#include "render/torch/ops.h"
+
+namespace bareskin {
+namespace {
+
+using namespace render_torch;
+
+// Triangles in pixel space with depths, random but facing any way; V = 3 * count.
+torch::Tensor soup(int count, int size, torch::Dtype dtype, uint64_t seed) {
+  torch::manual_seed(seed);
+  torch::Tensor centre = torch::rand({count, 1, 2}, torch::kDouble) * (size - 8) + 4;
+  torch::Tensor xy = centre + (torch::rand({count, 3, 2}, torch::kDouble) - 0.5) * size * 0.6;
+  torch::Tensor w = torch::rand({count, 3, 1}, torch::kDouble) * 2 + 1;
+  return torch::cat({xy, w}, 2).reshape({1, 3 * count, 3}).to(dtype);
+}
+
+torch::Tensor soup_triangles(int count) { return torch::arange(3 * count, torch::kLong).reshape({count, 3}); }
+
+TEST(RenderTorch, InterpolateEqualsTheKernel) {
+  const int size = 64, count = 40;
+  const torch::Tensor pos = torch::cat({soup(count, size, torch::kFloat, 1), soup(count, size, torch::kFloat, 2)}, 0);
+  const torch::Tensor tri = soup_triangles(count);
+  const torch::Tensor attr = torch::rand({2, 3 * count, 4});
+  const Raster r = rasterize(pos, tri, size, size);
+  const torch::Tensor out = interpolate(attr, pos, tri, r);
+  ASSERT_EQ(out.sizes(), torch::IntArrayRef({2, size, size, 4}));
+  const torch::Tensor t32 = tri.to(torch::kInt).contiguous();
+  for (int b = 0; b < 2; ++b) {
+    const torch::Tensor pb = pos[b].contiguous(), ab = attr[b].contiguous();
+    RasterInput in;
+    in.xyw = pb.data_ptr<float>();
+    in.triangles = t32.data_ptr<int32_t>();
+    in.vertex_count = 3 * count;
+    in.triangle_count = count;
+    in.width = in.height = size;
+    const RasterOutput k = bareskin::rasterize(in);
+    const std::vector<float> ref = bareskin::interpolate(k, t32.data_ptr<int32_t>(), ab.data_ptr<float>(), 4);
+    const torch::Tensor ref_t = torch::from_blob(const_cast<float*>(ref.data()), {size, size, 4});
+    EXPECT_LT((out[b] - ref_t).abs().max().item<float>(), 1e-4) << "batch " << b;
+    EXPECT_GT((r.triangle[b] >= 0).sum().item<int64_t>(), size * size / 4);
+  }
+}
+
+TEST(RenderTorch, GradientsMatchFiniteDifferences) {
+  const int size = 24, count = 4, C = 2;
+  torch::Tensor pos = soup(count, size, torch::kDouble, 5).requires_grad_(true);
+  torch::Tensor attr = torch::rand({1, 3 * count, C}, torch::kDouble).requires_grad_(true);
+  const torch::Tensor tri = soup_triangles(count);
+  const torch::Tensor weights = torch::rand({1, size, size, C}, torch::kDouble);
+  const Raster r = rasterize(pos, tri, size, size);  // held fixed
+  const auto loss = [&](const torch::Tensor& p, const torch::Tensor& a) { return (interpolate(a, p, tri, r) * weights).sum(); };
+  const torch::Tensor L = loss(pos, attr);
+  const auto grads = torch::autograd::grad({L}, {pos, attr});
+  const double eps = 1e-6;
+  double worst = 0, scale = 0;
+  for (int which = 0; which < 2; ++which) {
+    const torch::Tensor base = (which == 0 ? pos : attr).detach();
+    const torch::Tensor g = grads[size_t(which)].reshape({-1});
+    for (int64_t i = 0; i < base.numel(); ++i) {
+      torch::Tensor plus = base.clone(), minus = base.clone();
+      plus.view({-1})[i] += eps;
+      minus.view({-1})[i] -= eps;
+      const double fp = (which == 0 ? loss(plus, attr.detach()) : loss(pos.detach(), plus)).item<double>();
+      const double fm = (which == 0 ? loss(minus, attr.detach()) : loss(pos.detach(), minus)).item<double>();
+      const double numeric = (fp - fm) / (2 * eps);
+      worst = std::max(worst, std::abs(numeric - g[i].item<double>()));
+      scale = std::max(scale, std::abs(numeric));
+    }
+  }
+  EXPECT_GT(scale, 1e-3) << "the loss must depend on the inputs";
+  EXPECT_LT(worst, 1e-6 * std::max(1.0, scale)) << "max |autograd - central difference|";
+}
+
+TEST(RenderTorch, TextureEqualsBilinear) {
+  torch::manual_seed(3);
+  const torch::Tensor tex = torch::rand({1, 3, 8, 10});
+  const torch::Tensor uv = torch::rand({1, 5, 7, 2}) * 1.2 - 0.1;  // some outside [0, 1]: border
+  const torch::Tensor out = texture(tex, uv);
+  Image img(10, 8, 3);
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 10; ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = tex[0][c][y][x].item<float>();
+  for (int i = 0; i < 5; ++i)
+    for (int j = 0; j < 7; ++j) {
+      const Eigen::Vector3f ref = sample_bilinear(img, {uv[0][i][j][0].item<float>(), uv[0][i][j][1].item<float>()});
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(out[0][i][j][c].item<float>(), ref[c], 1e-5);
+    }
+}
+
+TEST(RenderTorch, RefusesBadInput) {
+  const torch::Tensor tri = soup_triangles(2);
+  torch::Tensor pos = soup(2, 16, torch::kFloat, 1);
+  EXPECT_THROW(rasterize(pos.reshape({6, 3}), tri, 16, 16), std::invalid_argument);
+  pos[0][1][0] = NAN;
+  EXPECT_THROW(rasterize(pos, tri, 16, 16), std::invalid_argument);
+  EXPECT_THROW(rasterize(soup(2, 16, torch::kFloat, 1), tri + 10, 16, 16), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace bareskin
