@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli.h"
+#include "apps/model_input.h"
 #include "core/files.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -51,7 +52,7 @@ std::array<double, 27> lighting(const std::string& sh) {
 
 std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   struct Options {
-    std::string mesh, output, landmarks, blendshapes, texture;
+    std::string mesh, model, coeffs, output, landmarks, blendshapes, texture;
     std::vector<std::string> expression;
     std::string view = "front";
     PreviewOptions preview;
@@ -61,7 +62,10 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     bool cull = false;
   };
   auto opt = std::make_shared<Options>();
-  app.add_option("mesh", opt->mesh, "Mesh to draw (.obj or .ply)")->required()->check(CLI::ExistingFile);
+  app.add_option("mesh", opt->mesh, "Mesh to draw (.obj or .ply)")->check(CLI::ExistingFile);
+  app.add_option("--model", opt->model, "Or a morphable model (mm-build) ...");
+  app.add_option("--coeffs", opt->coeffs, "... at these coefficients (JSON: alpha, beta, delta, rotation, translation, "
+                                          "gamma); with --camera its appearance and lighting are used");
   app.add_option("-o,--output", opt->output, "Output image (.png, .jpg, .exr)")->required();
   app.add_option("--view", opt->view, "front, left, right or uv (the UV layout)")
       ->capture_default_str()->check(CLI::IsMember({"front", "left", "right", "uv"}));
@@ -83,12 +87,15 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   app.add_option("--passes", opt->passes, "With --camera: colour, albedo, depth, normal, mask; -o takes {pass}")
       ->delimiter(',')->check(CLI::IsMember({"colour", "albedo", "depth", "normal", "mask"}))
       ->capture_default_str()->group("Camera");
-  app.add_option("--sh", opt->sh, "With --camera: 'default' (Deep3DFaceRecon ambient + a soft key light), 'none' "
+  CLI::Option* sh_option = app.add_option("--sh", opt->sh, "With --camera: 'default' (Deep3DFaceRecon ambient + a soft key light), 'none' "
                                   "(ambient only) or a JSON file with 27 coefficients (RGB, 9 each)")
       ->capture_default_str()->group("Camera");
   app.add_flag("--cull", opt->cull, "With --camera: drop back faces")->group("Camera");
-  return [opt] {
-    Mesh mesh = read_mesh(opt->mesh);
+  return [opt, sh_option] {
+    if (opt->mesh.empty() == opt->model.empty()) throw InvalidInput("", "give a mesh, or --model with --coeffs", "see --help");
+    ModelInstance instance;
+    if (!opt->model.empty()) instance = model_instance(opt->model, opt->coeffs);
+    Mesh mesh = opt->model.empty() ? read_mesh(opt->mesh) : instance.mesh;
     if (!opt->expression.empty() && opt->blendshapes.empty()) {
       throw InvalidInput("", "--expression needs --blendshapes FILE", "pass scans/blendshapes/blendshapes.safetensors");
     }
@@ -126,13 +133,15 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
         throw InvalidInput("", "several views or passes need {view} / {pass} in -o", "e.g. -o out/face_{view}_{pass}.png");
       }
       ShadeOptions shade;
-      shade.gamma = lighting(opt->sh);
+      shade.gamma = instance.gamma && !sh_option->count() ? *instance.gamma : lighting(opt->sh);
       shade.cull_back_faces = opt->cull;
       Image texture;
       if (!opt->texture.empty()) {
         texture = read_image(opt->texture);
         if (texture.color_space == ColorSpace::sRGB) texture = to_linear(texture);
         shade.texture = &texture;
+      } else if (!instance.appearance.empty()) {
+        shade.texture = &instance.appearance;
       }
       const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
       const double extent = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff();

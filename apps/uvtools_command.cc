@@ -12,9 +12,8 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
-#include <Eigen/Geometry>
-
 #include "core/image_io.h"
+#include "apps/model_input.h"
 #include "morphable/model.h"
 #include "uvtools/bake.h"
 #include "render/shade.h"
@@ -25,48 +24,6 @@ namespace bareskin::cli {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-// The mesh to unwarp through: --mesh, or the morphable model evaluated at a fit's coefficients (JSON: "alpha", "beta"
-// lists, standardised; "rotation" [rx, ry, rz] radians applied as Rz Ry Rx, "translation" [tx, ty, tz] mm; missing
-// entries are zero).
-Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path) {
-  if (mesh_path.empty() == model_path.empty()) {
-    throw InvalidInput("", "give --mesh, or --model with --coeffs", "see --help");
-  }
-  if (!mesh_path.empty()) return read_mesh(mesh_path);
-  if (coeffs_path.empty()) throw InvalidInput("", "--model needs --coeffs", "pass the fit's coefficients (JSON)");
-  const MorphableModel model = read_model(model_path);
-  const auto doc = nlohmann::json::parse(read_file(coeffs_path), nullptr, false);
-  if (doc.is_discarded() || !doc.is_object()) throw InvalidInput(coeffs_path, "is not a JSON object", "");
-  const auto numbers = [&](const char* key, size_t expected) {
-    std::vector<double> v;
-    if (!doc.contains(key)) return std::vector<double>(expected ? expected : 0, 0.0);
-    if (!doc[key].is_array()) throw InvalidInput(coeffs_path, std::string(key) + " is not a list", "");
-    for (const auto& x : doc[key]) {
-      if (!x.is_number() || !std::isfinite(x.get<double>())) {
-        throw InvalidInput(coeffs_path, std::string(key) + " holds a value that is not a finite number", "");
-      }
-      v.push_back(x.get<double>());
-    }
-    if (expected && v.size() != expected) {
-      throw InvalidInput(coeffs_path, std::string(key) + " needs " + std::to_string(expected) + " numbers", "");
-    }
-    return v;
-  };
-  const std::vector<double> a = numbers("alpha", 0), b = numbers("beta", 0), r = numbers("rotation", 3),
-                            t = numbers("translation", 3);
-  Mesh mesh = model.topology;
-  mesh.V = model.shape(Eigen::Map<const Eigen::VectorXd>(a.data(), Eigen::Index(a.size())),
-                       Eigen::Map<const Eigen::VectorXd>(b.data(), Eigen::Index(b.size())));
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(r[2], Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r[1], Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(r[0], Eigen::Vector3d::UnitX())).toRotationMatrix();
-  mesh.V = ((mesh.V * R.transpose()).rowwise() + Eigen::RowVector3d(t[0], t[1], t[2])).eval();
-  mesh.N.resize(0, 3);
-  return mesh;
-}
-
-}  // namespace
 
 std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
   struct Options {

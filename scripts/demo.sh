@@ -137,6 +137,15 @@ for name in mean shape1_minus3sd shape1_plus3sd shape2_minus3sd shape2_plus3sd s
   done
   sweeps+="<figure><img src=\"img/model_${name}_front.png\" style=\"width:120px;border:0\"><img src=\"img/model_${name}_left.png\" style=\"width:120px;border:0\"><figcaption>${name//_/ }</figcaption></figure>"
 done
+model_renders=""
+for c in 'mean:{}' 'alpha1+2:{"alpha":[2]}' 'alpha2-2, beta2+2, turned:{"alpha":[0,-2],"beta":[0,2],"rotation":[0,0.4,0]}' \
+         'delta1+2,lit from the side:{"delta":[2],"rotation":[0,-0.3,0],"gamma":[0.8,0,0.1,-0.4,0,0,0,0,0,0.8,0,0.1,-0.4,0,0,0,0,0,0.8,0,0.1,-0.4,0,0,0,0,0]}'; do
+  label=${c%%:*} json=${c#*:} name=$(echo "$label" | tr -c 'a-z0-9\n' '_')
+  echo "$json" > "$out/model/coeffs_$name.json"
+  [ -f "$out/img/model_render_$name.png" ] || "$bareskin" render --model "$out/model/model.safetensors" \
+      --coeffs "$out/model/coeffs_$name.json" --camera pinhole --size 256 -o "$out/img/model_render_$name.png"
+  model_renders+="<figure><img src=\"img/model_render_$name.png\" style=\"width:160px\"><figcaption>$label</figcaption></figure>"
+done
 appearance=""
 for name in appearance_mean appearance1_minus3sd appearance1_plus3sd appearance2_minus3sd appearance2_plus3sd; do
   appearance+="<figure><img src=\"model/obj/$name.png\" style=\"width:180px\"><figcaption>${name//_/ }</figcaption></figure>"
@@ -307,6 +316,10 @@ Files: <a href="model/model.safetensors">model.safetensors</a>, <a href="model/m
 <a href="model/model_metrics/metrics.csv">metrics.csv</a>.</p>
 <h3>Mean and ±3σ along the first components (mean appearance)</h3>
 $sweeps
+<h3>The model rendered from coefficients (<code>render --model model.safetensors --coeffs fit.json --camera pinhole</code>)</h3>
+<p>Shape (α), expression (β), appearance (δ), pose and SH lighting (γ) from one coefficient file, the format
+<code>mm-fit</code> will write.</p>
+$model_renders
 <h3>Appearance: mean and ±3σ along the first two components</h3>
 $appearance
 <h3>Metrics (<code>bareskin mm-eval</code>; RMS vertex distance in correspondence)</h3>

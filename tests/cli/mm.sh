@@ -56,6 +56,13 @@ echo '{"alpha": [], "rotation": [0, 0, 0], "translation": [0, 0, 0]}' > "$work/z
 oiiotool "$work/uv_mesh_confidence.exr" "$work/uv_model_confidence.exr" --diff --fail 1e-3 > /dev/null || fail "model vs mesh"
 "$bin" uvtools mask -q --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --synthetic hand --size 64 \
   --image-size 128 -o "$work/mask_model.png" || fail "mask via model"
+echo '{"alpha": [2, -1], "beta": [1], "delta": [1], "rotation": [0, 0.3, 0]}' > "$work/fit.json"
+"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/fit.json" --camera pinhole --passes colour,mask \
+  --size 64 -o "$work/model_{pass}.png" || fail "render model"
+oiiotool --stats "$work/model_mask.png" | grep -q "Stats Max: 255 (of 255)" || fail "render model: empty mask"
+"$bin" render -q "$work/m/obj/mean.obj" --model "$work/m/model.safetensors" --coeffs "$work/fit.json" -o "$work/x.png" \
+  2> "$work/err"
+[ $? -eq 3 ] && grep -q "give a mesh, or --model" "$work/err" || fail "render mesh and model: $(cat "$work/err")"
 echo '{"alpha": [1, "x"]}' > "$work/badc.json"
 "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr" \
   2> "$work/err"
@@ -110,4 +117,4 @@ wait $pid 2> /dev/null
 [ "$(ls "$work/k/registered" | grep -c subject_)" -lt 8 ] || fail "kill came too late to test resuming"
 clean_build || fail "resumed mm-build"
 cmp -s "$work/reference.safetensors" "$work/k/model.safetensors" || fail "resumed model differs"
-echo "13 passed, 0 failed"
+echo "15 passed, 0 failed"

@@ -1,0 +1,27 @@
+// Commands that take "a mesh, or a morphable model at some coefficients" (render, uvtools unwarp/mask) share this.
+// Coefficient files (JSON; what mm-fit will write): "alpha", "beta", "delta" lists of standardised coefficients,
+// "rotation" [rx, ry, rz] radians applied as Rz·Ry·Rx, "translation" [tx, ty, tz] mm, "gamma" 27 SH coefficients;
+// every entry optional (zero, or no lighting).
+#pragma once
+#include <array>
+#include <optional>
+#include <string>
+
+#include "core/image.h"
+#include "core/mesh.h"
+
+namespace bareskin::cli {
+
+struct ModelInstance {
+  Mesh mesh;                                   // posed, with the model's UVs
+  Image appearance;                            // R x R linear RGB albedo from delta (empty without appearance model)
+  std::optional<std::array<double, 27>> gamma;  // when the coefficients hold lighting
+};
+
+// InvalidInput naming the coefficient file for a malformed entry.
+ModelInstance model_instance(const std::string& model_path, const std::string& coeffs_path);
+
+// --mesh, or the model at the coefficients; InvalidInput unless exactly one is given.
+Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path);
+
+}  // namespace bareskin::cli
