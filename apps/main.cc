@@ -9,6 +9,7 @@ std::function<void()> setup_render_command(CLI::App&, const Globals&);
 std::function<void()> setup_scan_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_build_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
+std::function<void()> setup_mm_fit_command(CLI::App&, const Globals&);
 std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
 
 const std::vector<Command>& commands() {
@@ -21,6 +22,8 @@ const std::vector<Command>& commands() {
        setup_mm_eval_command},
       {"uvtools", "Maps", "UV-space tools: bake (16K map sets to 4K/1K, seam-aware), unwarp (image into UV, visibility)",
        setup_uvtools_command},
+      {"mm-fit", "Model", "Fit the model's pose and identity to 68 image landmarks (coefficients for render, uvtools)",
+       setup_mm_fit_command},
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };

@@ -13,6 +13,8 @@
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "morphable/build.h"
+#include "core/landmarks.h"
+#include "morphable/fit.h"
 #include "morphable/metrics.h"
 #include "scan/blendshapes.h"
 
@@ -286,6 +288,54 @@ std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& global
                  "{:.3f} mm ({:.1f} s) -> {}",
                  m.subjects, m.components.back(), m.compactness.back(), m.generalization_mm.back(),
                  m.specificity_mm.back(), seconds, opt->output);
+  };
+}
+
+std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string image, model, landmarks, output = "fit.json", view = "front";
+    LandmarkFitOptions fit;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("image", opt->image, "The (square) image the landmarks belong to")->required();
+  app.add_option("--model", opt->model, "Model from 'bareskin mm-build'")->required();
+  app.add_option("--landmarks", opt->landmarks, "68 iBUG landmarks in the image (JSON or .pts, pixels)")->required();
+  app.add_option("-o,--output", opt->output, "Coefficients (JSON: alpha, rotation, translation; read by render, uvtools)")
+      ->capture_default_str();
+  app.add_option("--view", opt->view, "Camera as 'render --model': front, left or right")->capture_default_str()
+      ->check(CLI::IsMember({"front", "left", "right"}));
+  app.add_option("--shape-components", opt->fit.shape_components, "Identity components fitted")->capture_default_str();
+  app.add_option("--expression-components", opt->fit.expression_components, "Expression components fitted")
+      ->capture_default_str();
+  app.add_option("--regularisation", opt->fit.regularisation, "Weight of |alpha|^2 (px^2 per unit)")->capture_default_str();
+  app.add_option("--iterations", opt->fit.iterations, "Levenberg-Marquardt iterations (at most)")->capture_default_str();
+  return [opt, &globals] {
+    opt->fit.check();
+    const ImageFileInfo info = probe_image(opt->image);
+    if (info.width != info.height) throw InvalidInput(opt->image, "is not square", "give the square crop");
+    const Landmarks lm = read_landmarks(opt->landmarks);
+    if (lm.points.rows() != 68 || lm.points.cols() != 2) {
+      throw InvalidInput(opt->landmarks, "needs 68 2D landmarks, has " + std::to_string(lm.points.rows()) + " of " +
+                                             std::to_string(lm.points.cols()) + "D", "give the 68 iBUG points in pixels");
+    }
+    const MorphableModel model = read_model(opt->model);
+    const Camera camera = view_camera(opt->view, info.width, Eigen::Vector3d::Zero());
+    const auto t0 = std::chrono::steady_clock::now();
+    const LandmarkFit fit = fit_landmarks(model, lm.points, camera, opt->fit);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    nlohmann::json j = {{"alpha", std::vector<double>(fit.alpha.data(), fit.alpha.data() + fit.alpha.size())},
+                        {"beta", std::vector<double>(fit.beta.data(), fit.beta.data() + fit.beta.size())},
+                        {"rotation", {fit.rotation.x(), fit.rotation.y(), fit.rotation.z()}},
+                        {"translation", {fit.translation.x(), fit.translation.y(), fit.translation.z()}},
+                        {"landmark_rms_px", fit.rms_px},
+                        {"iterations", fit.iterations},
+                        {"seconds", seconds},
+                        {"view", opt->view},
+                        {"image_size", info.width},
+                        {"terms", "landmarks + alpha regularisation (the photometric term is not implemented yet)"}};
+    write_file_atomic(opt->output, j.dump(1) + "\n");
+    spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations ({:.2f} s) -> {}",
+                 fit.alpha.size(), fit.beta.size(), fit.rms_px, fit.iterations, seconds, opt->output);
   };
 }
 

@@ -43,6 +43,7 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
                              Eigen::AngleAxisd(r[0], Eigen::Vector3d::UnitX())).toRotationMatrix();
   out.mesh.V = ((out.mesh.V * R.transpose()).rowwise() + Eigen::RowVector3d(t[0], t[1], t[2])).eval();
   out.mesh.N.resize(0, 3);
+  out.landmark_vertices = model.landmark_vertices;
   if (model.appearance_resolution > 0 && model.appearance_mean.size() > 0) {
     const int R_ = model.appearance_resolution;
     out.appearance = Image(R_, R_, 3, ColorSpace::Linear);

@@ -6,6 +6,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/image.h"
 #include "core/mesh.h"
@@ -16,6 +17,7 @@ struct ModelInstance {
   Mesh mesh;                                   // posed, with the model's UVs
   Image appearance;                            // R x R linear RGB albedo from delta (empty without appearance model)
   std::optional<std::array<double, 27>> gamma;  // when the coefficients hold lighting
+  std::vector<int> landmark_vertices;           // the model's 68
 };
 
 // InvalidInput naming the coefficient file for a malformed entry.

@@ -12,6 +12,7 @@
 #include "core/files.h"
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/landmarks.h"
 #include "core/mesh_io.h"
 #include "core/safetensors.h"
 #include "render/preview.h"
@@ -52,7 +53,7 @@ std::array<double, 27> lighting(const std::string& sh) {
 
 std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   struct Options {
-    std::string mesh, model, coeffs, output, landmarks, blendshapes, texture;
+    std::string mesh, model, coeffs, output, landmarks, blendshapes, texture, landmarks_out;
     std::vector<std::string> expression;
     std::string view = "front";
     PreviewOptions preview;
@@ -91,6 +92,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
                                   "(ambient only) or a JSON file with 27 coefficients (RGB, 9 each)")
       ->capture_default_str()->group("Camera");
   app.add_flag("--cull", opt->cull, "With --camera: drop back faces")->group("Camera");
+  app.add_option("--landmarks-out", opt->landmarks_out, "With --camera: the 68 landmarks projected into the image (JSON, "
+                                                        "px; the model's, or --landmarks' vertex ids); may take {view}")
+      ->group("Camera");
   return [opt, sh_option] {
     if (opt->mesh.empty() == opt->model.empty()) throw InvalidInput("", "give a mesh, or --model with --coeffs", "see --help");
     ModelInstance instance;
@@ -143,7 +147,8 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       } else if (!instance.appearance.empty()) {
         shade.texture = &instance.appearance;
       }
-      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      // A mesh is framed by its bounding box; a model sits in a fixed camera (its pose is part of the coefficients).
+      const Eigen::Vector3d centre = opt->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
       const double extent = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff();
       for (const std::string& view : views) {
         if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
@@ -153,6 +158,26 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
           cam.scale = 0.8 * opt->preview.size / std::max(extent, 1e-9);
         }
         const Frame frame = render_frame(mesh, cam, shade);
+        if (!opt->landmarks_out.empty()) {
+          std::vector<int> ids = instance.landmark_vertices;
+          if (!opt->landmarks.empty()) {
+            const auto doc = nlohmann::json::parse(read_file(opt->landmarks), nullptr, false);
+            if (doc.is_discarded() || !doc.contains("vertex_ids")) {
+              throw InvalidInput(opt->landmarks, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
+            }
+            ids = doc["vertex_ids"].get<std::vector<int>>();
+          }
+          if (ids.size() != 68) throw InvalidInput("", "--landmarks-out needs 68 landmark vertices", "pass --landmarks");
+          Landmarks lm;
+          lm.units = "px";
+          lm.points.resize(68, 2);
+          for (int k = 0; k < 68; ++k) {
+            if (ids[size_t(k)] < 0 || ids[size_t(k)] >= mesh.V.rows()) throw InvalidInput("", "a landmark vertex is out of range", "");
+            const Eigen::Vector3d p = cam.project(mesh.V.row(ids[size_t(k)]).transpose());
+            lm.points.row(k) << p.x(), p.y();
+          }
+          write_landmarks(expand(opt->landmarks_out, "{view}", view), lm);
+        }
         if (frame.dropped_behind) spdlog::warn("render: {} triangles behind the camera were dropped", frame.dropped_behind);
         for (const std::string& pass : opt->passes) {
           const std::string path = expand(expand(opt->output, "{view}", view), "{pass}", pass);

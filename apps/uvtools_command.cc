@@ -114,7 +114,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
         labels.width = labels.height = mk->image_size;
       }
       if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
-      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      const Eigen::Vector3d centre = mk->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
       Camera cam = view_camera(mk->view, labels.width, centre);
       if (mk->camera == "weak") {
         cam.model = Camera::Model::WeakPerspective;
@@ -167,7 +167,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       if (image.width != image.height) {
         throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
       }
-      const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+      const Eigen::Vector3d centre = un->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
       Camera cam = view_camera(un->view, image.width, centre);
       if (un->camera == "weak") {
         cam.model = Camera::Model::WeakPerspective;

@@ -46,14 +46,28 @@ done
 $py "$here/../python/mm_oracle.py" "$work/m/model.safetensors" "$work/r" "$work/m/model_metrics/metrics.csv" "$work/m/obj" \
   || fail "oracle"
 
-# uvtools through the model: unwarping a render of the mean face via --model/--coeffs equals doing it via the mesh.
+# uvtools through the model: a render of the model at some coefficients, unwarped through the same coefficients,
+# gives back the model's appearance where seen.
 echo '{"alpha": [], "rotation": [0, 0, 0], "translation": [0, 0, 0]}' > "$work/zero.json"
-"$bin" render -q "$work/m/obj/mean.obj" --texture "$work/m/obj/appearance_mean.png" --camera pinhole --passes albedo \
-  --size 128 -o "$work/mean.png" || fail "render mean"
-"$bin" uvtools unwarp -q "$work/mean.png" --mesh "$work/m/obj/mean.obj" --size 64 -o "$work/uv_mesh.exr" || fail "unwarp mesh"
-"$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --size 64 \
+"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --camera pinhole --passes albedo \
+  --size 256 -o "$work/mean.png" || fail "render mean"
+"$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --size 32 \
   -o "$work/uv_model.exr" || fail "unwarp model"
-oiiotool "$work/uv_mesh_confidence.exr" "$work/uv_model_confidence.exr" --diff --fail 1e-3 > /dev/null || fail "model vs mesh"
+$py - "$here/../python" "$work" <<'PY' || fail "unwarp via the model"
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import read
+from safetensors_oracle import read_safetensors
+w = sys.argv[2]
+_, m = read_safetensors(w + "/m/model.safetensors")
+u, c = read(w + "/uv_model.exr")[..., :3], read(w + "/uv_model_confidence.exr")[..., 0]
+seen = c > 0.5
+assert seen.sum() > 0.3 * m["appearance_mask"].sum(), seen.sum()
+err = np.abs(u - m["appearance_mean"])[seen].mean()
+assert err < 0.02, err
+print(f"ok   unwarp via the model: mean |difference| to the appearance mean {err:.4f} over {seen.sum()} texels")
+PY
 "$bin" uvtools mask -q --model "$work/m/model.safetensors" --coeffs "$work/zero.json" --synthetic hand --size 64 \
   --image-size 128 -o "$work/mask_model.png" || fail "mask via model"
 echo '{"alpha": [2, -1], "beta": [1], "delta": [1], "rotation": [0, 0.3, 0]}' > "$work/fit.json"
@@ -63,6 +77,24 @@ oiiotool --stats "$work/model_mask.png" | grep -q "Stats Max: 255 (of 255)" || f
 "$bin" render -q "$work/m/obj/mean.obj" --model "$work/m/model.safetensors" --coeffs "$work/fit.json" -o "$work/x.png" \
   2> "$work/err"
 [ $? -eq 3 ] && grep -q "give a mesh, or --model" "$work/err" || fail "render mesh and model: $(cat "$work/err")"
+# mm-fit: landmarks of a render at known coefficients give the coefficients back.
+echo '{"alpha": [1.2, -0.8, 0.5], "rotation": [0.05, 0.25, -0.03], "translation": [5, -8, 20]}' > "$work/truth.json"
+"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/truth.json" --camera pinhole --passes mask \
+  --size 256 --landmarks-out "$work/lm.json" -o "$work/truth.png" || fail "render for the fit"
+"$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/lm.json" \
+  -o "$work/fitted.json" || fail "mm-fit"
+$py - "$work/truth.json" "$work/fitted.json" <<'PY' || fail "mm-fit accuracy"
+import json, sys
+t, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert f["landmark_rms_px"] < 1, f["landmark_rms_px"]
+assert max(abs(a - b) for a, b in zip(t["rotation"], f["rotation"])) < 0.01, f["rotation"]
+assert max(abs(a - b) for a, b in zip(t["translation"], f["translation"])) < 2, f["translation"]
+assert max(abs(a - b) for a, b in zip(t["alpha"] + [0] * 9, f["alpha"])) < 0.2, f["alpha"]
+print(f"ok   mm-fit: landmark RMS {f['landmark_rms_px']:.3f} px, coefficients recovered")
+PY
+"$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/t/landmarks.json" \
+  -o "$work/bad_fit.json" 2> "$work/err"
+[ $? -eq 3 ] && grep -q "68 2D landmarks" "$work/err" && [ ! -e "$work/bad_fit.json" ] || fail "mm-fit 3D landmarks: $(cat "$work/err")"
 echo '{"alpha": [1, "x"]}' > "$work/badc.json"
 "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr" \
   2> "$work/err"
@@ -117,4 +149,4 @@ wait $pid 2> /dev/null
 [ "$(ls "$work/k/registered" | grep -c subject_)" -lt 8 ] || fail "kill came too late to test resuming"
 clean_build || fail "resumed mm-build"
 cmp -s "$work/reference.safetensors" "$work/k/model.safetensors" || fail "resumed model differs"
-echo "15 passed, 0 failed"
+echo "17 passed, 0 failed"
