@@ -163,6 +163,22 @@ std::vector<float> project_vertices(const Eigen::MatrixX3d& V, const Camera& cam
   return xyw;
 }
 
+RasterOutput rasterize_mesh(const Mesh& mesh, const Camera& camera, bool cull_back_faces) {
+  std::vector<float> z;
+  const std::vector<float> xyw = project_vertices(mesh.V, camera, z);
+  const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F;
+  RasterInput in;
+  in.xyw = xyw.data();
+  in.z = z.empty() ? nullptr : z.data();
+  in.triangles = F.data();
+  in.vertex_count = mesh.V.rows();
+  in.triangle_count = mesh.F.rows();
+  in.width = camera.width;
+  in.height = camera.height;
+  in.cull_back_faces = cull_back_faces;
+  return rasterize(in);
+}
+
 RasterOutput rasterize_uv(const Mesh& mesh, int size) {
   if (!mesh.has_uv()) throw InvalidInput("", "the mesh has no UVs to rasterise", "give a mesh with UVs");
   std::vector<float> xyw(size_t(mesh.UV.rows()) * 3), z(size_t(mesh.UV.rows()), 0.f);

@@ -46,6 +46,9 @@ RasterOutput rasterize_reference(const RasterInput& input);
 // camera w = 1 and the depth goes to `z` (pass it as RasterInput::z); for a pinhole camera `z` is left empty.
 std::vector<float> project_vertices(const Eigen::MatrixX3d& V, const Camera& camera, std::vector<float>& z);
 
+// A mesh seen by a camera: projection (project_vertices) and rasterization in one call.
+RasterOutput rasterize_mesh(const Mesh& mesh, const Camera& camera, bool cull_back_faces = false);
+
 // Rasterization in UV space at size x size: per texel, the triangle (face index) covering its centre and the
 // barycentrics of that point (row 0 = v = 1). Uses the per-corner UVs (seams kept).
 RasterOutput rasterize_uv(const Mesh& mesh, int size);

@@ -21,19 +21,8 @@ Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& o
   if (mesh.V.rows() == 0 || mesh.F.rows() == 0) throw InvalidInput("", "the mesh is empty", "give a mesh with triangles");
   if (!mesh.V.allFinite()) throw InvalidInput("", "the mesh has NaN or infinite vertices", "repair the mesh");
   if (options.texture && !mesh.has_uv()) throw InvalidInput("", "a texture needs a mesh with UVs", "");
-  std::vector<float> z;
-  const std::vector<float> xyw = project_vertices(mesh.V, camera, z);
+  const RasterOutput r = rasterize_mesh(mesh, camera, options.cull_back_faces);
   const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F;
-  RasterInput in;
-  in.xyw = xyw.data();
-  in.z = z.empty() ? nullptr : z.data();
-  in.triangles = F.data();
-  in.vertex_count = mesh.V.rows();
-  in.triangle_count = mesh.F.rows();
-  in.width = camera.width;
-  in.height = camera.height;
-  in.cull_back_faces = options.cull_back_faces;
-  const RasterOutput r = rasterize(in);
 
   const Eigen::MatrixX3d N = mesh.has_normals() ? mesh.N : vertex_normals(mesh.V, mesh.F);
   const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> Nc = (N * camera.R.transpose()).cast<float>();

@@ -20,18 +20,7 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
   const Image lin = image.color_space == ColorSpace::sRGB ? to_linear(image) : image;
 
   // The depth buffer seen from the camera.
-  std::vector<float> z;
-  const std::vector<float> xyw = project_vertices(mesh.V, camera, z);
-  const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F;
-  RasterInput in;
-  in.xyw = xyw.data();
-  in.z = z.empty() ? nullptr : z.data();
-  in.triangles = F.data();
-  in.vertex_count = mesh.V.rows();
-  in.triangle_count = mesh.F.rows();
-  in.width = camera.width;
-  in.height = camera.height;
-  const RasterOutput view = rasterize(in);
+  const RasterOutput view = rasterize_mesh(mesh, camera);
 
   const RasterOutput uv = rasterize_uv(mesh, options.size);
   const Eigen::MatrixX3d N = vertex_normals(mesh.V, mesh.F);
