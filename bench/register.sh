@@ -43,6 +43,7 @@ row "ours, stiffness /2" 0 --stiffness 2 1 0.5 0.2 0.1 0.05
 row "ours, 1 iteration/step" 0 --iterations 1
 for noise in 0.1 0.3 0.5; do row "ours (default)" $noise; done
 if [ -n "$chart" ]; then
-  /usr/bin/python3 bench/register_chart.py "$work/rows.csv" "$chart"
+  cp "$work/rows.csv" "${chart%.png}.csv"
+  /usr/bin/python3 bench/register_chart.py "${chart%.png}.csv" "$chart"
   echo "chart: $chart"
 fi
