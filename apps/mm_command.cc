@@ -295,6 +295,8 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
   struct Options {
     std::string image, model, landmarks, output = "fit.json", view = "front";
     LandmarkFitOptions fit;
+    PhotometricFitOptions photo;
+    bool no_photometric = false;
   };
   auto opt = std::make_shared<Options>();
   app.add_option("image", opt->image, "The (square) image the landmarks belong to")->required();
@@ -309,6 +311,13 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       ->capture_default_str();
   app.add_option("--regularisation", opt->fit.regularisation, "Weight of |alpha|^2 (px^2 per unit)")->capture_default_str();
   app.add_option("--iterations", opt->fit.iterations, "Levenberg-Marquardt iterations (at most)")->capture_default_str();
+  app.add_option("--appearance-components", opt->photo.appearance_components, "Appearance components fitted (delta)")
+      ->capture_default_str()->group("Photometric");
+  app.add_option("--colour-noise", opt->photo.noise, "Per-pixel colour noise (linear), weighing data against the priors")
+      ->capture_default_str()->group("Photometric");
+  app.add_option("--lighting-sd", opt->photo.lighting_sd, "Prior spread of the SH coefficients around white ambient")
+      ->capture_default_str()->group("Photometric");
+  app.add_flag("--no-photometric", opt->no_photometric, "Landmarks only: no delta or gamma")->group("Photometric");
   return [opt, &globals] {
     opt->fit.check();
     const ImageFileInfo info = probe_image(opt->image);
@@ -322,6 +331,15 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
     const Camera camera = view_camera(opt->view, info.width, Eigen::Vector3d::Zero());
     const auto t0 = std::chrono::steady_clock::now();
     const LandmarkFit fit = fit_landmarks(model, lm.points, camera, opt->fit);
+    PhotometricFit photo;
+    if (!opt->no_photometric) {
+      Image image = read_image(opt->image);
+      if (image.color_space == ColorSpace::sRGB) image = to_linear(image);
+      Mesh posed = model.topology;
+      posed.V = model.shape(fit.alpha, fit.beta);
+      posed.V = ((posed.V * euler_rotation(fit.rotation).transpose()).rowwise() + fit.translation.transpose()).eval();
+      photo = fit_photometric(model, posed, camera, image, opt->photo);
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     nlohmann::json j = {{"alpha", std::vector<double>(fit.alpha.data(), fit.alpha.data() + fit.alpha.size())},
                         {"beta", std::vector<double>(fit.beta.data(), fit.beta.data() + fit.beta.size())},
@@ -332,10 +350,19 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
                         {"seconds", seconds},
                         {"view", opt->view},
                         {"image_size", info.width},
-                        {"terms", "landmarks + alpha regularisation (the photometric term is not implemented yet)"}};
+                        {"terms", opt->no_photometric ? "landmarks + regularisation"
+                                                      : "landmarks + regularisation, then photometric (delta, gamma)"}};
+    if (!opt->no_photometric) {
+      j["delta"] = std::vector<double>(photo.delta.data(), photo.delta.data() + photo.delta.size());
+      j["gamma"] = photo.gamma;
+      j["photometric_psnr_db"] = photo.psnr_db;
+      j["photometric_pixels"] = photo.pixels;
+    }
     write_file_atomic(opt->output, j.dump(1) + "\n");
-    spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations ({:.2f} s) -> {}",
-                 fit.alpha.size(), fit.beta.size(), fit.rms_px, fit.iterations, seconds, opt->output);
+    spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations; "
+                 "photometric PSNR {:.1f} dB over {} pixels ({:.2f} s) -> {}",
+                 fit.alpha.size(), fit.beta.size(), fit.rms_px, fit.iterations, photo.psnr_db, photo.pixels, seconds,
+                 opt->output);
   };
 }
 

@@ -5,6 +5,8 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "render/rasterize.h"
+#include "render/sh.h"
 
 namespace bareskin {
 
@@ -98,6 +100,100 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
   out.alpha = x.segment(6, Ka);
   out.beta = x.tail(Kb);
   out.rms_px = std::sqrt(r.head(2 * 68).squaredNorm() / 68);
+  return out;
+}
+
+PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, const Camera& camera, const Image& image,
+                               const PhotometricFitOptions& options) {
+  if (image.width != camera.width || image.height != camera.height || image.channels < 3) {
+    throw InvalidInput("", "the image must be RGB of the camera's size", "");
+  }
+  const int R = model.appearance_resolution;
+  const int K = std::min<int>(options.appearance_components, int(model.appearance_basis.rows()));
+  const RasterOutput r = rasterize_mesh(posed, camera);
+  const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> FUV = posed.FUV, F = posed.F;
+  const Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor> UV = posed.UV.cast<float>();
+  const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> N =
+      (vertex_normals(posed.V, posed.F) * camera.R.transpose()).cast<float>();
+  const std::vector<float> uv = interpolate(r, FUV.data(), UV.data(), 2), nrm = interpolate(r, F.data(), N.data(), 3);
+  std::vector<int64_t> pix;
+  for (size_t i = 0; i < r.triangle.size(); ++i)
+    if (r.triangle[i] >= 0) pix.push_back(int64_t(i));
+  const Eigen::Index P = Eigen::Index(pix.size());
+  if (P < 50 || R == 0) throw InvalidInput("", "the model covers too few pixels (or has no appearance)", "");
+  // Per pixel: observed colour, SH basis, mean albedo and the scaled basis albedos (bilinear in the R x R images).
+  Eigen::MatrixXd c(P, 3), Y(P, 9), m(P, 3);
+  std::vector<Eigen::MatrixXd> b(3, Eigen::MatrixXd(P, K));
+  const auto bilinear = [&](const float* img, double u, double v, int ch) {  // row 0 = v = 1, like the model file
+    const double x = std::clamp(u * R - 0.5, 0.0, R - 1.0), y = std::clamp((1 - v) * R - 0.5, 0.0, R - 1.0);
+    const int x0 = int(x), y0 = int(y), x1 = std::min(x0 + 1, R - 1), y1 = std::min(y0 + 1, R - 1);
+    const double fx = x - x0, fy = y - y0;
+    const auto at = [&](int xx, int yy) { return double(img[(size_t(yy) * size_t(R) + size_t(xx)) * 3 + size_t(ch)]); };
+    return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x1, y0)) + fy * ((1 - fx) * at(x0, y1) + fx * at(x1, y1));
+  };
+  for (Eigen::Index q = 0; q < P; ++q) {
+    const size_t i = size_t(pix[size_t(q)]);
+    const double u = uv[2 * i], v = uv[2 * i + 1];
+    const std::array<double, 9> y = sh_basis(Eigen::Vector3d(nrm[3 * i], nrm[3 * i + 1], nrm[3 * i + 2]).normalized());
+    for (int k = 0; k < 9; ++k) Y(q, k) = y[size_t(k)];
+    for (int ch = 0; ch < 3; ++ch) {
+      c(q, ch) = image.pixels[i * size_t(image.channels) + size_t(ch)];
+      m(q, ch) = bilinear(model.appearance_mean.data(), u, v, ch);
+      for (int k = 0; k < K; ++k) b[size_t(ch)](q, k) = bilinear(model.appearance_basis.row(k).data(), u, v, ch) * model.appearance_stddev(k);
+    }
+  }
+  PhotometricFit out;
+  out.pixels = P;
+  out.delta = Eigen::VectorXd::Zero(K);
+  Eigen::MatrixXd gamma = Eigen::MatrixXd::Zero(9, 3);
+  gamma.row(0).setConstant(kDeep3dAmbient);
+  // Gauss-Newton on (δ, γ) together: the albedo-lighting valley is flat, so alternating solves would crawl along it;
+  // the joint step with the priors crosses it. Unknowns: δ (K), then γ channel by channel (27).
+  Eigen::MatrixXd albedo(P, 3);
+  const double prior_delta = options.noise * options.noise;
+  const double prior_gamma = options.noise * options.noise / (options.lighting_sd * options.lighting_sd);
+  for (int it = 0; it < options.alternations; ++it) {
+    for (int ch = 0; ch < 3; ++ch) albedo.col(ch) = m.col(ch) + b[size_t(ch)] * out.delta;
+    const Eigen::MatrixXd E = Y * gamma;
+    const int U = K + 27;
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(U, U);
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(U);
+    for (int ch = 0; ch < 3; ++ch) {
+      Eigen::MatrixXd J(P, K + 9);  // this channel's residual depends on δ and γ_ch only
+      J.leftCols(K) = E.col(ch).asDiagonal() * b[size_t(ch)];
+      J.rightCols(9) = albedo.col(ch).asDiagonal() * Y;
+      const Eigen::VectorXd r = albedo.col(ch).cwiseProduct(E.col(ch)) - c.col(ch);
+      const Eigen::MatrixXd JtJ = J.transpose() * J;
+      const Eigen::VectorXd Jtr = J.transpose() * r;
+      const int o = K + 9 * ch;
+      H.topLeftCorner(K, K) += JtJ.topLeftCorner(K, K);
+      H.block(0, o, K, 9) += JtJ.topRightCorner(K, 9);
+      H.block(o, 0, 9, K) += JtJ.bottomLeftCorner(9, K);
+      H.block(o, o, 9, 9) += JtJ.bottomRightCorner(9, 9);
+      g.head(K) += Jtr.head(K);
+      g.segment(o, 9) += Jtr.tail(9);
+    }
+    for (int k = 0; k < K; ++k) {
+      H(k, k) += prior_delta;
+      g(k) += prior_delta * out.delta(k);
+    }
+    for (int ch = 0; ch < 3; ++ch)
+      for (int k = 0; k < 9; ++k) {
+        const int o = K + 9 * ch + k;
+        H(o, o) += prior_gamma;
+        g(o) += prior_gamma * (gamma(k, ch) - (k == 0 ? kDeep3dAmbient : 0.0));
+      }
+    const Eigen::VectorXd step = H.ldlt().solve(-g);
+    out.delta += step.head(K);
+    for (int ch = 0; ch < 3; ++ch) gamma.col(ch) += step.segment(K + 9 * ch, 9);
+    if (step.norm() < 1e-8) break;
+  }
+  for (int ch = 0; ch < 3; ++ch) albedo.col(ch) = m.col(ch) + b[size_t(ch)] * out.delta;
+  const Eigen::MatrixXd rendered = albedo.cwiseProduct(Y * gamma);
+  const double mse = (rendered - c).squaredNorm() / double(3 * P);
+  out.psnr_db = 10 * std::log10(1 / std::max(mse, 1e-20));
+  for (int ch = 0; ch < 3; ++ch)
+    for (int k = 0; k < 9; ++k) out.gamma[size_t(9 * ch + k)] = gamma(k, ch);
   return out;
 }
 

@@ -4,6 +4,9 @@
 // camera). Levenberg–Marquardt on a forward-difference Jacobian; α and β are standardised, so λ is in px² per unit.
 #pragma once
 #include <Eigen/Core>
+#include <array>
+
+#include "core/image.h"
 
 #include "morphable/model.h"
 #include "render/camera.h"
@@ -31,5 +34,29 @@ Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& angles);
 // landmarks_px: 68 x 2 (pixels, origin top-left). InvalidInput for a model without 68 landmarks or non-finite input.
 LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& landmarks_px, const Camera& camera,
                           const LandmarkFitOptions& options = {});
+
+// The photometric term (BareSkinNet's L_diff / L_light with L_reg on δ), with the geometry held at a landmark fit:
+// per covered pixel, colour = (Ā + Σ_k δ_k σ_k B_k)(uv) × (Y(n) · γ_c), in linear light, with the normal in the camera
+// frame. Gauss-Newton on δ and γ together (the product is bilinear), with the priors below, from Deep3DFaceRecon's
+// ambient light.
+struct PhotometricFitOptions {
+  int appearance_components = 52;
+  // A MAP fit: per-pixel colour noise σ_n (linear), δ ~ N(0, 1), and γ ~ N(Deep3DFaceRecon's white ambient, σ_γ²),
+  // which settles the albedo-lighting ambiguity (a darker skin under brighter light looks the same).
+  double noise = 0.02;
+  double lighting_sd = 0.3;
+  int alternations = 20;  // Gauss-Newton steps
+};
+
+struct PhotometricFit {
+  Eigen::VectorXd delta;
+  std::array<double, 27> gamma{};
+  double psnr_db = 0;  // of the fitted render against the image over the covered pixels, linear values
+  int64_t pixels = 0;
+};
+
+// `posed`: the model's topology at the fitted shape and pose; `image` linear RGB of the camera's size.
+PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, const Camera& camera, const Image& image,
+                               const PhotometricFitOptions& options = {});
 
 }  // namespace bareskin

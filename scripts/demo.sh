@@ -164,10 +164,12 @@ t, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
 da = max(abs(a - b) for a, b in zip(t["alpha"] + [0] * len(f["alpha"]), f["alpha"]))
 dr = max(abs(a - b) for a, b in zip(t["rotation"], f["rotation"]))
 db = max(abs(a - b) for a, b in zip(t["beta"] + [0] * len(f["beta"]), f["beta"]))
+dd = max(abs(a - b) for a, b in zip(t["delta"] + [0] * len(f["delta"]), f["delta"]))
 print(f"landmark reprojection {f['landmark_rms_px']:.3f} px RMS at 256², {f['iterations']} iterations, "
       f"{1000 * f['seconds']:.1f} ms; largest error: α {da:.3f} σ, β {db:.3f} σ, rotation {dr * 180 / 3.14159265:.3f}°, "
-      f"translation {max(abs(a - b) for a, b in zip(t['translation'], f['translation'])):.2f} mm "
-      f"(appearance δ and lighting γ need the photometric term, not implemented yet)")
+      f"translation {max(abs(a - b) for a, b in zip(t['translation'], f['translation'])):.2f} mm; then the photometric "
+      f"term: δ within {dd:.3f} σ, the ambient light {f['gamma'][0]:.3f} (true 0.8), render PSNR "
+      f"{f['photometric_psnr_db']:.1f} dB over {f['photometric_pixels']} face pixels")
 PY5
 )
 appearance=""
@@ -346,9 +348,9 @@ $sweeps
 $model_renders
 <h3>Fitting to landmarks (<code>mm-fit image.png --model model.safetensors --landmarks lm.json</code>)</h3>
 <p>Levenberg–Marquardt on pose and the first identity and expression components against the 68 landmarks,
-regularised: $fit_summary.</p>
+regularised, then Gauss–Newton on appearance and SH lighting against the pixels (priors on both): $fit_summary.</p>
 <figure><img src="img/fit_truth.png" style="width:200px"><figcaption>render at known coefficients</figcaption></figure>
-<figure><img src="img/fit_result.png" style="width:200px"><figcaption>the fit, rendered (δ at 0)</figcaption></figure>
+<figure><img src="img/fit_result.png" style="width:200px"><figcaption>the fit, rendered (its α, β, δ, γ and pose)</figcaption></figure>
 <figure><img src="img/fit_diff.png" style="width:200px"><figcaption>|difference| ×4</figcaption></figure>
 <h3>Appearance: mean and ±3σ along the first two components</h3>
 $appearance

@@ -78,8 +78,9 @@ oiiotool --stats "$work/model_mask.png" | grep -q "Stats Max: 255 (of 255)" || f
   2> "$work/err"
 [ $? -eq 3 ] && grep -q "give a mesh, or --model" "$work/err" || fail "render mesh and model: $(cat "$work/err")"
 # mm-fit: landmarks of a render at known coefficients give the coefficients back.
-echo '{"alpha": [1.2, -0.8, 0.5], "rotation": [0.05, 0.25, -0.03], "translation": [5, -8, 20]}' > "$work/truth.json"
-"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/truth.json" --camera pinhole --passes mask \
+echo '{"alpha": [1.2, -0.8, 0.5], "delta": [0.8], "rotation": [0.05, 0.25, -0.03], "translation": [5, -8, 20]}' \
+  > "$work/truth.json"
+"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/truth.json" --camera pinhole --passes colour \
   --size 256 --landmarks-out "$work/lm.json" -o "$work/truth.png" || fail "render for the fit"
 "$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/lm.json" \
   -o "$work/fitted.json" || fail "mm-fit"
@@ -90,7 +91,9 @@ assert f["landmark_rms_px"] < 1, f["landmark_rms_px"]
 assert max(abs(a - b) for a, b in zip(t["rotation"], f["rotation"])) < 0.01, f["rotation"]
 assert max(abs(a - b) for a, b in zip(t["translation"], f["translation"])) < 2, f["translation"]
 assert max(abs(a - b) for a, b in zip(t["alpha"] + [0] * 9, f["alpha"])) < 0.2, f["alpha"]
-print(f"ok   mm-fit: landmark RMS {f['landmark_rms_px']:.3f} px, coefficients recovered")
+assert abs(f["delta"][0] - 0.8) < 0.2 and f["photometric_psnr_db"] > 30, (f["delta"], f["photometric_psnr_db"])
+print(f"ok   mm-fit: landmark RMS {f['landmark_rms_px']:.3f} px, photometric PSNR {f['photometric_psnr_db']:.1f} dB, "
+      f"delta {f['delta'][0]:.3f} (true 0.8)")
 PY
 "$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/t/landmarks.json" \
   -o "$work/bad_fit.json" 2> "$work/err"
