@@ -275,7 +275,7 @@ pre{background:#f6f6f6;padding:.8em;white-space:pre-wrap;font-size:.85em}.todo{c
 </style></head><body>
 <h1>BareSkin toolkit — demo report</h1>
 <p>Generated $(date -u '+%Y-%m-%d %H:%M UTC') on $(uname -n) by <code>make demo</code> ($("$bareskin" --version)).
-Pipeline stages run so far are below; later stages (3DMM, rendering and fitting, training)
+Pipeline stages run so far are below; the later ones (dataset building, training, inference)
 join this report as they land.</p>
 
 <h2>1. Template face</h2>
