@@ -6,6 +6,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "apps/model_input.h"
 #include "apps/scan_register.h"
 #include "apps/svg_chart.h"
 #include "core/error.h"
@@ -328,7 +329,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
                                              std::to_string(lm.points.cols()) + "D", "give the 68 iBUG points in pixels");
     }
     const MorphableModel model = read_model(opt->model);
-    const Camera camera = view_camera(opt->view, info.width, Eigen::Vector3d::Zero());
+    const Camera camera = command_camera(model.topology, true, opt->view, "pinhole", info.width);
     const auto t0 = std::chrono::steady_clock::now();
     const LandmarkFit fit = fit_landmarks(model, lm.points, camera, opt->fit);
     PhotometricFit photo;

@@ -1,6 +1,7 @@
 #include "apps/model_input.h"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -56,6 +57,16 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
     out.gamma = gamma;
   }
   return out;
+}
+
+Camera command_camera(const Mesh& mesh, bool fixed, const std::string& view, const std::string& camera, int size) {
+  const Eigen::RowVector3d lo = mesh.V.colwise().minCoeff(), hi = mesh.V.colwise().maxCoeff();
+  Camera cam = view_camera(view, size, fixed ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0.5 * (lo + hi).transpose()));
+  if (camera == "weak") {
+    cam.model = Camera::Model::WeakPerspective;
+    cam.scale = 0.8 * size / std::max((hi - lo).maxCoeff(), 1e-9);
+  }
+  return cam;
 }
 
 Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path) {

@@ -10,6 +10,7 @@
 
 #include "core/image.h"
 #include "core/mesh.h"
+#include "render/camera.h"
 
 namespace bareskin::cli {
 
@@ -25,5 +26,10 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
 
 // --mesh, or the model at the coefficients; InvalidInput unless exactly one is given.
 Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path);
+
+// The camera of `render --camera` (also unwarp, mask): `camera` "pinhole" or "weak", a size x size image from `view`.
+// A mesh is framed by its bounding box; a model (`fixed`) sits in a fixed camera looking at its origin, its pose being
+// part of the coefficients. Weak perspective fits the mesh to 80% of the frame.
+Camera command_camera(const Mesh& mesh, bool fixed, const std::string& view, const std::string& camera, int size);
 
 }  // namespace bareskin::cli

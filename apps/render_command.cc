@@ -147,16 +147,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       } else if (!instance.appearance.empty()) {
         shade.texture = &instance.appearance;
       }
-      // A mesh is framed by its bounding box; a model sits in a fixed camera (its pose is part of the coefficients).
-      const Eigen::Vector3d centre = opt->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
-      const double extent = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff();
       for (const std::string& view : views) {
         if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
-        Camera cam = view_camera(view, opt->preview.size, centre);
-        if (opt->camera == "weak") {
-          cam.model = Camera::Model::WeakPerspective;
-          cam.scale = 0.8 * opt->preview.size / std::max(extent, 1e-9);
-        }
+        const Camera cam = command_camera(mesh, !opt->model.empty(), view, opt->camera, opt->preview.size);
         const Frame frame = render_frame(mesh, cam, shade);
         if (!opt->landmarks_out.empty()) {
           std::vector<int> ids = instance.landmark_vertices;

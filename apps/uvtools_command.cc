@@ -114,12 +114,7 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
         labels.width = labels.height = mk->image_size;
       }
       if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
-      const Eigen::Vector3d centre = mk->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
-      Camera cam = view_camera(mk->view, labels.width, centre);
-      if (mk->camera == "weak") {
-        cam.model = Camera::Model::WeakPerspective;
-        cam.scale = 0.8 * labels.width / std::max((mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff(), 1e-9);
-      }
+      const Camera cam = command_camera(mesh, !mk->model.empty(), mk->view, mk->camera, labels.width);
       if (!mk->synthetic.empty()) {
         const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
         nlohmann::json ids;
@@ -163,16 +158,10 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
     if (unwarp_app->parsed()) {
       const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
       const Image image = read_image(un->image);
-      // The camera of 'render --camera' for this mesh and image size.
       if (image.width != image.height) {
         throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
       }
-      const Eigen::Vector3d centre = un->model.empty() ? Eigen::Vector3d(0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose()) : Eigen::Vector3d::Zero();
-      Camera cam = view_camera(un->view, image.width, centre);
-      if (un->camera == "weak") {
-        cam.model = Camera::Model::WeakPerspective;
-        cam.scale = 0.8 * image.width / std::max((mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).maxCoeff(), 1e-9);
-      }
+      const Camera cam = command_camera(mesh, !un->model.empty(), un->view, un->camera, image.width);
       const UnwarpResult r = unwarp(image, mesh, cam, un->unwarp);
       const fs::path out_path(un->output);
       const bool exr = out_path.extension() == ".exr";

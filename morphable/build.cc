@@ -13,6 +13,7 @@
 #include "core/parallel.h"
 #include "morphable/pca.h"
 #include "morphable/procrustes.h"
+#include "render/rasterize.h"
 
 namespace bareskin {
 namespace {
@@ -87,30 +88,9 @@ std::vector<uint8_t> face_regions(const TemplateFace& face, std::vector<std::str
 
 std::vector<uint8_t> uv_mask(const Mesh& mesh, int R) {
   if (!mesh.has_uv()) throw InvalidInput("template", "has no UVs", "use a template with UVs");
-  std::vector<uint8_t> mask(size_t(R) * size_t(R), 0);
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {
-    Eigen::Vector2d p[3];
-    for (int k = 0; k < 3; ++k) {
-      const Eigen::Vector2d uv = mesh.UV.row(mesh.FUV(f, k)).transpose();
-      p[k] = {uv.x() * R, (1 - uv.y()) * R};  // pixel space, y down
-    }
-    const double area = (p[1] - p[0]).x() * (p[2] - p[0]).y() - (p[1] - p[0]).y() * (p[2] - p[0]).x();
-    if (std::abs(area) < 1e-18) continue;
-    const int x0 = std::max(0, int(std::floor(std::min({p[0].x(), p[1].x(), p[2].x()})))),
-              x1 = std::min(R - 1, int(std::ceil(std::max({p[0].x(), p[1].x(), p[2].x()})))),
-              y0 = std::max(0, int(std::floor(std::min({p[0].y(), p[1].y(), p[2].y()})))),
-              y1 = std::min(R - 1, int(std::ceil(std::max({p[0].y(), p[1].y(), p[2].y()}))));
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
-        const Eigen::Vector2d c(x + 0.5, y + 0.5);
-        double w[3];
-        for (int k = 0; k < 3; ++k) {
-          const Eigen::Vector2d a = p[(k + 1) % 3] - c, b = p[(k + 2) % 3] - c;
-          w[k] = (a.x() * b.y() - a.y() * b.x()) / area;
-        }
-        if (w[0] >= -1e-9 && w[1] >= -1e-9 && w[2] >= -1e-9) mask[size_t(y) * size_t(R) + size_t(x)] = 1;
-      }
-  }
+  const RasterOutput uv = rasterize_uv(mesh, R);
+  std::vector<uint8_t> mask(uv.triangle.size());
+  for (size_t i = 0; i < mask.size(); ++i) mask[i] = uv.triangle[i] >= 0;
   return mask;
 }
 

@@ -152,7 +152,7 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
   Eigen::MatrixXd albedo(P, 3);
   const double prior_delta = options.noise * options.noise;
   const double prior_gamma = options.noise * options.noise / (options.lighting_sd * options.lighting_sd);
-  for (int it = 0; it < options.alternations; ++it) {
+  for (int it = 0; it < options.iterations; ++it) {
     for (int ch = 0; ch < 3; ++ch) albedo.col(ch) = m.col(ch) + b[size_t(ch)] * out.delta;
     const Eigen::MatrixXd E = Y * gamma;
     const int U = K + 27;

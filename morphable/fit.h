@@ -45,7 +45,7 @@ struct PhotometricFitOptions {
   // which settles the albedo-lighting ambiguity (a darker skin under brighter light looks the same).
   double noise = 0.02;
   double lighting_sd = 0.3;
-  int alternations = 20;  // Gauss-Newton steps
+  int iterations = 20;  // Gauss-Newton steps (at most)
 };
 
 struct PhotometricFit {

@@ -14,17 +14,13 @@ mesh=$work/t/face.obj
 for v in front left right; do
   for p in colour albedo depth mask; do [ -f "$work/r_${v}_${p}.png" ] || fail "missing ${v}_${p}"; done
 done
-/usr/bin/python3 - "$work" <<'PY' || fail "mask vs colour"
-import subprocess, sys, tempfile
-import numpy as np
-from skimage import io
-def read(p):
-    with tempfile.TemporaryDirectory() as d:
-        subprocess.run(["oiiotool", p, "-d", "float", "--compression", "none", "-o", d + "/x.tif"], check=True)
-        return io.imread(d + "/x.tif")
+/usr/bin/python3 - "$work" "$(cd "$(dirname "$0")" && pwd)/../python" <<'PY' || fail "mask vs colour"
+import sys
+sys.path.insert(0, sys.argv[2])
+from bake_oracle import read
 for v in ("front", "left", "right"):
     c, m = read(f"{sys.argv[1]}/r_{v}_colour.png"), read(f"{sys.argv[1]}/r_{v}_mask.png")
-    m = m if m.ndim == 2 else m[..., 0]
+    m = m[..., 0]
     assert 0.15 < (m > 0.5).mean() < 0.9, (v, (m > 0.5).mean())
     assert (c[m < 0.5] == 0).all() and (c[m > 0.5].max(axis=-1) > 0).mean() > 0.99, v
 PY

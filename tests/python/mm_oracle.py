@@ -16,14 +16,12 @@ usage: mm_oracle.py MODEL REGISTERED_DIR METRICS_CSV [EXPORT_DIR]
 import csv
 import json
 import os
-import subprocess
 import sys
-import tempfile
 
 import numpy as np
-from skimage import io
 
 sys.path.insert(0, os.path.dirname(__file__))
+from bake_oracle import read  # noqa: E402  (lossless float through oiiotool)
 from safetensors_oracle import read_safetensors  # noqa: E402
 
 
@@ -51,13 +49,6 @@ def ply_vertices(path):
 
 def mesh_vertices(d):
     return ply_vertices(d + "/mesh.ply") if os.path.exists(d + "/mesh.ply") else obj_vertices(d + "/mesh.obj")
-
-
-def read_png16(path):
-    """imageio reduces 16-bit RGB PNGs to 8 bits: go through a TIFF written by oiiotool (lossless)."""
-    with tempfile.TemporaryDirectory() as d:
-        subprocess.run(["oiiotool", path, "-o", d + "/x.tif"], check=True)
-        return io.imread(d + "/x.tif")
 
 
 def srgb_to_linear(x):
@@ -118,8 +109,7 @@ def main(model_path, registered, metrics_csv, export=None):
         mask = t["appearance_mask"].astype(bool)
         acc = np.zeros((R, R, 3))
         for s in subjects:
-            raw = read_png16(f"{registered}/{s}/diffuse.png")
-            img = srgb_to_linear(raw[..., :3].astype(np.float64) / np.iinfo(raw.dtype).max)
+            img = srgb_to_linear(read(f"{registered}/{s}/diffuse.png")[..., :3])
             f = img.shape[0] // R
             acc += img.reshape(R, f, R, f, 3).mean((1, 3))
         acc /= n
