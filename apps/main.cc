@@ -11,6 +11,9 @@ std::function<void()> setup_mm_build_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_fit_command(CLI::App&, const Globals&);
 std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
+#ifdef BARESKIN_WITH_DETECT
+std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
+#endif
 
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
@@ -24,6 +27,10 @@ const std::vector<Command>& commands() {
        setup_uvtools_command},
       {"mm-fit", "Model", "Fit the model's pose and identity to 68 image landmarks (coefficients for render, uvtools)",
        setup_mm_fit_command},
+#ifdef BARESKIN_WITH_DETECT
+      {"landmarks", "Images", "Detect faces and their 68 landmarks in a photo (face-api's networks in LibTorch)",
+       setup_landmarks_command},
+#endif
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };

@@ -51,6 +51,26 @@ void draw_dot(Image& img, const Eigen::Vector3d& p, int radius, const Eigen::Vec
 
 }  // namespace
 
+void draw_landmarks(Image& image, const Eigen::MatrixXd& points, const Eigen::Vector3f& colour, int radius) {
+  auto at = [&](int i) { return Eigen::Vector3d(points(i, 0) - 0.5, points(i, 1) - 0.5, 0); };
+  if (points.rows() == 68) {
+    // iBUG-68 outlines: [first, last, closed]
+    const int parts[9][3] = {{0, 16, 0}, {17, 21, 0}, {22, 26, 0}, {27, 30, 0}, {31, 35, 0},
+                             {36, 41, 1}, {42, 47, 1}, {48, 59, 1}, {60, 67, 1}};
+    for (const auto& part : parts) {
+      for (int i = part[0]; i < part[1]; ++i) draw_line(image, nullptr, at(i), at(i + 1), colour, 0.6f, 0);
+      if (part[2]) draw_line(image, nullptr, at(part[1]), at(part[0]), colour, 0.6f, 0);
+    }
+  }
+  for (int i = 0; i < points.rows(); ++i) draw_dot(image, at(i), radius, colour);
+}
+
+void draw_box(Image& image, double x, double y, double width, double height, const Eigen::Vector3f& colour) {
+  const Eigen::Vector3d corners[4] = {{x - 0.5, y - 0.5, 0}, {x + width - 0.5, y - 0.5, 0},
+                                      {x + width - 0.5, y + height - 0.5, 0}, {x - 0.5, y + height - 0.5, 0}};
+  for (int i = 0; i < 4; ++i) draw_line(image, nullptr, corners[i], corners[(i + 1) % 4], colour, 1, 0);
+}
+
 PreviewView parse_preview_view(const std::string& name) {
   if (name == "front") return PreviewView::Front;
   if (name == "left") return PreviewView::Left;

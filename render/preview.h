@@ -26,6 +26,11 @@ struct PreviewOptions {
 // A perceptual blue-to-red heat colour (sRGB) for t in [0, 1] (clamped).
 Eigen::Vector3f heat_color(double t);
 
+// Overlays on an sRGB image, in pixel coordinates with the top-left pixel's centre at (0.5, 0.5): iBUG-68 points
+// (dots joined along jaw, brows, nose, eyes and lips; other counts as dots only) and a rectangle outline.
+void draw_landmarks(Image& image, const Eigen::MatrixXd& points, const Eigen::Vector3f& colour, int radius = 2);
+void draw_box(Image& image, double x, double y, double width, double height, const Eigen::Vector3f& colour);
+
 // Returns an sRGB image. Left/right views look at the face's left/right side (a camera on the +x / -x axis).
 Image render_preview(const Mesh& mesh, const PreviewOptions& options);
 

@@ -123,7 +123,8 @@ std::map<std::string, double> Appearance::to_map() const {
   return {{"melanin", melanin},       {"haemoglobin", haemoglobin}, {"freckles", freckles},
           {"blush", blush},           {"lip_redness", lip_redness}, {"oiliness", oiliness},
           {"pore_scale", pore_scale}, {"wrinkles", wrinkles},       {"hair_r", hair.x()},
-          {"hair_g", hair.y()},       {"hair_b", hair.z()}};
+          {"hair_g", hair.y()},       {"hair_b", hair.z()},         {"iris_r", iris.x()},
+          {"iris_g", iris.y()},       {"iris_b", iris.z()}};
 }
 
 Appearance sample_appearance(uint64_t seed) {
@@ -146,6 +147,9 @@ Appearance sample_appearance(uint64_t seed) {
     const double skin = kBase[c] * std::exp(-(a.melanin * kMelanin[c] + a.haemoglobin * kHaemoglobin[c]));
     a.hair[c] = shade * skin * (1.0 - 0.15 * c);
   }
+  // Irises: brown of varying depth; blue-grey now and then on light skin.
+  const bool blue = u(rng) < 0.5 * lightness;
+  a.iris = (blue ? Eigen::Vector3d(0.05, 0.08, 0.12) : Eigen::Vector3d(0.07, 0.035, 0.015)) * (0.6 + 0.8 * u(rng));
   return a;
 }
 
@@ -160,6 +164,13 @@ SkinModel::SkinModel(const TemplateFace& face, const Appearance& appearance)
   }
   for (int k = 0; k < 68; ++k) landmarks_[size_t(k)] = face.mesh.V.row(face.landmark_vertices[size_t(k)]).cast<float>();
   for (int k = 48; k < 60; ++k) lip_polygon_.push_back(uv.row(face.landmark_vertices[size_t(k)]).cast<float>());
+  for (int side = 0; side < 2; ++side) {
+    eye_centre_[side] = Vec3::Zero();
+    for (int k = 36 + 6 * side; k < 42 + 6 * side; ++k) {
+      eye_polygon_[side].push_back(uv.row(face.landmark_vertices[size_t(k)]).cast<float>());
+      if (k % 6 != 0 && k % 6 != 3) eye_centre_[side] += landmarks_[size_t(k)] / 4;  // the four lid points
+    }
+  }
   double area_uv = 0;
   for (Eigen::Index f = 0; f < face.mesh.F.rows(); ++f) {
     const Eigen::Vector2d a = uv.row(face.mesh.F(f, 0)), b = uv.row(face.mesh.F(f, 1)), c = uv.row(face.mesh.F(f, 2));
@@ -193,6 +204,23 @@ float SkinModel::brows(const Vec3& p) const {
     }
   }
   return best;
+}
+
+float SkinModel::eyes(const Vec2& uv, const Vec3& p, Vec3* colour) const {
+  for (int side = 0; side < 2; ++side) {
+    const float d = polygon_signed_distance(eye_polygon_[side], uv) * uv_to_mm_;  // < 0 inside the lids
+    if (d > 1.5f) continue;
+    // Lash line: a dark band along the lid contour, widest on the upper lid; inside, sclera → iris → pupil.
+    const float r = (p - eye_centre_[side]).norm();
+    const float iris = smoothstep(5.8f, 5.2f, r), pupil = smoothstep(2.0f, 1.5f, r);
+    Vec3 inside = (1 - iris) * Vec3(0.62f, 0.58f, 0.55f) + iris * appearance_.iris.cast<float>();
+    inside = (1 - pupil) * inside + pupil * Vec3(0.01f, 0.01f, 0.01f);
+    const bool upper = p.y() > eye_centre_[side].y();
+    const float lash = smoothstep(upper ? 1.3f : 0.7f, 0.2f, std::abs(d + 0.2f));
+    *colour = (1 - lash) * inside + lash * Vec3(0.02f, 0.015f, 0.012f);
+    return std::max(smoothstep(0.3f, -0.3f, d), lash);
+  }
+  return 0;
 }
 
 float SkinModel::nose(const Vec3& p) const {
@@ -284,14 +312,19 @@ SkinSample SkinModel::sample(const Vec3& p, const Vec2& uv, float footprint) con
       0.5f + 0.5f * strand_keep * value_noise(Vec3(p.x() * 0.6f, p.y() * 4.0f, p.z() * 4.0f), seed_ ^ 5u);
   const float hair = brow * std::clamp(0.35f + 0.9f * strands, 0.0f, 1.0f);
   albedo = (1 - hair) * albedo + hair * a.hair.cast<float>();
+  Vec3 eye_colour;
+  const float eye = eyes(uv, p, &eye_colour);
+  albedo = (1 - eye) * albedo + eye * eye_colour;
 
   const float wobble = fbm(p, 12.0f, 2, footprint, seed_ ^ 6u);
   const float oil = float(a.oiliness);
   out.material.diffuse = albedo;
   out.material.roughness =
-      std::clamp(0.58f + 0.06f * wobble - (0.08f + 0.14f * oil) * tz + 0.05f * cheek - 0.22f * lip + 0.2f * hair, 0.1f, 0.95f);
+      std::clamp(0.58f + 0.06f * wobble - (0.08f + 0.14f * oil) * tz + 0.05f * cheek - 0.22f * lip + 0.2f * hair - 0.45f * eye,
+                 0.1f, 0.95f);
   out.material.specular =
-      std::clamp(0.32f + 0.05f * wobble + (0.08f + 0.18f * oil) * tz - 0.06f * cheek + 0.12f * lip - 0.2f * hair, 0.02f, 1.0f);
+      std::clamp(0.32f + 0.05f * wobble + (0.08f + 0.18f * oil) * tz - 0.06f * cheek + 0.12f * lip - 0.2f * hair + 0.3f * eye,
+                 0.02f, 1.0f);
   return out;
 }
 

@@ -35,6 +35,7 @@ struct Appearance {
   double pore_scale = 1;     // pore size and spacing multiplier
   double wrinkles = 0.3;     // forehead wrinkle depth 0..1 (age)
   Eigen::Vector3d hair = {0.05, 0.03, 0.02};  // eyebrow colour, linear RGB
+  Eigen::Vector3d iris = {0.06, 0.03, 0.015};  // linear RGB
   std::map<std::string, double> to_map() const;  // for truth/identity.json
 };
 
@@ -62,6 +63,9 @@ class SkinModel {
   // Region masks in [0,1] (exposed for tests and reports).
   float lips(const Eigen::Vector2f& uv) const;
   float brows(const Eigen::Vector3f& p) const;
+  // Open eyes inside the lid contours (iBUG 36-41, 42-47): coverage in [0,1]; `colour` gets sclera, iris, pupil and
+  // the lash line (linear RGB) where it is > 0.
+  float eyes(const Eigen::Vector2f& uv, const Eigen::Vector3f& p, Eigen::Vector3f* colour) const;
   float t_zone(const Eigen::Vector3f& p) const;
   float cheeks(const Eigen::Vector3f& p) const;
 
@@ -80,6 +84,8 @@ class SkinModel {
   uint32_t seed_;
   std::array<Eigen::Vector3f, 68> landmarks_;
   std::vector<Eigen::Vector2f> lip_polygon_;  // outer lip contour in template UV
+  std::vector<Eigen::Vector2f> eye_polygon_[2];  // lid contours in template UV
+  Eigen::Vector3f eye_centre_[2];
   float uv_to_mm_;                            // template UV units to mm (mean scale)
   float brow_top_y_, face_mid_x_;
   Eigen::Vector3f cheek_[2];

@@ -1,0 +1,144 @@
+// bareskin landmarks detect: faces and their iBUG-68 landmarks in a photo, with face-api's networks in LibTorch
+// (detect/face_api.h). The output is a landmark file every other command reads (the best face's points), plus
+// every face found with its box and score.
+#include <chrono>
+#include <filesystem>
+#include <optional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <torch/torch.h>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/landmarks.h"
+#include "core/mesh_io.h"
+#include "detect/face_api.h"
+#include "detect/scan_landmarks.h"
+#include "render/preview.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string photo, output, draw, weights = detect::default_face_api_folder(), device = "cpu";
+    detect::DetectOptions detect;
+  };
+  auto opt = std::make_shared<Options>();
+  app.require_subcommand(1);
+  CLI::App* d = app.add_subcommand("detect", "Find faces and their 68 landmarks in a photo (face-api's networks)");
+  d->add_option("photo", opt->photo, "Photo (PNG, JPEG, TIFF, EXR; grey, RGB or RGBA; 8/16-bit or float)")->required();
+  d->add_option("-o,--output", opt->output, "Landmark JSON: the best face's 68 points (px) as 'points', every face "
+                                            "under 'faces' with 'box' [x, y, w, h] and 'score'")
+      ->required();
+  d->add_option("--draw", opt->draw, "Also write the photo with boxes and landmarks drawn (PNG/JPEG)");
+  d->add_option("--weights", opt->weights, "Folder with face-api's tfjs models ('make deps' fills it)")
+      ->capture_default_str();
+  d->add_option("--input-size", opt->detect.input_size, "Detector input size (multiple of 32): larger finds smaller faces")
+      ->capture_default_str();
+  d->add_option("--min-score", opt->detect.min_score, "Drop detections scoring below")->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
+  d->add_option("--max-faces", opt->detect.max_faces, "Keep at most this many faces (0: all)")->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  d->add_option("--device", opt->device, "cpu or cuda")->capture_default_str()->check(CLI::IsMember({"cpu", "cuda"}));
+
+  struct ScanOptions {
+    std::string scan, texture, output, draw, weights = detect::default_face_api_folder();
+    detect::ScanLandmarkOptions detect;
+  };
+  auto sc = std::make_shared<ScanOptions>();
+  CLI::App* s = app.add_subcommand("scan", "3D landmarks of a textured scan: detected in its front render, back-projected");
+  s->add_option("scan", sc->scan, "Scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file")->required();
+  s->add_option("--texture", sc->texture, "Diffuse map, when the scan is a mesh file (else: grey)");
+  s->add_option("-o,--output", sc->output, "3D landmark JSON (mm), as scan/landmarks.json")->required();
+  s->add_option("--draw", sc->draw, "Also write the front render with the 2D landmarks drawn (PNG)");
+  s->add_option("--weights", sc->weights, "Folder with face-api's tfjs models")->capture_default_str();
+  s->add_option("--size", sc->detect.size, "Render size")->capture_default_str()->check(CLI::Range(128, 4096));
+  s->add_option("--refinements", sc->detect.refinements, "Landmark passes on the box the previous points imply")
+      ->capture_default_str()->check(CLI::Range(0, 10));
+
+  return [opt, sc, d, s, &globals] {
+    if (s->parsed()) {
+      std::string mesh_path = sc->scan, texture = sc->texture;
+      if (std::filesystem::is_directory(sc->scan)) {
+        mesh_path.clear();
+        for (const char* name : {"mesh.obj", "mesh.ply"})
+          if (std::filesystem::exists(sc->scan + "/" + name)) mesh_path = sc->scan + "/" + name;
+        if (mesh_path.empty()) throw InvalidInput(sc->scan, "holds no mesh.obj or mesh.ply", "pass a scan folder");
+        for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
+          if (texture.empty() && std::filesystem::exists(sc->scan + "/" + name)) texture = sc->scan + "/" + name;
+      }
+      const Mesh mesh = read_mesh(mesh_path);
+      std::optional<Image> diffuse;
+      if (!texture.empty()) diffuse = to_linear(read_image(texture));
+      if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
+      detect::FaceApi net(sc->weights);
+      const auto r = detect::detect_scan_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->detect);
+      if (!sc->draw.empty()) {
+        Image canvas = r.picture;
+        draw_landmarks(canvas, r.px, {1.f, 0.2f, 0.2f}, std::max(1, sc->detect.size / 256));
+        write_image(sc->draw, canvas);
+      }
+      write_landmarks(sc->output, r.landmarks);
+      spdlog::info("landmarks scan: {}: detector score {:.3f}{}, {} point(s) snapped onto the silhouette -> {}", mesh_path,
+                   r.detector_score, r.detector_score == 0 ? " (none: coverage box used)" : "", r.off_surface,
+                   sc->output);
+      return;
+    }
+    if (opt->device == "cuda" && !torch::cuda::is_available())
+      throw InvalidInput("--device", "cuda was asked for but no CUDA device is available", "use --device cpu");
+    for (const std::string& out : {opt->output, opt->draw}) {
+      if (!out.empty() && out == opt->photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
+    }
+    if (lower_extension(opt->output) != ".json")
+      throw InvalidInput(opt->output, "landmarks are written as JSON", "name the output *.json");
+    detect::FaceApi net(opt->weights);
+    if (opt->device == "cuda") net.to(torch::kCUDA);
+    const Image image = read_image(opt->photo);
+    const torch::Tensor photo = detect::photo_tensor(image, opt->photo);
+    const auto start = std::chrono::steady_clock::now();
+    const auto faces = net.detect(photo, opt->detect);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (faces.empty())
+      throw InvalidInput(opt->photo, "no face found with score above " + std::to_string(opt->detect.min_score),
+                         "try a lower --min-score or a larger --input-size, or crop the photo around the face");
+
+    auto points_json = [](const Eigen::Matrix<double, 68, 2>& p) {
+      auto a = nlohmann::json::array();
+      for (int i = 0; i < 68; ++i) a.push_back({p(i, 0), p(i, 1)});
+      return a;
+    };
+    nlohmann::json doc = {{"scheme", "ibug68"}, {"units", "px"}, {"image", opt->photo},
+                          {"width", image.width},  {"height", image.height}};
+    doc["points"] = points_json(faces[0].points);
+    doc["score"] = faces[0].score;
+    doc["faces"] = nlohmann::json::array();
+    for (const auto& f : faces)
+      doc["faces"].push_back({{"score", f.score},
+                              {"box", {f.box.x, f.box.y, f.box.width, f.box.height}},
+                              {"points", points_json(f.points)}});
+    doc["detector"] = {{"model", "face-api 1.7.15 tiny_face_detector + face_landmark_68"},
+                       {"input_size", opt->detect.input_size},
+                       {"min_score", opt->detect.min_score},
+                       {"device", opt->device}};
+
+    std::string drawn;
+    if (!opt->draw.empty()) {
+      Image canvas(image.width, image.height, 3, ColorSpace::sRGB);
+      const torch::Tensor rgb = photo.contiguous();
+      std::copy(rgb.data_ptr<float>(), rgb.data_ptr<float>() + rgb.numel(), canvas.pixels.begin());
+      for (const auto& f : faces) {
+        const int r = std::max(1, int(std::lround(f.box.width / 100)));
+        draw_box(canvas, f.box.x, f.box.y, f.box.width, f.box.height, {0.2f, 0.9f, 0.3f});
+        draw_landmarks(canvas, f.points, {1.f, 0.2f, 0.2f}, r);
+      }
+      write_image(opt->draw, canvas);
+    }
+    write_file_atomic(opt->output, doc.dump(1) + "\n");
+    spdlog::info("landmarks detect: {}: {} face(s), best score {:.3f}; {:.1f} ms on {} ({})", opt->photo, faces.size(), faces[0].score, ms,
+              opt->device, opt->output);
+  };
+}
+
+}  // namespace bareskin::cli

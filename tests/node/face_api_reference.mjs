@@ -1,0 +1,64 @@
+// Reference outputs of face-api's own JavaScript (npm @vladmandic/face-api, tfjs CPU backend) for the oracle test
+// of 'bareskin landmarks detect' (tests/cli/landmarks.sh).
+//   node face_api_reference.mjs ASSETS/face_api IMAGE.ppm INPUT_SIZE MIN_SCORE > reference.json
+// IMAGE is a binary PPM (P6, 8-bit), which needs no decoder. For each face: score, box [x, y, w, h], and the 68
+// points shifted by the crop's integer origin (where the landmark network looked; face-api itself shifts by the
+// unrounded box, also given as points_face_api).
+import fs from 'fs';
+
+const [folder, image, inputSize, minScore] = process.argv.slice(2);
+if (!minScore) {
+  console.error('usage: node face_api_reference.mjs FACE_API_FOLDER IMAGE.ppm INPUT_SIZE MIN_SCORE');
+  process.exit(2);
+}
+// The bundle's node platform needs require('util'), which an ES module lacks; its browser platform works in node.
+globalThis.window = globalThis;
+globalThis.document = {};
+const faceapi = await import(`${folder}/dist/face-api.esm.js`);
+const tf = faceapi.tf;
+await tf.setBackend('cpu');
+await tf.ready();
+
+function load(net, name) {
+  const manifest = JSON.parse(fs.readFileSync(`${folder}/${name}-weights_manifest.json`));
+  const bin = fs.readFileSync(`${folder}/${manifest[0].paths[0]}`);
+  const buffer = bin.buffer.slice(bin.byteOffset, bin.byteOffset + bin.length);
+  net.loadFromWeightMap(tf.io.decodeWeights(buffer, manifest[0].weights));
+}
+load(faceapi.nets.tinyFaceDetector, 'tiny_face_detector_model');
+load(faceapi.nets.faceLandmark68Net, 'face_landmark_68_model');
+
+function readPpm(path) {
+  const data = fs.readFileSync(path);
+  const fields = [];
+  let i = 0;
+  while (fields.length < 4) {
+    while (data[i] === 0x23 || /\s/.test(String.fromCharCode(data[i]))) {
+      if (data[i] === 0x23) while (data[i] !== 0x0a) i++;  // comment
+      i++;
+    }
+    let token = '';
+    while (!/\s/.test(String.fromCharCode(data[i]))) token += String.fromCharCode(data[i++]);
+    fields.push(token);
+  }
+  if (fields[0] !== 'P6' || fields[3] !== '255') throw new Error(`${path}: not an 8-bit binary PPM`);
+  const [width, height] = [Number(fields[1]), Number(fields[2])];
+  const pixels = new Int32Array(data.subarray(i + 1, i + 1 + width * height * 3));
+  return tf.tensor3d(pixels, [height, width, 3], 'int32');
+}
+
+const img = readPpm(image);
+const options = new faceapi.TinyFaceDetectorOptions({ inputSize: Number(inputSize), scoreThreshold: Number(minScore) });
+const results = await faceapi.detectAllFaces(img, options).withFaceLandmarks();
+const [height, width] = img.shape;
+const faces = results.map((r) => {
+  const b = r.detection.box;
+  const crop = b.clipAtImageBorders(width, height);  // floored, as the crop face-api feeds the landmark network
+  return {
+    score: r.detection.score,
+    box: [b.x, b.y, b.width, b.height],
+    points: r.unshiftedLandmarks.positions.map((p) => [p.x + crop.x, p.y + crop.y]),
+    points_face_api: r.landmarks.positions.map((p) => [p.x, p.y]),
+  };
+}).sort((a, b) => b.score - a.score);
+console.log(JSON.stringify({ image, width, height, tfjs: tf.version_core, faces }));
