@@ -14,6 +14,10 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
+#include "core/landmarks.h"
+#ifdef BARESKIN_WITH_DETECT
+#include "detect/scan_landmarks.h"
+#endif
 #include "render/preview.h"
 #include "scan/register.h"
 #include "scan/transfer.h"
@@ -38,12 +42,28 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   const std::string id = fs::path(scan_dir).filename().string();
   const Mesh scan = read_mesh(scan_mesh_path(scan_dir));
   std::optional<Landmarks> landmarks;
+  nlohmann::json detected;
+  RegisterOptions nicp = args.nicp;
   if (!args.no_landmarks && fs::exists(scan_dir + "/landmarks.json")) {
     landmarks = read_landmarks(scan_dir + "/landmarks.json");
     check_scan_landmarks(face, *landmarks, scan_dir + "/landmarks.json");
   }
+#ifdef BARESKIN_WITH_DETECT
+  else if (!args.no_landmarks) {  // none given: detect them in a front render of the textured scan
+    std::optional<Image> diffuse;
+    for (const char* name : {"/diffuse.png", "/diffuse.exr", "/diffuse.tif", "/diffuse.tiff"})
+      if (!diffuse && fs::exists(scan_dir + name) && scan.has_uv()) diffuse = to_linear(read_image(scan_dir + name));
+    static const detect::FaceApi net(detect::default_face_api_folder());
+    const auto found = detect::detect_scan_landmarks(net, scan, diffuse ? &*diffuse : nullptr);
+    landmarks = found.landmarks;
+    check_scan_landmarks(face, *landmarks, scan_dir + " (detected landmarks)");
+    for (int k = 17; k < 68; ++k) nicp.landmark_ids.push_back(k);
+    detected = {{"detector_score", found.detector_score}, {"used", "17-67 (the jaw contour is left out)"},
+                {"snapped_to_silhouette", found.off_surface}};
+  }
+#endif
   const double read_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const Registration reg = register_scan(face, scan, landmarks ? &*landmarks : nullptr, args.nicp);
+  const Registration reg = register_scan(face, scan, landmarks ? &*landmarks : nullptr, nicp);
 
   // Truth, when the scan came from `scan synth`.
   std::optional<Eigen::MatrixX3d> truth_point;
@@ -62,6 +82,20 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
                                                       truth_face ? &*truth_face : nullptr);
 
   AtomicDirectory out(out_root + "/" + id);
+  if (!detected.is_null()) {
+    write_landmarks(out.path() + "/landmarks_detected.json", *landmarks);
+    if (truth_point) {  // the detected points against the template's landmark vertices carried onto the scan
+      std::vector<double> e;
+      for (int k = 0; k < 68; ++k)
+        e.push_back((landmarks->points.row(k) - truth_point->row(face.landmark_vertices[size_t(k)])).norm());
+      std::vector<double> inner(e.begin() + 17, e.end());
+      auto median = [](std::vector<double> v) {
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+      };
+      detected["error_vs_truth_mm"] = {{"median", median(e)}, {"median_17_67", median(inner)}};
+    }
+  }
   Mesh registered = face.mesh;
   registered.V = reg.V;
   registered.N = vertex_normals(registered.V, registered.F);
@@ -98,8 +132,10 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   report["scan"] = scan_mesh_path(scan_dir);
   report["scan_vertices"] = scan.V.rows();
   report["scan_triangles"] = scan.F.rows();
-  report["alignment"] = s.used_landmarks ? "landmarks (Umeyama similarity)"
-                                         : "FALLBACK: no landmarks; centroid + RMS radius + similarity ICP";
+  report["alignment"] = !s.used_landmarks ? "FALLBACK: no landmarks; centroid + RMS radius + similarity ICP"
+                        : detected.is_null() ? "landmarks (Umeyama similarity)"
+                                             : "detected landmarks 17-67 (Umeyama similarity)";
+  if (!detected.is_null()) report["landmarks_detected"] = detected;
   report["similarity_scale"] = s.similarity_scale;
   report["landmark_rms_after_similarity_mm"] = s.landmark_rms_after_similarity_mm;
   report["nicp_iterations"] = s.iterations;

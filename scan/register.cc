@@ -158,13 +158,20 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
 
   // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then similarity ICP).
   Eigen::MatrixX3d V0;
+  std::vector<int> ids = options.landmark_ids;
+  if (ids.empty())
+    for (int k = 0; k < 68; ++k) ids.push_back(k);
+  for (const int k : ids)
+    if (k < 0 || k >= 68) throw InvalidInput("", "landmark id " + std::to_string(k) + " is not in 0..67", "");
   if (landmarks) {
-    const Eigen::MatrixX3d src = landmark_points(face);
-    const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), landmarks->points.transpose(), true);
+    const Eigen::MatrixX3d all = landmark_points(face);
+    Eigen::MatrixX3d src(ids.size(), 3), dst(ids.size(), 3);
+    for (size_t i = 0; i < ids.size(); ++i) src.row(Eigen::Index(i)) = all.row(ids[i]), dst.row(Eigen::Index(i)) = landmarks->points.row(ids[i]);
+    const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), dst.transpose(), true);
     V0 = apply(T, face.mesh.V);
     stats.used_landmarks = true;
     stats.similarity_scale = std::cbrt(T.topLeftCorner<3, 3>().determinant());
-    stats.landmark_rms_after_similarity_mm = rms(apply(T, src), landmarks->points);
+    stats.landmark_rms_after_similarity_mm = rms(apply(T, src), dst);
   } else {
     const Eigen::RowVector3d ct = face.mesh.V.colwise().mean(), cs = scan.V.colwise().mean();
     const double rt = std::sqrt((face.mesh.V.rowwise() - ct).rowwise().squaredNorm().mean());
@@ -301,7 +308,8 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
           for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += c.weight(i) * vi[a] * vi[b];
         B.block<4, 3>(4 * i, 0) += c.weight(i) * vi.transpose() * ((c.target.row(i) - centre) / radius);
       }
-      for (int k = 0; beta > 0 && k < 68; ++k) {
+      for (const int k : ids) {
+        if (beta <= 0) break;
         const int vertex = face.landmark_vertices[size_t(k)];
         const Eigen::RowVector4d x = v_dense.row(vertex);
         const auto& nodes = embed_node[size_t(vertex)];

@@ -24,6 +24,9 @@ struct RegisterOptions {
   // Stiffness schedule (alpha, relaxed step by step) and the landmark weight at each step (beta, decaying to 0).
   std::vector<double> stiffness = {4, 2, 1, 0.4, 0.2, 0.1};
   std::vector<double> landmark_weight = {90, 60, 30, 15, 6, 3};
+  // The landmarks used (iBUG indices; empty: all 68). Detected landmarks leave out the jaw contour (0-16), which a
+  // 2D detector puts on the silhouette rather than on fixed points of the surface.
+  std::vector<int> landmark_ids;
   int iterations_per_step = 3;       // inner ICP iterations at one stiffness (stops early when converged)
   double consistency = 1;            // stiffness: weight of neighbouring affines agreeing at the nodes
   double affine_stiffness = 0.03;    // stiffness: weight of Amberg's affine difference (consistency 0, this 1: Amberg)
