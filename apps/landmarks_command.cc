@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 #include <optional>
+#include <thread>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
@@ -58,7 +59,9 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--refinements", sc->detect.refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10));
 
-  return [opt, sc, d, s, &globals] {
+  return [opt, sc, s, &globals] {
+    // LibTorch defaults to the physical cores (1 on a 2-vCPU machine); follow --threads like every other command.
+    torch::set_num_threads(globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency()));
     if (s->parsed()) {
       std::string mesh_path = sc->scan, texture = sc->texture;
       if (std::filesystem::is_directory(sc->scan)) {

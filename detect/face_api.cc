@@ -205,15 +205,15 @@ torch::Tensor FaceApi::prepare(const torch::Tensor& image, int size, bool centre
   const int64_t before = centre ? diff - int64_t(std::floor(diff * 0.5 + 0.5)) : 0;
   const Axis ys = resize_axis(square, h < w ? before : 0, h, size);
   const Axis xs = resize_axis(square, w < h ? before : 0, w, size);
-  const torch::Tensor img = image.to(torch::kFloat);
-  auto horizontal = [&](const torch::Tensor& rows) {  // [size, W, 3] → [size, size, 3]
-    return rows.index_select(1, xs.lo) * xs.w_lo.view({1, -1, 1}) + rows.index_select(1, xs.hi) * xs.w_hi.view({1, -1, 1});
+  const torch::Tensor img = image.to(torch::kFloat).permute({2, 0, 1});  // [3, H, W] view
+  auto horizontal = [&](const torch::Tensor& rows) {  // [3, size, W] → [3, size, size]
+    return rows.index_select(2, xs.lo) * xs.w_lo + rows.index_select(2, xs.hi) * xs.w_hi;
   };
-  const torch::Tensor top = horizontal(img.index_select(0, ys.lo)), bottom = horizontal(img.index_select(0, ys.hi));
+  const torch::Tensor top = horizontal(img.index_select(1, ys.lo)), bottom = horizontal(img.index_select(1, ys.hi));
   // tfjs: top + (bottom − top)·frac, where rows outside the image are zero.
-  const torch::Tensor resized = top * ys.w_lo.view({-1, 1, 1}) + bottom * ys.w_hi.view({-1, 1, 1});
-  const torch::Tensor m = torch::tensor({mean[0], mean[1], mean[2]}, torch::kFloat);
-  return ((resized * 255 - m) / 255).permute({2, 0, 1}).unsqueeze(0).contiguous();
+  const torch::Tensor resized = top * ys.w_lo.view({-1, 1}) + bottom * ys.w_hi.view({-1, 1});
+  const torch::Tensor m = torch::tensor({mean[0], mean[1], mean[2]}, torch::kFloat).view({3, 1, 1});
+  return ((resized * 255 - m) / 255).unsqueeze(0).contiguous();
 }
 
 std::vector<Eigen::Matrix<double, 68, 2>> FaceApi::landmarks(const torch::Tensor& image,
