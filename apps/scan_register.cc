@@ -2,6 +2,7 @@
 // error report per scan (and against the truth when the scan has one) and a QA heat map.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -56,8 +57,9 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
     static const detect::FaceApi net(detect::default_face_api_folder());
     const auto found = detect::detect_scan_landmarks(net, scan, diffuse ? &*diffuse : nullptr);
     landmarks = found.landmarks;
-    check_scan_landmarks(face, *landmarks, scan_dir + " (detected landmarks)");
+    // Detected points are a few mm off (docs/cli.md): they place the template, then give way to the surface early.
     for (int k = 17; k < 68; ++k) nicp.landmark_ids.push_back(k);
+    for (size_t i = 0; i < nicp.landmark_weight.size(); ++i) nicp.landmark_weight[i] = i < 3 ? 10.0 / std::pow(3.0, i) : 0;
     detected = {{"detector_score", found.detector_score}, {"used", "17-67 (the jaw contour is left out)"},
                 {"snapped_to_silhouette", found.off_surface}};
   }

@@ -257,6 +257,39 @@ print("; ".join(out))
 PY4
 )
 
+# 8. Landmarks: face-api's networks on a photo, and 3D landmarks of every scan from its front render ------------------
+mkdir -p "$out/landmarks"
+astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
+[ -f "$out/landmarks/astronaut.json" ] || timed "landmarks detect" "$bareskin" landmarks detect "$astronaut" \
+    -o "$out/landmarks/astronaut.json" --draw "$out/img/landmarks_astronaut.png"
+lm_cells=""
+for dir in "$out"/scans/subject_*/; do
+  id=$(basename "$dir")
+  [ -f "$out/landmarks/$id.json" ] || "$bareskin" landmarks scan -q "$dir" -o "$out/landmarks/$id.json" \
+      --draw "$out/img/landmarks_$id.png"
+done
+landmark_summary=$(/usr/bin/python3 - "$out" <<'PY5'
+import glob, json, os, sys
+import numpy as np
+out = sys.argv[1]
+a = json.load(open(f"{out}/landmarks/astronaut.json"))
+rows, all_e = [], []
+for f in sorted(glob.glob(f"{out}/landmarks/subject_*.json")):
+    sid = os.path.basename(f)[:-5]
+    d = np.array(json.load(open(f))["points"])
+    t = np.array(json.load(open(f"{out}/scans/{sid}/landmarks.json"))["points"])
+    e = np.linalg.norm(d - t, axis=1)
+    all_e.append(e)
+    rows.append(f"<tr><td>{sid}</td><td>{np.median(e):.1f}</td><td>{np.median(e[17:]):.1f}</td>"
+                f"<td>{np.median(e[:17]):.1f}</td></tr>")
+e = np.array(all_e)
+print(f"<p>astronaut.png: {len(a['faces'])} face, score {a['score']:.3f}. Scans: 3D error of the detected landmarks "
+      f"against the truth, median over all {e.size} points {np.median(e):.1f} mm; without the jaw contour (17-67) "
+      f"{np.median(e[:, 17:]):.1f} mm; jaw contour {np.median(e[:, :17]):.1f} mm.</p>")
+print("<table><tr><th>scan</th><th>median (mm)</th><th>17-67</th><th>jaw 0-16</th></tr>" + "".join(rows) + "</table>")
+PY5
+)
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -391,6 +424,17 @@ subject_0000 (registered mesh and its transferred diffuse, rendered at 1024² an
 image space from the projected landmarks with random shapes (label images in CelebAMask-HQ's classes, brightened ×12),
 and the UV masks of the face seen and uncovered they give (white); a real label image takes the same path.</p>
 $occluders
+
+<h2>8. Landmarks (face-api's networks in LibTorch)</h2>
+<p><code>bareskin landmarks detect photo.png -o lm.json --draw lm.png</code>: the tiny face detector (416²) finds the
+face, the 68-point network reads a 112² crop; outputs equal face-api's own JavaScript to 0.0001 px (tests/cli/landmarks.sh).
+<code>bareskin landmarks scan scans/subject_0000 -o lm.json</code>: the scan rendered from the front, the landmarks found in
+the render (box refined from the points), each back-projected onto the surface. <code>scan register</code> does this for
+scans without <code>landmarks.json</code>.</p>
+<figure><img src="img/landmarks_astronaut.png" style="width:300px"><figcaption>astronaut.png</figcaption></figure>
+<figure><img src="img/landmarks_subject_0000.png" style="width:300px"><figcaption>subject_0000, front render</figcaption></figure>
+<figure><img src="img/landmarks_subject_0001.png" style="width:300px"><figcaption>subject_0001, front render</figcaption></figure>
+$landmark_summary
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>
