@@ -85,8 +85,10 @@ reg --scans "$work/mixed" -o "$work/out_mixed" --keep-going 2> "$work/err"
 $py -c "import json,sys; s=json.load(open(sys.argv[1])); assert len(s['failures']) == 2 and len(s['scans']) == 1, s['failures']" \
   "$work/out_mixed/summary.json" || fail "keep-going summary"
 
-# No landmarks: the documented fallback, flagged in the report.
+# --no-landmarks: the documented fallback, flagged in the report (without the flag, a scan lacking landmarks.json
+# gets detected ones: tests/cli/landmarks.sh).
 mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work/nolm/subject_0001/landmarks.json"
-"$bin" scan register -q --template "$work/t" --maps-res 0 --scans "$work/nolm" -o "$work/out_nolm" || fail "fallback registration"
+"$bin" scan register -q --no-landmarks --template "$work/t" --maps-res 0 --scans "$work/nolm" -o "$work/out_nolm" \
+  || fail "fallback registration"
 grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
 echo "6 passed, 0 failed"
