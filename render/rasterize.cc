@@ -12,58 +12,19 @@ namespace {
 
 constexpr int kTile = 32;
 
-// A triangle ready for pixel tests: corners in pixels, reciprocal depths, the signed doubled area.
-struct Setup {
-  double x[3], y[3], inv_w[3], z[3], area;
-  int x0, x1, y0, y1;  // pixel bounding box, clamped
-};
+using raster::Setup;
 
-// Set-up of triangle f, or false when it is dropped (behind, culled, degenerate, off screen).
-bool setup(const RasterInput& in, int64_t f, Setup& s, bool& behind) {
-  behind = false;
-  for (int k = 0; k < 3; ++k) {
-    const int64_t v = in.triangles[3 * f + k];
-    s.x[k] = in.xyw[3 * v];
-    s.y[k] = in.xyw[3 * v + 1];
-    const double w = in.xyw[3 * v + 2];
-    if (!(w > in.near)) {
-      behind = true;
-      return false;
-    }
-    s.inv_w[k] = 1 / w;
-    s.z[k] = in.z ? in.z[v] : w;
-  }
-  s.area = (s.x[1] - s.x[0]) * (s.y[2] - s.y[0]) - (s.y[1] - s.y[0]) * (s.x[2] - s.x[0]);
-  if (std::abs(s.area) < 1e-12) return false;
-  // y is down on screen, so a counter-clockwise (front-facing) triangle has a negative area here.
-  if (in.cull_back_faces && s.area > 0) return false;
-  s.x0 = std::max(0, int(std::floor(std::min({s.x[0], s.x[1], s.x[2]}) - 0.5)));
-  s.x1 = std::min(in.width - 1, int(std::ceil(std::max({s.x[0], s.x[1], s.x[2]}) - 0.5)));
-  s.y0 = std::max(0, int(std::floor(std::min({s.y[0], s.y[1], s.y[2]}) - 0.5)));
-  s.y1 = std::min(in.height - 1, int(std::ceil(std::max({s.y[0], s.y[1], s.y[2]}) - 0.5)));
-  return s.x0 <= s.x1 && s.y0 <= s.y1;
-}
-
-// Tests pixel (px, py) against the triangle and writes it when nearer (ties: the lower id). Shared by both rasterizers
-// so that they agree to the bit.
+// Writes pixel (px, py) when triangle `id` covers it and is nearer (ties: the lower id). Shared by both CPU
+// rasterizers; the arithmetic is raster::sample, as in the CUDA rasterizer.
 inline void shade_pixel(const Setup& s, int32_t id, int px, int py, bool orthographic, RasterOutput& out) {
-  const double cx = px + 0.5, cy = py + 0.5;
-  double l[3];
-  for (int k = 0; k < 3; ++k) {
-    const int a = (k + 1) % 3, b = (k + 2) % 3;
-    l[k] = ((s.x[a] - cx) * (s.y[b] - cy) - (s.y[a] - cy) * (s.x[b] - cx)) / s.area;
-  }
-  if (l[0] < 0 || l[1] < 0 || l[2] < 0) return;
-  const double q = l[0] * s.inv_w[0] + l[1] * s.inv_w[1] + l[2] * s.inv_w[2];
-  const double b1 = l[1] * s.inv_w[1] / q, b2 = l[2] * s.inv_w[2] / q;
-  const double depth = orthographic ? (1 - b1 - b2) * s.z[0] + b1 * s.z[1] + b2 * s.z[2] : 1 / q;
+  float d, b1, b2;
+  if (!raster::sample(s, px, py, orthographic, d, b1, b2)) return;
   const size_t i = size_t(py) * size_t(out.width) + size_t(px);
-  const float d = float(depth);
   if (d > out.depth[i] || (d == out.depth[i] && out.triangle[i] >= 0 && out.triangle[i] < id)) return;
   out.depth[i] = d;
   out.triangle[i] = id;
-  out.bary[2 * i] = float(b1);
-  out.bary[2 * i + 1] = float(b2);
+  out.bary[2 * i] = b1;
+  out.bary[2 * i + 1] = b2;
 }
 
 void check(const RasterInput& in) {
@@ -103,9 +64,9 @@ RasterOutput rasterize(const RasterInput& in) {
   std::vector<uint8_t> behind(static_cast<size_t>(in.triangle_count), 0);
   parallel_for(0, in.triangle_count, [&](int64_t b, int64_t e) {
     for (int64_t f = b; f < e; ++f) {
-      bool back = false;
-      live[size_t(f)] = setup(in, f, setups[size_t(f)], back);
-      behind[size_t(f)] = back;
+      const raster::SetupResult r = raster::setup(in, in.xyw, in.z, f, setups[size_t(f)]);
+      live[size_t(f)] = r == raster::kLive;
+      behind[size_t(f)] = r == raster::kBehind;
     }
   }, 4096);
   out.dropped_behind = std::count(behind.begin(), behind.end(), uint8_t(1));
@@ -138,9 +99,9 @@ RasterOutput rasterize_reference(const RasterInput& in) {
   RasterOutput out = blank(in);
   for (int64_t f = 0; f < in.triangle_count; ++f) {
     Setup s;
-    bool back = false;
-    if (!setup(in, f, s, back)) {
-      out.dropped_behind += back;
+    const raster::SetupResult r = raster::setup(in, in.xyw, in.z, f, s);
+    if (r != raster::kLive) {
+      out.dropped_behind += r == raster::kBehind;
       continue;
     }
     for (int py = s.y0; py <= s.y1; ++py)

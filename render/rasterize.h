@@ -13,18 +13,9 @@
 
 #include "core/mesh.h"
 #include "render/camera.h"
+#include "render/raster_kernel.h"
 
 namespace bareskin {
-
-struct RasterInput {
-  const float* xyw = nullptr;  // #V x 3: pixel x, pixel y, depth w (> 0)
-  const float* z = nullptr;    // optional #V: depth to test instead of w (orthographic); nullptr: w
-  const int32_t* triangles = nullptr;  // #F x 3
-  int64_t vertex_count = 0, triangle_count = 0;
-  int width = 0, height = 0;
-  bool cull_back_faces = false;  // drop triangles whose screen winding is clockwise (seen from behind)
-  double near = 1e-3;            // triangles with a vertex at w <= near are dropped (behind the camera)
-};
 
 struct RasterOutput {
   int width = 0, height = 0;

@@ -3,10 +3,14 @@
 // equals the plain loop to the bit; back faces, triangles behind the camera, UV space; SH basis orthogonality.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <numeric>
 #include <random>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "render/camera.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
@@ -92,6 +96,85 @@ TEST(Rasterize, TiledEqualsReference) {
     EXPECT_EQ(a.bary, b.bary) << view;
     EXPECT_EQ(a.depth, b.depth) << view;
   }
+}
+
+// The CUDA rasterizer's algorithm (raster::cover then raster::resolve over 64-bit atomic minima), run here on CPU
+// threads with the lanes of each warp interleaved in a shuffled order: it must equal rasterize() to the bit, ties,
+// culling, weak perspective and triangles behind the camera included. The GPU itself is checked by
+// render_torch_test's CudaMatchesCpu where there is one.
+RasterOutput rasterize_by_keys(const RasterInput& in, uint64_t seed) {
+  const size_t pixels = size_t(in.width) * size_t(in.height);
+  std::vector<std::atomic<uint64_t>> keys(pixels);
+  for (auto& k : keys) k.store(raster::kNoKey);
+  const int lanes = 32;
+  std::vector<int64_t> work(size_t(in.triangle_count) * lanes);
+  std::iota(work.begin(), work.end(), 0);
+  std::shuffle(work.begin(), work.end(), std::mt19937_64(seed));
+  std::atomic<int64_t> behind{0};
+  parallel_for(0, int64_t(work.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const int64_t t = work[size_t(i)], f = t / lanes;
+      const int lane = int(t % lanes);
+      const raster::SetupResult r = raster::cover(in, in.xyw, in.z, f, lane, lanes, [&](int64_t p, uint64_t key) {
+        uint64_t old = keys[size_t(p)].load();
+        while (key < old && !keys[size_t(p)].compare_exchange_weak(old, key)) {
+        }
+      });
+      if (r == raster::kBehind && lane == 0) ++behind;
+    }
+  }, 256);
+  RasterOutput out;
+  out.width = in.width;
+  out.height = in.height;
+  out.triangle.resize(pixels);
+  out.bary.resize(2 * pixels);
+  out.depth.resize(pixels);
+  out.dropped_behind = behind;
+  for (size_t p = 0; p < pixels; ++p) {
+    raster::resolve(in, in.xyw, in.z, keys[p], int(p % size_t(in.width)), int(p / size_t(in.width)), out.triangle[p],
+                    &out.bary[2 * p], out.depth[p]);
+  }
+  return out;
+}
+
+TEST(Rasterize, CudaAlgorithmOnCpuThreadsEqualsTiled) {
+  std::mt19937 rng(17);
+  std::vector<int32_t> tri;
+  Eigen::MatrixX3d V = random_soup(3000, rng, tri);
+  // Ties: a copy of the first 200 triangles under higher ids (same depth: the lower id must win), and one triangle
+  // with a vertex behind the camera.
+  for (int f = 0; f < 200; ++f) tri.insert(tri.end(), {tri[3 * size_t(f)], tri[3 * size_t(f) + 1], tri[3 * size_t(f) + 2]});
+  V(0, 2) = 900;
+  for (const char* view : {"front", "left"})
+    for (bool cull : {false, true}) {
+      const Camera cam = view_camera(view, 200, Eigen::Vector3d::Zero(), 500);
+      std::vector<float> z;
+      const std::vector<float> xyw = project_vertices(V, cam, z);
+      RasterInput in = input(xyw, tri, 200);
+      in.cull_back_faces = cull;
+      const RasterOutput a = rasterize(in), b = rasterize_by_keys(in, cull ? 1 : 2);
+      EXPECT_EQ(a.triangle, b.triangle) << view << cull;
+      EXPECT_EQ(a.bary, b.bary) << view << cull;
+      EXPECT_EQ(a.depth, b.depth) << view << cull;
+      EXPECT_EQ(a.dropped_behind, b.dropped_behind);
+      if (view[0] == 'f') {
+        EXPECT_EQ(b.dropped_behind, 2) << "triangle 0 and its copy";
+      }
+    }
+  Camera weak;  // weak perspective: depths to test in z, some negative
+  weak.model = Camera::Model::WeakPerspective;
+  weak.scale = 1.5;
+  weak.cx = weak.cy = 100;
+  weak.width = weak.height = 200;
+  weak.t = Eigen::Vector3d(0, 0, -100);
+  std::vector<float> z;
+  const std::vector<float> xyw = project_vertices(V, weak, z);
+  const RasterInput in = input(xyw, tri, 200, &z);
+  const RasterOutput a = rasterize(in), b = rasterize_by_keys(in, 3);
+  EXPECT_TRUE(std::any_of(z.begin(), z.end(), [](float d) { return d < 0; }));
+  EXPECT_EQ(a.triangle, b.triangle);
+  EXPECT_EQ(a.bary, b.bary);
+  EXPECT_EQ(a.depth, b.depth);
 }
 
 TEST(Rasterize, BackFacesAndTrianglesBehindTheCamera) {

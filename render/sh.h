@@ -11,6 +11,13 @@ namespace bareskin {
 
 constexpr double kDeep3dAmbient = 0.8;
 
+// The band scales k_l = a_l c_l: the basis is [k0, −k1 y, k1 z, −k1 x, k2 xy, −k2 yz, k2 (3z² − 1) / (2√3), −k2 xz,
+// k2 (x² − y²) / 2] (the Torch ops build the same from these).
+struct ShScales {
+  double k0, k1, k2;
+};
+ShScales sh_scales();
+
 // The 9 basis values at unit normal n (x, y, z in the camera or world frame the coefficients are defined in).
 std::array<double, 9> sh_basis(const Eigen::Vector3d& n);
 

@@ -1,9 +1,18 @@
 #include "render/torch/ops.h"
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
 #include "render/rasterize.h"
+#include "render/sh.h"
+
+#ifdef BARESKIN_TORCH_CUDA
+#include <c10/cuda/CUDAGuard.h>
+#include <c10/cuda/CUDAStream.h>
+
+#include "render/rasterize_cuda.h"
+#endif
 
 namespace bareskin::render_torch {
 namespace {
@@ -12,15 +21,63 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("render_torch: " + what);
 }
 
+// The CUDA rasterizer on CUDA tensors (p float, t int32, both checked), on the current stream.
+Raster rasterize_gpu(const torch::Tensor& p, const torch::Tensor& t, int64_t height, int64_t width, bool cull) {
+#ifdef BARESKIN_TORCH_CUDA
+  const c10::cuda::CUDAGuard guard(p.device());
+  const int64_t B = p.size(0);
+  const auto on = torch::TensorOptions().device(p.device());
+  const torch::Tensor triangle = torch::empty({B, height, width}, on.dtype(torch::kInt));
+  const torch::Tensor bary = torch::empty({B, height, width, 2}, on.dtype(torch::kFloat));
+  const torch::Tensor depth = torch::empty({B, height, width}, on.dtype(torch::kFloat));
+  const torch::Tensor keys = torch::empty({B, height, width}, on.dtype(torch::kLong));
+  RasterInput in;
+  in.xyw = p.data_ptr<float>();
+  in.triangles = t.data_ptr<int32_t>();
+  in.vertex_count = p.size(1);
+  in.triangle_count = t.size(0);
+  in.width = int(width);
+  in.height = int(height);
+  in.cull_back_faces = cull;
+  RasterCudaOutput out;
+  out.triangle = triangle.data_ptr<int32_t>();
+  out.bary = bary.data_ptr<float>();
+  out.depth = depth.data_ptr<float>();
+  out.keys = reinterpret_cast<uint64_t*>(keys.data_ptr<int64_t>());
+  rasterize_cuda(in, B, out, c10::cuda::getCurrentCUDAStream().stream());
+  return {triangle.to(torch::kLong), bary};
+#else
+  require(false, "this build has no CUDA rasterizer: configure with nvcc found and a CUDA LibTorch, or pass CPU tensors");
+  return {};
+#endif
+}
+
 }  // namespace
+
+bool cuda_rasterizer_built() {
+#ifdef BARESKIN_TORCH_CUDA
+  return true;
+#else
+  return false;
+#endif
+}
 
 Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t height, int64_t width, bool cull) {
   require(pos.dim() == 3 && pos.size(2) == 3, "pos must be [B, V, 3]");
   require(tri.dim() == 2 && tri.size(1) == 3, "tri must be [F, 3]");
-  require(height > 0 && width > 0, "the image size must be positive");
-  const torch::Tensor p = pos.detach().to(torch::kCPU, torch::kFloat).contiguous();
+  require(height > 0 && width > 0 && height * width <= (int64_t(1) << 28), "the image size must be 1 to 16384 pixels a side");
+  require(tri.device() == pos.device(), "pos and tri must be on the same device");
+  const torch::Tensor p = pos.detach().to(torch::kFloat).contiguous();
   require(torch::isfinite(p).all().item<bool>(), "pos holds NaN or Inf");
-  const torch::Tensor t = tri.to(torch::kCPU, torch::kInt).contiguous();
+  const torch::Tensor t = tri.to(torch::kInt).contiguous();
+  require(t.numel() == 0 || (t.min().item<int32_t>() >= 0 && t.max().item<int32_t>() < p.size(1)),
+          "a triangle index is out of range");
+  if (p.is_cuda()) {
+    Raster r = rasterize_gpu(p, t, height, width, cull);
+    r.bary = r.bary.to(pos.dtype());
+    return r;
+  }
+  require(p.is_cpu(), "pos must be a CPU or CUDA tensor");
   const int64_t B = p.size(0);
   Raster out{torch::full({B, height, width}, -1, torch::kLong), torch::zeros({B, height, width, 2}, torch::kFloat)};
   for (int64_t b = 0; b < B; ++b) {
@@ -75,6 +132,20 @@ torch::Tensor interpolate(const torch::Tensor& attr, const torch::Tensor& pos, c
                               (lw[2] / q).unsqueeze(1) * A.select(1, 2);
   out = out.index_copy(0, covered, value);
   return out.reshape({B, H, W, C});
+}
+
+torch::Tensor sh_shade(const torch::Tensor& albedo, const torch::Tensor& normal, const torch::Tensor& gamma) {
+  require(albedo.dim() == 4 && albedo.size(3) == 3 && normal.sizes() == albedo.sizes(), "albedo and normal must be [B, H, W, 3]");
+  require(gamma.dim() == 2 && gamma.size(0) == albedo.size(0) && gamma.size(1) == 27, "gamma must be [B, 27]");
+  const auto [k0, k1, k2] = sh_scales();  // render/sh.h's basis
+  const torch::Tensor n = normal / normal.norm(2, -1, true).clamp_min(1e-12);
+  const torch::Tensor x = n.select(3, 0), y = n.select(3, 1), z = n.select(3, 2);
+  const torch::Tensor Y = torch::stack({torch::full_like(x, k0), -k1 * y, k1 * z, -k1 * x, k2 * x * y, -k2 * y * z,
+                                        0.5 * k2 / std::sqrt(3.0) * (3 * z * z - 1), -k2 * x * z, 0.5 * k2 * (x * x - y * y)},
+                                       3);  // [B, H, W, 9]
+  const torch::Tensor g = gamma.to(albedo.dtype()).reshape({-1, 1, 1, 3, 9});   // channel-major
+  const torch::Tensor irradiance = (Y.unsqueeze(3) * g).sum(4);               // [B, H, W, 3]
+  return albedo * irradiance;
 }
 
 torch::Tensor texture(const torch::Tensor& tex, const torch::Tensor& uv) {
