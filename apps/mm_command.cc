@@ -292,9 +292,38 @@ std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& global
   };
 }
 
+namespace {
+
+// mm-fit --trace: the CSV (stage, iteration, milliseconds since the stage began, value) and one chart per stage,
+// accuracy against time with a marker per iteration.
+void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const PhotometricFit& photo) {
+  std::string csv = "stage,iteration,milliseconds,value,unit\n";
+  const std::string stem = csv_path.size() > 4 && csv_path.substr(csv_path.size() - 4) == ".csv"
+                               ? csv_path.substr(0, csv_path.size() - 4) : csv_path;
+  const auto add = [&](const char* stage, const std::vector<FitTraceStep>& trace, const char* unit, const std::string& title,
+                       const std::string& y_label) {
+    if (trace.empty()) return;
+    ChartSeries series{stage, {}, {}};
+    for (const FitTraceStep& t : trace) {
+      csv += fmt::format("{},{},{:.3f},{:.6g},{}\n", stage, t.iteration, 1000 * t.seconds, t.value, unit);
+      series.x.push_back(1000 * t.seconds);
+      series.y.push_back(t.value);
+    }
+    Chart chart{title, "milliseconds (one marker per iteration)", y_label, {series}};
+    chart.log_y = std::string(stage) == "landmarks";
+    chart.y_from_zero = false;
+    write_file_atomic(stem + "_" + stage + ".svg", svg_line_chart(chart));
+  };
+  add("landmarks", fit.trace, "px", "Landmark fit (Levenberg-Marquardt)", "landmark RMS (px, log scale)");
+  add("photometric", photo.trace, "dB", "Photometric fit (Gauss-Newton on delta, gamma)", "render PSNR (dB)");
+  write_file_atomic(csv_path, csv);
+}
+
+}  // namespace
+
 std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string image, model, landmarks, output = "fit.json", view = "front";
+    std::string image, model, landmarks, output = "fit.json", view = "front", trace;
     LandmarkFitOptions fit;
     PhotometricFitOptions photo;
     bool no_photometric = false;
@@ -319,6 +348,8 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
   app.add_option("--lighting-sd", opt->photo.lighting_sd, "Prior spread of the SH coefficients around white ambient")
       ->capture_default_str()->group("Photometric");
   app.add_flag("--no-photometric", opt->no_photometric, "Landmarks only: no delta or gamma")->group("Photometric");
+  app.add_option("--trace", opt->trace,
+                 "Accuracy per iteration and time: a CSV, and beside it <stem>_landmarks.svg and <stem>_photometric.svg");
   return [opt, &globals] {
     opt->fit.check();
     const ImageFileInfo info = probe_image(opt->image);
@@ -360,6 +391,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       j["photometric_pixels"] = photo.pixels;
     }
     write_file_atomic(opt->output, j.dump(1) + "\n");
+    if (!opt->trace.empty()) write_fit_trace(opt->trace, fit, photo);
     spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations; "
                  "photometric PSNR {:.1f} dB over {} pixels ({:.2f} s) -> {}",
                  fit.alpha.size(), fit.beta.size(), fit.rms_px, fit.iterations, photo.psnr_db, photo.pixels, seconds,

@@ -16,6 +16,18 @@ std::vector<double> ticks(double lo, double hi) {
   return t;
 }
 
+// Ticks of a logarithmic axis over [lo, hi] (log10 values): 1, 2, 5 per decade, or decades alone when many.
+std::vector<double> log_ticks(double lo, double hi) {
+  std::vector<double> t;
+  const bool dense = hi - lo < 3;
+  for (double d = std::floor(lo); d <= hi; ++d)
+    for (double m : dense ? std::vector<double>{1, 2, 5} : std::vector<double>{1}) {
+      const double v = d + std::log10(m);
+      if (v >= lo - 1e-9 && v <= hi + 1e-9) t.push_back(v);
+    }
+  return t;
+}
+
 std::string escape(const std::string& s) {
   std::string out;
   for (char c : s) out += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
@@ -26,16 +38,19 @@ std::string escape(const std::string& s) {
 
 std::string svg_line_chart(const Chart& chart) {
   constexpr double W = 640, H = 400, left = 70, right = 20, top = 40, bottom = 55;
-  double x0 = 1e300, x1 = -1e300, y0 = chart.y_from_zero ? 0 : 1e300, y1 = -1e300;
+  // On a log axis the y values are placed by their log10 (non-positive values are clamped to 1e-12).
+  const auto fy = [&](double y) { return chart.log_y ? std::log10(std::max(y, 1e-12)) : y; };
+  double x0 = 1e300, x1 = -1e300, y0 = chart.y_from_zero && !chart.log_y ? 0 : 1e300, y1 = -1e300;
   for (const auto& s : chart.series)
     for (size_t i = 0; i < s.x.size(); ++i) {
       x0 = std::min(x0, s.x[i]), x1 = std::max(x1, s.x[i]);
-      y0 = std::min(y0, s.y[i]), y1 = std::max(y1, s.y[i]);
+      y0 = std::min(y0, fy(s.y[i])), y1 = std::max(y1, fy(s.y[i]));
     }
   if (x0 > x1) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
   if (x1 - x0 < 1e-12) x1 = x0 + 1;
   if (y1 - y0 < 1e-12) y1 = y0 + 1;
-  y1 += 0.05 * (y1 - y0);
+  if (chart.log_y) y0 = std::floor(y0), y1 = std::ceil(y1);
+  else y1 += 0.05 * (y1 - y0);
   const auto px = [&](double x) { return left + (x - x0) / (x1 - x0) * (W - left - right); };
   const auto py = [&](double y) { return H - bottom - (y - y0) / (y1 - y0) * (H - top - bottom); };
   static const char* colors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
@@ -49,10 +64,10 @@ std::string svg_line_chart(const Chart& chart) {
                        "<text x=\"{0:.1f}\" y=\"{3:.1f}\" text-anchor=\"middle\">{4:g}</text>\n",
                        px(t), py(y0), py(y1), H - bottom + 16, t);
   }
-  for (double t : ticks(y0, y1)) {
+  for (double t : chart.log_y ? log_ticks(y0, y1) : ticks(y0, y1)) {
     svg += fmt::format("<line x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{2:.1f}\" y2=\"{1:.1f}\" stroke=\"#ddd\"/>"
                        "<text x=\"{3:.1f}\" y=\"{4:.1f}\" text-anchor=\"end\">{5:g}</text>\n",
-                       px(x0), py(t), px(x1), left - 6, py(t) + 4, t);
+                       px(x0), py(t), px(x1), left - 6, py(t) + 4, chart.log_y ? std::pow(10, t) : t);
   }
   svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n", left, top,
                      W - left - right, H - top - bottom);
@@ -64,10 +79,10 @@ std::string svg_line_chart(const Chart& chart) {
     const ChartSeries& s = chart.series[k];
     const char* color = colors[k % 8];
     std::string points;
-    for (size_t i = 0; i < s.x.size(); ++i) points += fmt::format("{:.1f},{:.1f} ", px(s.x[i]), py(s.y[i]));
+    for (size_t i = 0; i < s.x.size(); ++i) points += fmt::format("{:.1f},{:.1f} ", px(s.x[i]), py(fy(s.y[i])));
     svg += fmt::format("<polyline fill=\"none\" stroke=\"{}\" stroke-width=\"2\" points=\"{}\"/>\n", color, points);
     for (size_t i = 0; i < s.x.size(); ++i) {
-      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"/>", px(s.x[i]), py(s.y[i]), color);
+      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"2.5\" fill=\"{}\"/>", px(s.x[i]), py(fy(s.y[i])), color);
     }
     svg += fmt::format("\n<rect x=\"{0}\" y=\"{1}\" width=\"14\" height=\"3\" fill=\"{2}\"/>"
                        "<text x=\"{3}\" y=\"{4}\">{5}</text>\n",

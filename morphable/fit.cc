@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
+#include <chrono>
 #include <cmath>
 
 #include "core/error.h"
@@ -9,6 +10,13 @@
 #include "render/sh.h"
 
 namespace bareskin {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
 
 void LandmarkFitOptions::check() const {
   if (shape_components < 0 || expression_components < 0) {
@@ -25,6 +33,7 @@ Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& a) {
 
 LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& target, const Camera& camera,
                           const LandmarkFitOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
   options.check();
   if (model.landmark_vertices.size() != 68 || target.rows() != 68) {
     throw InvalidInput("", "the fit needs 68 model landmarks and 68 image landmarks", "");
@@ -63,6 +72,8 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
   Eigen::VectorXd r = residuals(x);
   double cost = r.squaredNorm(), lambda = 1e-3;
   LandmarkFit out;
+  const auto rms = [&] { return std::sqrt(r.head(2 * 68).squaredNorm() / 68); };
+  out.trace.push_back({0, seconds_since(t0), rms()});
   bool converged = false;
   for (int it = 0; it < options.iterations && !converged; ++it) {
     Eigen::MatrixXd J(M, P);
@@ -93,18 +104,20 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
       }
     }
     out.iterations = it + 1;
+    out.trace.push_back({it + 1, seconds_since(t0), rms()});
     if (!improved) break;
   }
   out.rotation = x.head<3>();
   out.translation = x.segment<3>(3);
   out.alpha = x.segment(6, Ka);
   out.beta = x.tail(Kb);
-  out.rms_px = std::sqrt(r.head(2 * 68).squaredNorm() / 68);
+  out.rms_px = rms();
   return out;
 }
 
 PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, const Camera& camera, const Image& image,
                                const PhotometricFitOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
   if (image.width != camera.width || image.height != camera.height || image.channels < 3) {
     throw InvalidInput("", "the image must be RGB of the camera's size", "");
   }
@@ -144,6 +157,7 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
   }
   PhotometricFit out;
   out.pixels = P;
+  const auto psnr = [&](double sse) { return 10 * std::log10(1 / std::max(sse / double(3 * P), 1e-20)); };
   out.delta = Eigen::VectorXd::Zero(K);
   Eigen::MatrixXd gamma = Eigen::MatrixXd::Zero(9, 3);
   gamma.row(0).setConstant(kDeep3dAmbient);
@@ -158,11 +172,13 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
     const int U = K + 27;
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(U, U);
     Eigen::VectorXd g = Eigen::VectorXd::Zero(U);
+    double sse = 0;
     for (int ch = 0; ch < 3; ++ch) {
       Eigen::MatrixXd J(P, K + 9);  // this channel's residual depends on δ and γ_ch only
       J.leftCols(K) = E.col(ch).asDiagonal() * b[size_t(ch)];
       J.rightCols(9) = albedo.col(ch).asDiagonal() * Y;
       const Eigen::VectorXd r = albedo.col(ch).cwiseProduct(E.col(ch)) - c.col(ch);
+      sse += r.squaredNorm();
       const Eigen::MatrixXd JtJ = J.transpose() * J;
       const Eigen::VectorXd Jtr = J.transpose() * r;
       const int o = K + 9 * ch;
@@ -173,6 +189,7 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
       g.head(K) += Jtr.head(K);
       g.segment(o, 9) += Jtr.tail(9);
     }
+    out.trace.push_back({it, seconds_since(t0), psnr(sse)});
     for (int k = 0; k < K; ++k) {
       H(k, k) += prior_delta;
       g(k) += prior_delta * out.delta(k);
@@ -190,8 +207,8 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
   }
   for (int ch = 0; ch < 3; ++ch) albedo.col(ch) = m.col(ch) + b[size_t(ch)] * out.delta;
   const Eigen::MatrixXd rendered = albedo.cwiseProduct(Y * gamma);
-  const double mse = (rendered - c).squaredNorm() / double(3 * P);
-  out.psnr_db = 10 * std::log10(1 / std::max(mse, 1e-20));
+  out.psnr_db = psnr((rendered - c).squaredNorm());
+  out.trace.push_back({int(out.trace.size()), seconds_since(t0), out.psnr_db});
   for (int ch = 0; ch < 3; ++ch)
     for (int k = 0; k < 9; ++k) out.gamma[size_t(9 * ch + k)] = gamma(k, ch);
   return out;

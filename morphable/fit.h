@@ -5,6 +5,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <array>
+#include <vector>
 
 #include "core/image.h"
 
@@ -21,11 +22,19 @@ struct LandmarkFitOptions {
   void check() const;
 };
 
+// One point of a fit's progress: after `iteration` steps (0: the start), `seconds` since the fit began, the fit's
+// accuracy then (landmark RMS in px, or the photometric PSNR in dB).
+struct FitTraceStep {
+  int iteration = 0;
+  double seconds = 0, value = 0;
+};
+
 struct LandmarkFit {
   Eigen::VectorXd alpha, beta;
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero(), translation = Eigen::Vector3d::Zero();
   double rms_px = 0;  // landmark reprojection error
   int iterations = 0;
+  std::vector<FitTraceStep> trace;  // rms_px after each iteration
 };
 
 // Pose applied to model points: R(rotation) p + translation, R = Rz(rz) Ry(ry) Rx(rx).
@@ -53,6 +62,7 @@ struct PhotometricFit {
   std::array<double, 27> gamma{};
   double psnr_db = 0;  // of the fitted render against the image over the covered pixels, linear values
   int64_t pixels = 0;
+  std::vector<FitTraceStep> trace;  // psnr_db after each iteration (seconds include the set-up)
 };
 
 // `posed`: the model's topology at the fitted shape and pose; `image` linear RGB of the camera's size.

@@ -153,20 +153,37 @@ if [ ! -f "$out/model/fit.json" ]; then
   "$bareskin" render --model "$out/model/model.safetensors" --coeffs "$out/model/fit_truth.json" --camera pinhole \
       --size 256 --landmarks-out "$out/model/fit_landmarks.json" -o "$out/img/fit_truth.png"
   timed "mm-fit" "$bareskin" mm-fit "$out/img/fit_truth.png" --model "$out/model/model.safetensors" \
-      --landmarks "$out/model/fit_landmarks.json" -o "$out/model/fit.json"
+      --landmarks "$out/model/fit_landmarks.json" -o "$out/model/fit.json" --trace "$out/model/fit_trace.csv"
   "$bareskin" render --model "$out/model/model.safetensors" --coeffs "$out/model/fit.json" --camera pinhole --size 256 \
       -o "$out/img/fit_result.png"
   oiiotool "$out/img/fit_truth.png" "$out/img/fit_result.png" --absdiff --mulc 4 -o "$out/img/fit_diff.png"
 fi
-fit_summary=$(/usr/bin/python3 - "$out/model/fit_truth.json" "$out/model/fit.json" <<'PY5'
-import json, sys
+fit_summary=$(/usr/bin/python3 - "$out/model/fit_truth.json" "$out/model/fit.json" "$out/model/model.safetensors" <<'PY5'
+import json, struct, sys
+import numpy as np
 t, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+raw = open(sys.argv[3], "rb").read()
+n = struct.unpack("<Q", raw[:8])[0]
+header = json.loads(raw[8:8 + n])
+def tensor(name):
+    h = header[name]
+    a, b = h["data_offsets"]
+    return np.frombuffer(raw[8 + n + a:8 + n + b], dtype=np.float32).reshape(h["shape"]).astype(np.float64)
+def shape(c):  # the model's shape at α, β (standardised), before the pose
+    s = tensor("shape_mean").copy()
+    for key, basis, sd in (("alpha", "shape_basis", "shape_stddev"), ("beta", "expression_basis", "expression_stddev")):
+        B, S = tensor(basis), tensor(sd)
+        for j, v in enumerate(c.get(key, [])[:len(S)]):
+            s += v * S[j] * B[j]
+    return s
+err = np.linalg.norm(shape(t) - shape(f), axis=1)
 da = max(abs(a - b) for a, b in zip(t["alpha"] + [0] * len(f["alpha"]), f["alpha"]))
 dr = max(abs(a - b) for a, b in zip(t["rotation"], f["rotation"]))
 db = max(abs(a - b) for a, b in zip(t["beta"] + [0] * len(f["beta"]), f["beta"]))
 dd = max(abs(a - b) for a, b in zip(t["delta"] + [0] * len(f["delta"]), f["delta"]))
 print(f"landmark reprojection {f['landmark_rms_px']:.3f} px RMS at 256², {f['iterations']} iterations, "
-      f"{1000 * f['seconds']:.1f} ms; largest error: α {da:.3f} σ, β {db:.3f} σ, rotation {dr * 180 / 3.14159265:.3f}°, "
+      f"{1000 * f['seconds']:.1f} ms; shape error vs truth {np.median(err):.2f} mm median, {err.max():.2f} mm max over "
+      f"{len(err)} vertices; largest error: α {da:.3f} σ, β {db:.3f} σ, rotation {dr * 180 / 3.14159265:.3f}°, "
       f"translation {max(abs(a - b) for a, b in zip(t['translation'], f['translation'])):.2f} mm; then the photometric "
       f"term: δ within {dd:.3f} σ, the ambient light {f['gamma'][0]:.3f} (true 0.8), render PSNR "
       f"{f['photometric_psnr_db']:.1f} dB over {f['photometric_pixels']} face pixels")
@@ -385,6 +402,10 @@ regularised, then Gauss–Newton on appearance and SH lighting against the pixel
 <figure><img src="img/fit_truth.png" style="width:200px"><figcaption>render at known coefficients</figcaption></figure>
 <figure><img src="img/fit_result.png" style="width:200px"><figcaption>the fit, rendered (its α, β, δ, γ and pose)</figcaption></figure>
 <figure><img src="img/fit_diff.png" style="width:200px"><figcaption>|difference| ×4</figcaption></figure>
+<p>Accuracy against time, one marker per iteration (<code>mm-fit --trace fit_trace.csv</code>; the photometric clock
+includes its set-up: rasterizing the fitted shape and the per-pixel SH basis):</p>
+<figure><img src="model/fit_trace_landmarks.svg" style="width:340px"><figcaption>landmark term</figcaption></figure>
+<figure><img src="model/fit_trace_photometric.svg" style="width:340px"><figcaption>photometric term</figcaption></figure>
 <h3>Appearance: mean and ±3σ along the first two components</h3>
 $appearance
 <h3>Metrics (<code>bareskin mm-eval</code>; RMS vertex distance in correspondence)</h3>

@@ -83,10 +83,19 @@ echo '{"alpha": [1.2, -0.8, 0.5], "delta": [0.8], "rotation": [0.05, 0.25, -0.03
 "$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/truth.json" --camera pinhole --passes colour \
   --size 256 --landmarks-out "$work/lm.json" -o "$work/truth.png" || fail "render for the fit"
 "$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/lm.json" \
-  -o "$work/fitted.json" || fail "mm-fit"
-$py - "$work/truth.json" "$work/fitted.json" <<'PY' || fail "mm-fit accuracy"
-import json, sys
+  -o "$work/fitted.json" --trace "$work/trace.csv" || fail "mm-fit"
+$py - "$work/truth.json" "$work/fitted.json" "$work/trace.csv" <<'PY' || fail "mm-fit accuracy"
+import csv, json, sys
 t, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+# The trace starts at iteration 0, its clock runs forward, and it ends at the values the fit reports.
+rows = list(csv.DictReader(open(sys.argv[3])))
+for stage, final in (("landmarks", f["landmark_rms_px"]), ("photometric", f["photometric_psnr_db"])):
+    r = [x for x in rows if x["stage"] == stage]
+    assert r[0]["iteration"] == "0" and len(r) >= 2, stage
+    ms = [float(x["milliseconds"]) for x in r]
+    assert ms == sorted(ms), (stage, ms)
+    assert abs(float(r[-1]["value"]) - final) < 1e-3 * max(1, abs(final)), (stage, r[-1], final)
+assert float([x for x in rows if x["stage"] == "landmarks"][0]["value"]) > 5 * f["landmark_rms_px"]
 assert f["landmark_rms_px"] < 1, f["landmark_rms_px"]
 assert max(abs(a - b) for a, b in zip(t["rotation"], f["rotation"])) < 0.01, f["rotation"]
 assert max(abs(a - b) for a, b in zip(t["translation"], f["translation"])) < 2, f["translation"]
@@ -98,6 +107,7 @@ PY
 "$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/t/landmarks.json" \
   -o "$work/bad_fit.json" 2> "$work/err"
 [ $? -eq 3 ] && grep -q "68 2D landmarks" "$work/err" && [ ! -e "$work/bad_fit.json" ] || fail "mm-fit 3D landmarks: $(cat "$work/err")"
+grep -q '<polyline' "$work/trace_landmarks.svg" && grep -q '<polyline' "$work/trace_photometric.svg" || fail "mm-fit trace charts"
 echo '{"alpha": [1, "x"]}' > "$work/badc.json"
 "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr" \
   2> "$work/err"
