@@ -57,6 +57,7 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     std::vector<std::string> expression;
     std::string view = "front";
     PreviewOptions preview;
+    bool draw_landmarks = false;
     bool no_wireframe = false, no_shading = false;
     std::string camera, sh = "default";
     std::vector<std::string> views, passes = {"colour"};
@@ -94,6 +95,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
   app.add_flag("--cull", opt->cull, "With --camera: drop back faces")->group("Camera");
   app.add_option("--landmarks-out", opt->landmarks_out, "With --camera: the 68 landmarks projected into the image (JSON, "
                                                         "px; the model's, or --landmarks' vertex ids); may take {view}")
+      ->group("Camera");
+  app.add_flag("--draw-landmarks", opt->draw_landmarks, "With --camera: draw the 68 projected landmarks on the colour and "
+                                                        "albedo passes (the model's, or --landmarks' vertex ids)")
       ->group("Camera");
   return [opt, sh_option] {
     if (opt->mesh.empty() == opt->model.empty()) throw InvalidInput("", "give a mesh, or --model with --coeffs", "see --help");
@@ -147,30 +151,38 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       } else if (!instance.appearance.empty()) {
         shade.texture = &instance.appearance;
       }
+      std::vector<int> landmark_ids;  // for --landmarks-out and --draw-landmarks, checked before anything is written
+      if (!opt->landmarks_out.empty() || opt->draw_landmarks) {
+        landmark_ids = instance.landmark_vertices;
+        if (!opt->landmarks.empty()) {
+          const auto doc = nlohmann::json::parse(read_file(opt->landmarks), nullptr, false);
+          if (doc.is_discarded() || !doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
+            throw InvalidInput(opt->landmarks, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
+          }
+          landmark_ids = doc["vertex_ids"].get<std::vector<int>>();
+        }
+        if (landmark_ids.size() != 68) {
+          throw InvalidInput(opt->landmarks, "--landmarks-out and --draw-landmarks need 68 landmark vertices, got " +
+                                                 std::to_string(landmark_ids.size()), "pass the template's landmarks.json as --landmarks");
+        }
+        for (int id : landmark_ids) {
+          if (id < 0 || id >= mesh.V.rows()) throw InvalidInput(opt->landmarks, "names a vertex outside the mesh", "use the mesh's own landmarks");
+        }
+      }
       for (const std::string& view : views) {
         if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
         const Camera cam = command_camera(mesh, !opt->model.empty(), view, opt->camera, opt->preview.size);
         const Frame frame = render_frame(mesh, cam, shade);
-        if (!opt->landmarks_out.empty()) {
-          std::vector<int> ids = instance.landmark_vertices;
-          if (!opt->landmarks.empty()) {
-            const auto doc = nlohmann::json::parse(read_file(opt->landmarks), nullptr, false);
-            if (doc.is_discarded() || !doc.contains("vertex_ids")) {
-              throw InvalidInput(opt->landmarks, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
-            }
-            ids = doc["vertex_ids"].get<std::vector<int>>();
-          }
-          if (ids.size() != 68) throw InvalidInput("", "--landmarks-out needs 68 landmark vertices", "pass --landmarks");
-          Landmarks lm;
+        Landmarks lm;  // the 68 landmarks projected into this view, when asked for
+        if (!landmark_ids.empty()) {
           lm.units = "px";
           lm.points.resize(68, 2);
           for (int k = 0; k < 68; ++k) {
-            if (ids[size_t(k)] < 0 || ids[size_t(k)] >= mesh.V.rows()) throw InvalidInput("", "a landmark vertex is out of range", "");
-            const Eigen::Vector3d p = cam.project(mesh.V.row(ids[size_t(k)]).transpose());
+            const Eigen::Vector3d p = cam.project(mesh.V.row(landmark_ids[size_t(k)]).transpose());
             lm.points.row(k) << p.x(), p.y();
           }
-          write_landmarks(expand(opt->landmarks_out, "{view}", view), lm);
         }
+        if (!opt->landmarks_out.empty()) write_landmarks(expand(opt->landmarks_out, "{view}", view), lm);
         if (frame.dropped_behind) spdlog::warn("render: {} triangles behind the camera were dropped", frame.dropped_behind);
         for (const std::string& pass : opt->passes) {
           const std::string path = expand(expand(opt->output, "{view}", view), "{pass}", pass);
@@ -185,6 +197,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
               img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
           }
           if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
+          if ((pass == "colour" || pass == "albedo") && opt->draw_landmarks) {
+            draw_landmarks(img, lm.points, {0.1f, 0.9f, 0.2f}, std::max(1, opt->preview.size / 200));
+          }
           ImageWriteOptions w;
           if (!exr && (pass == "depth" || pass == "normal")) w.type = PixelType::UInt16;
           write_image(path, img, w);

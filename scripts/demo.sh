@@ -236,6 +236,9 @@ for dir in "$out"/scans/subject_*/; do
 done
 [ -f "$out/img/render_passes_depth.png" ] || "$bareskin" render "$out/scans/subject_0000/mesh.obj" --camera pinhole \
     --passes depth,normal,mask --size 224 -o "$out/img/render_passes_{pass}.png"
+[ -f "$out/img/render_landmarks_left.png" ] || "$bareskin" render "$out/registered/subject_0000/mesh.ply" \
+    --texture "$out/registered/subject_0000/diffuse.png" --landmarks "$out/template/landmarks.json" --camera pinhole \
+    --views front,left,right --size 224 --draw-landmarks -o "$out/img/render_landmarks_{view}.png"
 
 # 7. uvtools unwarp: renders of the first registered subject back into the template UV, with visibility ---------------
 mkdir -p "$out/unwarp"
@@ -431,6 +434,7 @@ depth test), and order-2 SH lighting with Deep3DFaceRecon's basis (ambient 0.8 p
 comes from the same rasterization. 224² here.</p>
 $renders
 <figure><img src="img/render_passes_depth.png" style="width:160px"><img src="img/render_passes_normal.png" style="width:160px"><img src="img/render_passes_mask.png" style="width:160px"><figcaption>depth, camera-frame normals, mask</figcaption></figure>
+<figure><img src="img/render_landmarks_front.png" style="width:160px"><img src="img/render_landmarks_left.png" style="width:160px"><img src="img/render_landmarks_right.png" style="width:160px"><figcaption>registered subject_0000 with the template's 68 landmarks projected (<code>--draw-landmarks</code>; hidden points are drawn too)</figcaption></figure>
 
 <h2>7. Images back into UV (uvtools unwarp)</h2>
 <p><code>bareskin uvtools unwarp render.png --mesh mesh.ply --view left -o uv.png</code>: each texel's surface point is
