@@ -112,8 +112,9 @@ int main(int argc, char** argv) {
         const torch::Tensor depth = 1000 - world.select(2, 2);  // the camera 1 m in front, looking down −z
         const torch::Tensor pos = torch::stack({c + f * world.select(2, 0) / depth, c - f * world.select(2, 1) / depth, depth}, 2);
         const render_torch::Raster r = render_torch::rasterize(pos, tri, size, size, true);
-        const torch::Tensor image = render_torch::sh_shade(render_torch::interpolate(albedo, pos, tri, r),
-                                                           render_torch::interpolate(vertex_normals(world, tri), pos, tri, r), gamma);
+        // One interpolation for both attributes: the barycentrics (and their gradients) are computed once.
+        const torch::Tensor both = render_torch::interpolate(torch::cat({albedo, vertex_normals(world, tri)}, 2), pos, tri, r);
+        const torch::Tensor image = render_torch::sh_shade(both.narrow(3, 0, 3), both.narrow(3, 3, 3), gamma);
         loss = (image - target).pow(2).mean();
         triangle = r.triangle;
       };
