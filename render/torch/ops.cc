@@ -21,6 +21,19 @@ void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("render_torch: " + what);
 }
 
+// The kernel's parameters for frame 0 of p ([B, V, 3] float, contiguous) and t ([F, 3] int32, contiguous).
+RasterInput raster_input(const torch::Tensor& p, const torch::Tensor& t, int64_t height, int64_t width, bool cull) {
+  RasterInput in;
+  in.xyw = p.data_ptr<float>();
+  in.triangles = t.data_ptr<int32_t>();
+  in.vertex_count = p.size(1);
+  in.triangle_count = t.size(0);
+  in.width = int(width);
+  in.height = int(height);
+  in.cull_back_faces = cull;
+  return in;
+}
+
 // The CUDA rasterizer on CUDA tensors (p float, t int32, both checked), on the current stream.
 Raster rasterize_gpu(const torch::Tensor& p, const torch::Tensor& t, int64_t height, int64_t width, bool cull) {
 #ifdef BARESKIN_TORCH_CUDA
@@ -31,14 +44,7 @@ Raster rasterize_gpu(const torch::Tensor& p, const torch::Tensor& t, int64_t hei
   const torch::Tensor bary = torch::empty({B, height, width, 2}, on.dtype(torch::kFloat));
   const torch::Tensor depth = torch::empty({B, height, width}, on.dtype(torch::kFloat));
   const torch::Tensor keys = torch::empty({B, height, width}, on.dtype(torch::kLong));
-  RasterInput in;
-  in.xyw = p.data_ptr<float>();
-  in.triangles = t.data_ptr<int32_t>();
-  in.vertex_count = p.size(1);
-  in.triangle_count = t.size(0);
-  in.width = int(width);
-  in.height = int(height);
-  in.cull_back_faces = cull;
+  const RasterInput in = raster_input(p, t, height, width, cull);
   RasterCudaOutput out;
   out.triangle = triangle.data_ptr<int32_t>();
   out.bary = bary.data_ptr<float>();
@@ -81,15 +87,7 @@ Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t hei
   const int64_t B = p.size(0);
   Raster out{torch::full({B, height, width}, -1, torch::kLong), torch::zeros({B, height, width, 2}, torch::kFloat)};
   for (int64_t b = 0; b < B; ++b) {
-    const torch::Tensor pb = p[b].contiguous();
-    RasterInput in;
-    in.xyw = pb.data_ptr<float>();
-    in.triangles = t.data_ptr<int32_t>();
-    in.vertex_count = p.size(1);
-    in.triangle_count = t.size(0);
-    in.width = int(width);
-    in.height = int(height);
-    in.cull_back_faces = cull;
+    const RasterInput in = raster_input(p.narrow(0, b, 1), t, height, width, cull);
     RasterOutput r;
     try {
       r = bareskin::rasterize(in);
