@@ -114,20 +114,27 @@ torch::Tensor interpolate(const torch::Tensor& attr, const torch::Tensor& pos, c
   const torch::Tensor corners = tri.to(torch::kLong).index_select(0, face) + (batch * V).unsqueeze(1);  // [N, 3]
   const torch::Tensor P = pos.reshape({B * V, 3}).index_select(0, corners.reshape({-1})).reshape({-1, 3, 3});
   const torch::Tensor cx = torch::remainder(pixel, W).to(pos.dtype()) + 0.5, cy = torch::div(pixel, W, "floor").to(pos.dtype()) + 0.5;
-  const torch::Tensor x = P.select(2, 0), y = P.select(2, 1), w = P.select(2, 2);  // [N, 3]
-  const auto X = [&](int k) { return x.select(1, k); };
-  const auto Y = [&](int k) { return y.select(1, k); };
-  const torch::Tensor area = (X(1) - X(0)) * (Y(2) - Y(0)) - (Y(1) - Y(0)) * (X(2) - X(0));
+  // Corner k's x, y, w as [N] tensors, split with unbind (one backward each, not a full-size select per use).
+  const std::vector<torch::Tensor> corner = P.unbind(1);
+  std::vector<torch::Tensor> X, Y, w;
+  for (const torch::Tensor& c : corner) {
+    const std::vector<torch::Tensor> xyw = c.unbind(1);
+    X.push_back(xyw[0]);
+    Y.push_back(xyw[1]);
+    w.push_back(xyw[2]);
+  }
+  const torch::Tensor area = (X[1] - X[0]) * (Y[2] - Y[0]) - (Y[1] - Y[0]) * (X[2] - X[0]);
   std::vector<torch::Tensor> lw;  // l_k / w_k with l_k the screen-space barycentric of corner k
   for (int k = 0; k < 3; ++k) {
     const int a = (k + 1) % 3, b = (k + 2) % 3;
-    const torch::Tensor l = ((X(a) - cx) * (Y(b) - cy) - (Y(a) - cy) * (X(b) - cx)) / area;
-    lw.push_back(l / w.select(1, k));
+    const torch::Tensor l = ((X[a] - cx) * (Y[b] - cy) - (Y[a] - cy) * (X[b] - cx)) / area;
+    lw.push_back(l / w[k]);
   }
   const torch::Tensor q = lw[0] + lw[1] + lw[2];
   const torch::Tensor A = attr.reshape({B * V, C}).index_select(0, corners.reshape({-1})).reshape({-1, 3, C});
-  const torch::Tensor value = (lw[0] / q).unsqueeze(1) * A.select(1, 0) + (lw[1] / q).unsqueeze(1) * A.select(1, 1) +
-                              (lw[2] / q).unsqueeze(1) * A.select(1, 2);
+  // Σ_k b_k A_k as one batched product [N, 1, 3] x [N, 3, C] (faster forward and backward than broadcast + sum).
+  const torch::Tensor weights = torch::stack({lw[0], lw[1], lw[2]}, 1) / q.unsqueeze(1);
+  const torch::Tensor value = torch::bmm(weights.unsqueeze(1), A).squeeze(1);
   out = out.index_copy(0, covered, value);
   return out.reshape({B, H, W, C});
 }
@@ -137,12 +144,15 @@ torch::Tensor sh_shade(const torch::Tensor& albedo, const torch::Tensor& normal,
   require(gamma.dim() == 2 && gamma.size(0) == albedo.size(0) && gamma.size(1) == 27, "gamma must be [B, 27]");
   const auto [k0, k1, k2] = sh_scales();  // render/sh.h's basis
   const torch::Tensor n = normal / normal.norm(2, -1, true).clamp_min(1e-12);
-  const torch::Tensor x = n.select(3, 0), y = n.select(3, 1), z = n.select(3, 2);
+  const std::vector<torch::Tensor> xyz = n.unbind(3);  // one backward (a stack) instead of three full-size selects
+  const torch::Tensor &x = xyz[0], &y = xyz[1], &z = xyz[2];
   const torch::Tensor Y = torch::stack({torch::full_like(x, k0), -k1 * y, k1 * z, -k1 * x, k2 * x * y, -k2 * y * z,
                                         0.5 * k2 / std::sqrt(3.0) * (3 * z * z - 1), -k2 * x * z, 0.5 * k2 * (x * x - y * y)},
                                        3);  // [B, H, W, 9]
-  const torch::Tensor g = gamma.to(albedo.dtype()).reshape({-1, 1, 1, 3, 9});   // channel-major
-  const torch::Tensor irradiance = (Y.unsqueeze(3) * g).sum(4);               // [B, H, W, 3]
+  // Irradiance per channel: Y · γ_c, as one batched matrix product [B, HW, 9] x [B, 9, 3].
+  const int64_t B = albedo.size(0), H = albedo.size(1), W = albedo.size(2);
+  const torch::Tensor g = gamma.to(albedo.dtype()).reshape({B, 3, 9}).transpose(1, 2);  // channel-major γ
+  const torch::Tensor irradiance = torch::bmm(Y.reshape({B, H * W, 9}), g).reshape({B, H, W, 3});
   return albedo * irradiance;
 }
 
