@@ -7,7 +7,7 @@ JOBS       ?= $(shell nproc)
 export CCACHE_SLOPPINESS = pch_defines,time_macros,include_file_mtime,include_file_ctime
 export BARESKIN_ASSETS  ?= $(CURDIR)/assets
 
-.PHONY: all deps build test demo gpu gpu-vendor fuzz clean help
+.PHONY: all deps build test demo gpu gpu-bench gpu-vendor fuzz clean help
 all: build
 
 help:
@@ -16,6 +16,7 @@ help:
 	@echo "make deps    Debian packages + pinned npm assets (idempotent)"
 	@echo "make build   configure and build into $(BUILD)/"
 	@echo "make gpu     Torch-side build on the GPU machine (see docs/gpu.md)"
+	@echo "make gpu-bench  ... then the GPU figures (differentiable render, face networks)"
 	@echo "make fuzz    libFuzzer targets (clang) into build-fuzz/, run each FUZZ_SECONDS"
 
 deps:
@@ -42,6 +43,13 @@ gpu:
 	  -DCMAKE_PREFIX_PATH=$(CURDIR)/.gpu-vendor/usr
 	cmake --build $(GPU_BUILD) -j $(JOBS)
 	ctest --test-dir $(GPU_BUILD) --output-on-failure
+
+# GPU figures for bench/BENCHMARKS.md: the differentiable render (CUDA events) and the face networks. The template's
+# face.safetensors comes from the CPU machine (make demo) with the tree.
+GPU_TEMPLATE ?= out/demo/template
+gpu-bench: gpu
+	$(GPU_BUILD)/bin/render_torch_bench $(GPU_TEMPLATE) 20
+	$(GPU_BUILD)/bin/detect_bench
 
 # Run on the CPU machine before sending the tree to the GPU machine.
 gpu-vendor:

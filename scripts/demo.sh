@@ -236,6 +236,13 @@ for dir in "$out"/scans/subject_*/; do
 done
 [ -f "$out/img/render_passes_depth.png" ] || "$bareskin" render "$out/scans/subject_0000/mesh.obj" --camera pinhole \
     --passes depth,normal,mask --size 224 -o "$out/img/render_passes_{pass}.png"
+# The differentiable render (render/torch): batch 4 of the template, forward and backward, on this machine (and on a
+# GPU where the build has the CUDA rasterizer and one is present).
+if [ -x "$bin/render_torch_bench" ] && [ ! -f "$out/img/differentiable_render.txt" ]; then
+  "$bin/render_torch_bench" "$out/template" 3 > "$out/img/differentiable_render.txt"
+fi
+differentiable=$( [ -f "$out/img/differentiable_render.txt" ] && sed 's/&/\&amp;/g; s/</\&lt;/g' "$out/img/differentiable_render.txt" \
+    || echo "(built without LibTorch)")
 [ -f "$out/img/render_landmarks_left.png" ] || "$bareskin" render "$out/registered/subject_0000/mesh.ply" \
     --texture "$out/registered/subject_0000/diffuse.png" --landmarks "$out/template/landmarks.json" --camera pinhole \
     --views front,left,right --size 224 --draw-landmarks -o "$out/img/render_landmarks_{view}.png"
@@ -434,6 +441,11 @@ depth test), and order-2 SH lighting with Deep3DFaceRecon's basis (ambient 0.8 p
 comes from the same rasterization. 224² here.</p>
 $renders
 <figure><img src="img/render_passes_depth.png" style="width:160px"><img src="img/render_passes_normal.png" style="width:160px"><img src="img/render_passes_mask.png" style="width:160px"><figcaption>depth, camera-frame normals, mask</figcaption></figure>
+<p>The same rasterizer inside LibTorch (<code>render/torch/ops.h</code>: rasterize without gradient, interpolate with
+barycentrics recomputed from the vertex positions so gradients reach them, texture, SH shading), as training will run
+it: the template, batch 4, per-frame vertex offsets, projection, normals, albedo × SH irradiance, an L2 loss and its
+backward to positions, albedo and lighting (<code>render_torch_bench</code>, medians of 3):</p>
+<pre>$differentiable</pre>
 <figure><img src="img/render_landmarks_front.png" style="width:160px"><img src="img/render_landmarks_left.png" style="width:160px"><img src="img/render_landmarks_right.png" style="width:160px"><figcaption>registered subject_0000 with the template's 68 landmarks projected (<code>--draw-landmarks</code>; hidden points are drawn too)</figcaption></figure>
 
 <h2>7. Images back into UV (uvtools unwarp)</h2>
