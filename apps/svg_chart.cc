@@ -75,6 +75,13 @@ std::string svg_line_chart(const Chart& chart) {
                      escape(chart.x_label));
   svg += fmt::format("<text transform=\"translate(16 {}) rotate(-90)\" text-anchor=\"middle\">{}</text>\n",
                      (top + H - bottom) / 2, escape(chart.y_label));
+  // The legend goes to the top right unless the curves end high there: then to the bottom right.
+  double right_high = 0, right_points = 0;
+  for (const auto& s : chart.series)
+    for (size_t i = 0; i < s.x.size(); ++i)
+      if (px(s.x[i]) > W - right - 170) right_high += py(fy(s.y[i])) < (top + H - bottom) / 2, ++right_points;
+  const double legend_top = right_points > 0 && right_high > right_points / 2
+                                ? H - bottom - 12 - 16 * double(chart.series.size()) : top;
   for (size_t k = 0; k < chart.series.size(); ++k) {
     const ChartSeries& s = chart.series[k];
     const char* color = colors[k % 8];
@@ -86,7 +93,7 @@ std::string svg_line_chart(const Chart& chart) {
     }
     svg += fmt::format("\n<rect x=\"{0}\" y=\"{1}\" width=\"14\" height=\"3\" fill=\"{2}\"/>"
                        "<text x=\"{3}\" y=\"{4}\">{5}</text>\n",
-                       W - right - 150, top + 12 + 16 * double(k), color, W - right - 130, top + 16 + 16 * double(k),
+                       W - right - 150, legend_top + 12 + 16 * double(k), color, W - right - 130, legend_top + 16 + 16 * double(k),
                        escape(s.name));
   }
   return svg + "</svg>\n";

@@ -404,7 +404,7 @@ Files: <a href="model/model.safetensors">model.safetensors</a>, <a href="model/m
 $sweeps
 <h3>The model rendered from coefficients (<code>render --model model.safetensors --coeffs fit.json --camera pinhole</code>)</h3>
 <p>Shape (α), expression (β), appearance (δ), pose and SH lighting (γ) from one coefficient file, the format
-<code>mm-fit</code> will write.</p>
+<code>mm-fit</code> writes.</p>
 $model_renders
 <h3>Fitting to landmarks (<code>mm-fit image.png --model model.safetensors --landmarks lm.json</code>)</h3>
 <p>Levenberg–Marquardt on pose and the first identity and expression components against the 68 landmarks,
