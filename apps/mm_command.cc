@@ -323,7 +323,7 @@ void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const 
 
 std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string image, model, landmarks, output = "fit.json", view = "front", trace;
+    std::string image, model, landmarks, output = "fit.json", view = "front", trace, skin_mask;
     LandmarkFitOptions fit;
     PhotometricFitOptions photo;
     bool no_photometric = false;
@@ -347,6 +347,9 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       ->capture_default_str()->group("Photometric");
   app.add_option("--lighting-sd", opt->photo.lighting_sd, "Prior spread of the SH coefficients around white ambient")
       ->capture_default_str()->group("Photometric");
+  app.add_option("--skin-mask", opt->skin_mask, "Image of the photo's size, white where the photometric term may look "
+                 "(e.g. a face parser's skin class); default: every pixel the face covers")
+      ->check(CLI::ExistingFile)->group("Photometric");
   app.add_flag("--no-photometric", opt->no_photometric, "Landmarks only: no delta or gamma")->group("Photometric");
   app.add_option("--trace", opt->trace,
                  "Accuracy per iteration and time: a CSV, and beside it <stem>_landmarks.svg and <stem>_photometric.svg");
@@ -370,6 +373,16 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       Mesh posed = model.topology;
       posed.V = model.shape(fit.alpha, fit.beta);
       posed.V = ((posed.V * euler_rotation(fit.rotation).transpose()).rowwise() + fit.translation.transpose()).eval();
+      Image skin;
+      if (!opt->skin_mask.empty()) {
+        skin = read_image(opt->skin_mask);
+        if (skin.width != info.width || skin.height != info.height) {
+          throw InvalidInput(opt->skin_mask, "is " + std::to_string(skin.width) + "x" + std::to_string(skin.height) +
+                                                 ", the image " + std::to_string(info.width) + "x" + std::to_string(info.height),
+                             "give a mask of the photo's size");
+        }
+        opt->photo.skin_mask = &skin;
+      }
       photo = fit_photometric(model, posed, camera, image, opt->photo);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -129,11 +129,18 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
   const Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor> N =
       (vertex_normals(posed.V, posed.F) * camera.R.transpose()).cast<float>();
   const std::vector<float> uv = interpolate(r, FUV.data(), UV.data(), 2), nrm = interpolate(r, F.data(), N.data(), 3);
+  const Image* mask = options.skin_mask;
+  if (mask && (mask->width != camera.width || mask->height != camera.height || mask->channels < 1)) {
+    throw InvalidInput("", "the skin mask must be of the image's size", "give a mask of the same width and height");
+  }
   std::vector<int64_t> pix;
   for (size_t i = 0; i < r.triangle.size(); ++i)
-    if (r.triangle[i] >= 0) pix.push_back(int64_t(i));
+    if (r.triangle[i] >= 0 && (!mask || mask->pixels[i * size_t(mask->channels)] > 0.5f)) pix.push_back(int64_t(i));
   const Eigen::Index P = Eigen::Index(pix.size());
-  if (P < 50 || R == 0) throw InvalidInput("", "the model covers too few pixels (or has no appearance)", "");
+  if (P < 50 || R == 0) {
+    throw InvalidInput("", "the model covers too few pixels" + std::string(mask ? " inside the skin mask" : "") +
+                               " (or has no appearance)", "check the landmarks and the mask");
+  }
   // Per pixel: observed colour, SH basis, mean albedo and the scaled basis albedos (bilinear in the R x R images).
   Eigen::MatrixXd c(P, 3), Y(P, 9), m(P, 3);
   std::vector<Eigen::MatrixXd> b(3, Eigen::MatrixXd(P, K));

@@ -55,12 +55,16 @@ struct PhotometricFitOptions {
   double noise = 0.02;
   double lighting_sd = 0.3;
   int iterations = 20;  // Gauss-Newton steps (at most)
+  // The skin region: an image of the camera's size whose first channel is > 0.5 where the term may look (e.g. a face
+  // parser's skin labels, so that hair, glasses or a hand over the face do not pull δ and γ); nullptr: every pixel
+  // the face covers.
+  const Image* skin_mask = nullptr;
 };
 
 struct PhotometricFit {
   Eigen::VectorXd delta;
   std::array<double, 27> gamma{};
-  double psnr_db = 0;  // of the fitted render against the image over the covered pixels, linear values
+  double psnr_db = 0;  // of the fitted render against the image over the pixels used, linear values
   int64_t pixels = 0;
   std::vector<FitTraceStep> trace;  // psnr_db after each iteration (seconds include the set-up)
 };
