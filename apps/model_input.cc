@@ -59,6 +59,25 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
   return out;
 }
 
+std::vector<int> read_landmark_vertex_ids(const std::string& path, const Mesh& mesh, size_t count) {
+  const auto doc = nlohmann::json::parse(read_file(path), nullptr, false);
+  if (doc.is_discarded() || !doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
+    throw InvalidInput(path, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
+  }
+  if (count > 0 && doc["vertex_ids"].size() != count) {
+    throw InvalidInput(path, "has " + std::to_string(doc["vertex_ids"].size()) + " \"vertex_ids\", not " + std::to_string(count),
+                       "pass the template's landmarks.json");
+  }
+  std::vector<int> ids;
+  for (const auto& id : doc["vertex_ids"]) {
+    if (!id.is_number_integer() || id.get<int64_t>() < 0 || id.get<int64_t>() >= mesh.V.rows()) {
+      throw InvalidInput(path, "\"vertex_ids\" holds a non-integer or a vertex outside the mesh", "use the mesh's own landmarks");
+    }
+    ids.push_back(id.get<int>());
+  }
+  return ids;
+}
+
 Camera command_camera(const Mesh& mesh, bool fixed, const std::string& view, const std::string& camera, int size) {
   const Eigen::RowVector3d lo = mesh.V.colwise().minCoeff(), hi = mesh.V.colwise().maxCoeff();
   Camera cam = view_camera(view, size, fixed ? Eigen::Vector3d::Zero() : Eigen::Vector3d(0.5 * (lo + hi).transpose()));

@@ -27,6 +27,10 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
 // --mesh, or the model at the coefficients; InvalidInput unless exactly one is given.
 Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path);
 
+// The "vertex_ids" of a landmark file (the template's landmarks.json) for `mesh`: InvalidInput naming the file when the
+// list is missing, holds a non-integer or a vertex outside the mesh, or (count > 0) has another length.
+std::vector<int> read_landmark_vertex_ids(const std::string& path, const Mesh& mesh, size_t count = 0);
+
 // The camera of `render --camera` (also unwarp, mask): `camera` "pinhole" or "weak", a size x size image from `view`.
 // A mesh is framed by its bounding box; a model (`fixed`) sits in a fixed camera looking at its origin, its pose being
 // part of the coefficients. Weak perspective fits the mesh to 80% of the frame.

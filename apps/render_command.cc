@@ -153,20 +153,10 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
       }
       std::vector<int> landmark_ids;  // for --landmarks-out and --draw-landmarks, checked before anything is written
       if (!opt->landmarks_out.empty() || opt->draw_landmarks) {
-        landmark_ids = instance.landmark_vertices;
-        if (!opt->landmarks.empty()) {
-          const auto doc = nlohmann::json::parse(read_file(opt->landmarks), nullptr, false);
-          if (doc.is_discarded() || !doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
-            throw InvalidInput(opt->landmarks, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
-          }
-          landmark_ids = doc["vertex_ids"].get<std::vector<int>>();
-        }
+        landmark_ids = opt->landmarks.empty() ? instance.landmark_vertices : read_landmark_vertex_ids(opt->landmarks, mesh);
         if (landmark_ids.size() != 68) {
           throw InvalidInput(opt->landmarks, "--landmarks-out and --draw-landmarks need 68 landmark vertices, got " +
                                                  std::to_string(landmark_ids.size()), "pass the template's landmarks.json as --landmarks");
-        }
-        for (int id : landmark_ids) {
-          if (id < 0 || id >= mesh.V.rows()) throw InvalidInput(opt->landmarks, "names a vertex outside the mesh", "use the mesh's own landmarks");
         }
       }
       for (const std::string& view : views) {
@@ -210,18 +200,7 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     opt->preview.view = parse_preview_view(opt->view);
     opt->preview.wireframe = !opt->no_wireframe;
     opt->preview.shaded = !opt->no_shading;
-    if (!opt->landmarks.empty()) {
-      const auto doc = nlohmann::json::parse(read_file(opt->landmarks), nullptr, false);
-      if (doc.is_discarded() || !doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
-        throw InvalidInput(opt->landmarks, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
-      }
-      for (const auto& id : doc["vertex_ids"]) {
-        if (!id.is_number_integer() || id.get<int>() < 0 || id.get<int>() >= mesh.V.rows()) {
-          throw InvalidInput(opt->landmarks, "vertex_ids names a vertex outside " + opt->mesh, "use the mesh's own landmarks");
-        }
-        opt->preview.landmark_vertices.push_back(id.get<int>());
-      }
-    }
+    if (!opt->landmarks.empty()) opt->preview.landmark_vertices = read_landmark_vertex_ids(opt->landmarks, mesh);
     Image texture;
     if (!opt->texture.empty()) {
       texture = read_image(opt->texture);

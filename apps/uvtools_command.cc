@@ -117,24 +117,17 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       const Camera cam = command_camera(mesh, !mk->model.empty(), mk->view, mk->camera, labels.width);
       if (!mk->synthetic.empty()) {
         const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
-        nlohmann::json ids;
+        std::vector<int> ids;
         if (!mk->landmarks.empty()) {
-          const auto doc = nlohmann::json::parse(read_file(mk->landmarks), nullptr, false);
-          if (doc.is_discarded() || !doc.contains("vertex_ids") || doc["vertex_ids"].size() != 68) {
-            throw InvalidInput(mk->landmarks, "has no 68 \"vertex_ids\"", "pass the template's landmarks.json");
-          }
-          ids = doc["vertex_ids"];
+          ids = read_landmark_vertex_ids(mk->landmarks, mesh, 68);
         } else if (!mk->model.empty()) {
           ids = read_model(mk->model).landmark_vertices;
         } else {
           throw InvalidInput("", "--synthetic needs --landmarks (or --model)", "pass template/landmarks.json");
         }
         std::vector<Eigen::Vector2d> lm;
-        for (const auto& id : ids) {
-          if (!id.is_number_integer() || id.get<int>() < 0 || id.get<int>() >= mesh.V.rows()) {
-            throw InvalidInput(mk->landmarks, "vertex_ids names a vertex outside " + mk->mesh, "use the mesh's landmarks");
-          }
-          const Eigen::Vector3d p = cam.project(mesh.V.row(id.get<int>()).transpose());
+        for (int id : ids) {
+          const Eigen::Vector3d p = cam.project(mesh.V.row(id).transpose());
           lm.emplace_back(p.x(), p.y());
         }
         const Frame frame = render_frame(mesh, cam, ShadeOptions());

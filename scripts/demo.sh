@@ -192,23 +192,19 @@ print(f"with every face pixel, δ is off by up to {err(a):.2f} σ and the ambien
       f"{s['photometric_psnr_db']:.1f} dB")
 PY7
 )
-fit_summary=$(/usr/bin/python3 - "$out/model/fit_truth.json" "$out/model/fit.json" "$out/model/model.safetensors" <<'PY5'
-import json, struct, sys
+fit_summary=$(/usr/bin/python3 - "$out/model/fit_truth.json" "$out/model/fit.json" "$out/model/model.safetensors" \
+    "$(dirname "$0")/../tests/python" <<'PY5'
+import json, sys
 import numpy as np
+sys.path.insert(0, sys.argv[4])
+from safetensors_oracle import read_safetensors
 t, f = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
-raw = open(sys.argv[3], "rb").read()
-n = struct.unpack("<Q", raw[:8])[0]
-header = json.loads(raw[8:8 + n])
-def tensor(name):
-    h = header[name]
-    a, b = h["data_offsets"]
-    return np.frombuffer(raw[8 + n + a:8 + n + b], dtype=np.float32).reshape(h["shape"]).astype(np.float64)
+_, model = read_safetensors(sys.argv[3])
 def shape(c):  # the model's shape at α, β (standardised), before the pose
-    s = tensor("shape_mean").copy()
+    s = model["shape_mean"].astype(np.float64)
     for key, basis, sd in (("alpha", "shape_basis", "shape_stddev"), ("beta", "expression_basis", "expression_stddev")):
-        B, S = tensor(basis), tensor(sd)
-        for j, v in enumerate(c.get(key, [])[:len(S)]):
-            s += v * S[j] * B[j]
+        for j, v in enumerate(c.get(key, [])[:len(model[sd])]):
+            s = s + v * float(model[sd][j]) * model[basis][j].astype(np.float64)
     return s
 err = np.linalg.norm(shape(t) - shape(f), axis=1)
 da = max(abs(a - b) for a, b in zip(t["alpha"] + [0] * len(f["alpha"]), f["alpha"]))
