@@ -8,7 +8,7 @@
 
 #include "apps/model_input.h"
 #include "apps/scan_register.h"
-#include "apps/svg_chart.h"
+#include "core/svg_chart.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"

@@ -9,7 +9,8 @@ packages=("$@"
   libtorch-dev libceres-dev libsuitesparse-dev colmap
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-numpy python3-skimage
+  libarchive-dev libprotobuf-dev protobuf-compiler libgloo-dev
+  python3-numpy python3-skimage python3-torch python3-torchvision
 )
 missing=()
 # npm fetches the pinned assets; the machine may already have Node.js from elsewhere, so test for the command.

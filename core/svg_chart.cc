@@ -1,10 +1,10 @@
-#include "apps/svg_chart.h"
+#include "core/svg_chart.h"
 
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
-namespace bareskin::cli {
+namespace bareskin {
 namespace {
 
 // About five round tick values covering [lo, hi].
@@ -99,4 +99,4 @@ std::string svg_line_chart(const Chart& chart) {
   return svg + "</svg>\n";
 }
 
-}  // namespace bareskin::cli
+}  // namespace bareskin

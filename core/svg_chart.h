@@ -3,7 +3,7 @@
 #include <string>
 #include <vector>
 
-namespace bareskin::cli {
+namespace bareskin {
 
 struct ChartSeries {
   std::string name;
@@ -20,4 +20,4 @@ struct Chart {
 // The SVG text (640 x 400): axes with ticks, one polyline with markers per series, a legend.
 std::string svg_line_chart(const Chart& chart);
 
-}  // namespace bareskin::cli
+}  // namespace bareskin
