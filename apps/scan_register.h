@@ -4,7 +4,7 @@
 #include <vector>
 
 #include "apps/cli.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 #include "scan/register.h"
 #include "scan/uv_maps.h"
 

@@ -6,7 +6,7 @@
 #include "apps/cli.h"
 #include "core/files.h"
 #include "core/error.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin::cli {
 

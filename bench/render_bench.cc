@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/parallel.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 #include "render/rasterize.h"
 
 int main(int argc, char** argv) {

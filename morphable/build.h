@@ -7,7 +7,7 @@
 
 #include "core/progress.h"
 #include "morphable/model.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin {
 

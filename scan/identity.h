@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin {
 

@@ -12,7 +12,7 @@
 #include "core/error.h"
 #include "core/stats.h"
 #include "core/parallel.h"
-#include "morphable/surface.h"
+#include "template/surface.h"
 
 namespace bareskin {
 namespace {

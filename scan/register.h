@@ -16,7 +16,7 @@
 #include "core/landmarks.h"
 #include "core/mesh.h"
 #include "core/progress.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin {
 

@@ -10,7 +10,7 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
-#include "morphable/surface.h"
+#include "template/surface.h"
 
 namespace bareskin {
 

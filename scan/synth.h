@@ -13,7 +13,7 @@
 #include "core/landmarks.h"
 #include "core/mesh.h"
 #include "core/progress.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 #include "scan/identity.h"
 #include "scan/skin.h"
 #include "scan/skin_bake.h"

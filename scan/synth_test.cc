@@ -10,7 +10,7 @@
 #include "core/mesh_io.h"
 #include "core/safetensors.h"
 #include "scan/test_template.h"
-#include "morphable/surface.h"
+#include "template/surface.h"
 #include "scan/synth.h"
 
 namespace bareskin {

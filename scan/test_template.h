@@ -3,7 +3,7 @@
 #include <string>
 
 #include "core/test_util.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin::testing {
 

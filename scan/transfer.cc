@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "core/stats.h"
 #include "core/image_io.h"
-#include "morphable/surface.h"
+#include "template/surface.h"
 
 namespace bareskin {
 namespace {

@@ -4,7 +4,7 @@
 #include <string>
 
 #include "core/error.h"
-#include "morphable/mediapipe_face.h"
+#include "template/mediapipe_face.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

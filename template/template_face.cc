@@ -1,4 +1,4 @@
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Subdivider/Uniform/ModifiedButterFlyT.hh>
@@ -13,7 +13,7 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
-#include "morphable/surface.h"
+#include "template/surface.h"
 
 namespace bareskin {
 namespace {

@@ -1,4 +1,4 @@
-#include "morphable/surface.h"
+#include "template/surface.h"
 
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>

@@ -6,7 +6,7 @@
 #include "core/files.h"
 #include "core/error.h"
 #include "core/test_util.h"
-#include "morphable/template_face.h"
+#include "template/template_face.h"
 
 namespace bareskin {
 namespace {

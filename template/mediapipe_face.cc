@@ -1,4 +1,4 @@
-#include "morphable/mediapipe_face.h"
+#include "template/mediapipe_face.h"
 
 #include <cstring>
 #include <regex>

@@ -9,7 +9,7 @@
 
 #include "core/mesh.h"
 #include "core/progress.h"
-#include "morphable/mediapipe_face.h"
+#include "template/mediapipe_face.h"
 
 namespace bareskin {
 
