@@ -4,6 +4,11 @@ find_package(Eigen3 3.3 REQUIRED NO_MODULE)
 find_package(nlohmann_json 3.9 REQUIRED)
 find_package(CLI11 REQUIRED)
 find_package(Threads REQUIRED)
+# PNG in memory (core/png.h: the shard codec) and tar (dataset shards): both present on the GPU machine too (libarchive's
+# headers travel in .gpu-vendor/ there; the library is a dependency of its CMake).
+find_package(ZLIB REQUIRED)
+find_package(PNG REQUIRED)
+find_package(LibArchive REQUIRED)
 
 if(BARESKIN_TORCH_ONLY)
   # Header-only spdlog + fmt: the GPU machine has no compiled spdlog/fmt.
