@@ -1,0 +1,71 @@
+// pix2pix's U-Net generator (Isola et al. 2017; "unet_256" of the reference code): num_downs stride-2 4×4
+// convolutions down to 1×1 and as many 4×4 transposed convolutions up, each level's input concatenated to its
+// output (skip connections), batch norm, LeakyReLU 0.2 down / ReLU up, dropout 0.5 in the num_downs − 5 innermost
+// 512-channel levels, Tanh at the end. BareSkinNet's generator G.
+//
+// Names follow the reference's recursion: the generator holds `model`, the outermost block; every block holds a
+// Sequential `model` whose index 1 (outermost) or 3 (intermediate) is the next block. Parameter names therefore
+// equal the reference's ("model.model.1.model.3.model.1.weight", ...) without any renaming. Convolutions have no
+// bias before a batch norm (as the reference); with norm "none" they have one (the reference keeps them biasless).
+#pragma once
+#include <torch/nn.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace bareskin::nets {
+
+struct UNetOptions {
+  int in_channels = 3;
+  int out_channels = 3;
+  int ngf = 64;       // channels after the first convolution; ×2 per level up to ×8
+  int num_downs = 8;  // ≥ 5; the input's sides must be multiples of 2^num_downs (8: 256²)
+  std::string norm = "batch";  // batch | instance | none
+  bool dropout = true;         // pix2pix trains with dropout in the innermost levels
+  std::string upsample = "transpose";  // transpose (reference) | resize_conv (bilinear ×2 + 3×3 convolution)
+};
+void to_json(nlohmann::json& j, const UNetOptions& o);
+void from_json(const nlohmann::json& j, UNetOptions& o);
+
+// Bilinear ×2 then a 3×3 convolution: the resize_conv alternative to a stride-2 transposed convolution (no
+// checkerboard pattern; on this machine's BLAS faster than the transposed convolution).
+class ResizeConvImpl : public torch::nn::Module {
+ public:
+  ResizeConvImpl(int64_t in, int64_t out, bool bias);
+  torch::Tensor forward(torch::Tensor x);
+
+ private:
+  torch::nn::Conv2d conv_{nullptr};
+};
+TORCH_MODULE(ResizeConv);
+
+class UNetBlockImpl : public torch::nn::Module {
+ public:
+  enum class Kind { outermost, intermediate, innermost };
+  // outer: channels at this level's input/output (the generator's output channels for the outermost block),
+  // inner: channels after this level's downsampling; input: channels of the input (outermost: the image's).
+  UNetBlockImpl(Kind kind, int64_t outer, int64_t inner, int64_t input, const UNetOptions& o, bool dropout,
+                torch::nn::AnyModule submodule);
+  torch::Tensor forward(torch::Tensor x);
+
+ private:
+  bool outermost_;
+  torch::nn::Sequential model_{nullptr};
+};
+TORCH_MODULE(UNetBlock);
+
+class UNetImpl : public torch::nn::Module {
+ public:
+  explicit UNetImpl(const UNetOptions& options = {});
+  // [N, in_channels, H, W] → [N, out_channels, H, W] in (−1, 1). InvalidInput when H or W is not a multiple of
+  // 2^num_downs.
+  torch::Tensor forward(torch::Tensor x);
+  const UNetOptions& options() const { return options_; }
+
+ private:
+  UNetOptions options_;
+  UNetBlock model_{nullptr};
+};
+TORCH_MODULE(UNet);
+
+}  // namespace bareskin::nets
