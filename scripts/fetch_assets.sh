@@ -48,13 +48,15 @@ NOTICE
       tar -xzf "$tarball" -C "$out" --strip-components=1 package/LICENSE
       ;;
     @vladmandic/face-api@*)
-      # The 68-point landmark net and the tiny face detector (tfjs manifests + uint8 weights) for 'bareskin landmarks';
-      # the package's own JavaScript bundle is the oracle of tests/node/face_api_reference.mjs.
+      # The 68-point landmark net and the tiny face detector (tfjs manifests + uint8 weights) for 'bareskin landmarks',
+      # and the face recognition net (128-d descriptors) for the identity and perceptual losses of training/;
+      # the package's own JavaScript bundle is the oracle of tests/node/*.mjs.
       out="$assets/face_api"
       mkdir -p "$out"
       tar -xzf "$tarball" -C "$out" --strip-components=2 \
         package/model/face_landmark_68_model.bin package/model/face_landmark_68_model-weights_manifest.json \
-        package/model/tiny_face_detector_model.bin package/model/tiny_face_detector_model-weights_manifest.json
+        package/model/tiny_face_detector_model.bin package/model/tiny_face_detector_model-weights_manifest.json \
+        package/model/face_recognition_model.bin package/model/face_recognition_model-weights_manifest.json
       tar -xzf "$tarball" -C "$out" --strip-components=1 package/LICENSE package/dist/face-api.esm.js
       ;;
   esac

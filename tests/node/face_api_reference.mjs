@@ -5,6 +5,7 @@
 // points shifted by the crop's integer origin (where the landmark network looked; face-api itself shifts by the
 // unrounded box, also given as points_face_api).
 import fs from 'fs';
+import { readPpm } from './ppm.mjs';
 
 const [folder, image, inputSize, minScore] = process.argv.slice(2);
 if (!minScore) {
@@ -28,26 +29,7 @@ function load(net, name) {
 load(faceapi.nets.tinyFaceDetector, 'tiny_face_detector_model');
 load(faceapi.nets.faceLandmark68Net, 'face_landmark_68_model');
 
-function readPpm(path) {
-  const data = fs.readFileSync(path);
-  const fields = [];
-  let i = 0;
-  while (fields.length < 4) {
-    while (data[i] === 0x23 || /\s/.test(String.fromCharCode(data[i]))) {
-      if (data[i] === 0x23) while (data[i] !== 0x0a) i++;  // comment
-      i++;
-    }
-    let token = '';
-    while (!/\s/.test(String.fromCharCode(data[i]))) token += String.fromCharCode(data[i++]);
-    fields.push(token);
-  }
-  if (fields[0] !== 'P6' || fields[3] !== '255') throw new Error(`${path}: not an 8-bit binary PPM`);
-  const [width, height] = [Number(fields[1]), Number(fields[2])];
-  const pixels = new Int32Array(data.subarray(i + 1, i + 1 + width * height * 3));
-  return tf.tensor3d(pixels, [height, width, 3], 'int32');
-}
-
-const img = readPpm(image);
+const img = readPpm(tf, image);
 const options = new faceapi.TinyFaceDetectorOptions({ inputSize: Number(inputSize), scoreThreshold: Number(minScore) });
 const results = await faceapi.detectAllFaces(img, options).withFaceLandmarks();
 const [height, width] = img.shape;
