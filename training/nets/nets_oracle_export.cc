@@ -8,12 +8,6 @@
 #include <cstdio>
 #include <string>
 
-#include "core/error.h"
-#include "training/nets/msrresnet.h"
-#include "training/nets/patchgan.h"
-#include "training/nets/pix2pixhd.h"
-#include "training/nets/resnet.h"
-#include "training/nets/unet.h"
 #include "training/nets/zoo.h"
 #include "training/tensor_io.h"
 
@@ -22,38 +16,18 @@ using namespace bareskin::nets;
 
 namespace {
 
-torch::Tensor run(torch::nn::Module& net, const std::string& model, const torch::Tensor& x) {
-  torch::nn::Module* any = &net;
-  if (auto* m = dynamic_cast<MultiscaleDiscriminatorImpl*>(any)) {
-    // Every scale's every layer, flattened and concatenated: the order of scales and layers is checked too.
-    std::vector<torch::Tensor> flat;
-    for (const auto& scale : m->forward(x))
-      for (const auto& f : scale) flat.push_back(f.flatten());
-    return torch::cat(flat);
-  }
-  if (auto* m = dynamic_cast<ResNetImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<UNetImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<PatchGANImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<GlobalGeneratorImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<LocalEnhancerImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<MSRResNetImpl*>(any)) return m->forward(x);
-  if (auto* m = dynamic_cast<VGGStyleDiscriminatorImpl*>(any)) return m->forward(x);
-  BS_CHECK(false, "no forward for " + model);
-  return {};
-}
-
 void export_case(const std::string& dir, const std::string& name, const std::string& model,
                  const nlohmann::json& options, std::vector<int64_t> input_shape) {
   torch::manual_seed(7);
   const auto net = find_model(model).make(options);
   net->train();
-  for (int i = 0; i < 2; ++i) run(*net, model, torch::randn(input_shape) * 2 + 0.5);
+  for (int i = 0; i < 2; ++i) forward_output(*net, torch::randn(input_shape) * 2 + 0.5);
   net->eval();
   const torch::Tensor x = torch::randn(input_shape);
   torch::Tensor y;
   {
     torch::NoGradGuard no_grad;
-    y = run(*net, model, x);
+    y = forward_output(*net, x);
   }
   export_state_dict(*net, dir + "/" + name + ".safetensors", {{"model", model}, {"options", options.dump()}});
   save_tensors(dir + "/" + name + "_io.safetensors", {{"input", x}, {"output", y}});

@@ -299,6 +299,19 @@ TEST(NetsZoo, BadNamesAndOptionsAreTheUsersError) {
   EXPECT_THROW(find_model("patchgan").make(J::array()), InvalidInput);
 }
 
+TEST(NetsZoo, ForwardOutputOfAnyEntry) {
+  torch::manual_seed(9);
+  const auto d = find_model("pix2pixhd_multiscale_d").make({{"ndf", 4}});
+  // Two scales, five layer outputs each (2·(4·33² + 8·17² + 16·9² + 32·10² + 11²) + same at 32² input).
+  const int64_t s0 = 4 * 33 * 33 + 8 * 17 * 17 + 16 * 9 * 9 + 32 * 10 * 10 + 11 * 11;
+  const int64_t s1 = 4 * 17 * 17 + 8 * 9 * 9 + 16 * 5 * 5 + 32 * 6 * 6 + 7 * 7;
+  EXPECT_EQ(forward_output(*d, torch::randn({1, 6, 64, 64})).numel(), s0 + s1);
+  const auto sr = find_model("msrresnet").make({{"num_feat", 4}, {"num_block", 1}});
+  EXPECT_EQ(forward_output(*sr, torch::randn({1, 3, 4, 4})).sizes(), (std::vector<int64_t>{1, 3, 16, 16}));
+  torch::nn::Linear stranger(2, 2);
+  EXPECT_THROW(forward_output(*stranger, torch::randn({1, 2})), InternalError);
+}
+
 // ---- the state-dict file
 
 TEST(NetsExport, ReferenceNamesAndRoundTrip) {

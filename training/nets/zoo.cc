@@ -69,6 +69,25 @@ const ModelEntry& find_model(const std::string& name) {
   throw InvalidInput("model '" + name + "'", "not in the zoo", "use one of " + names);
 }
 
+torch::Tensor forward_output(torch::nn::Module& net, const torch::Tensor& x) {
+  torch::nn::Module* m = &net;
+  if (auto* d = dynamic_cast<MultiscaleDiscriminatorImpl*>(m)) {
+    std::vector<torch::Tensor> flat;
+    for (const auto& scale : d->forward(x))
+      for (const auto& f : scale) flat.push_back(f.flatten());
+    return torch::cat(flat);
+  }
+  if (auto* n = dynamic_cast<ResNetImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<UNetImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<PatchGANImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<GlobalGeneratorImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<LocalEnhancerImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<MSRResNetImpl*>(m)) return n->forward(x);
+  if (auto* n = dynamic_cast<VGGStyleDiscriminatorImpl*>(m)) return n->forward(x);
+  BS_CHECK(false, "forward_output: " + net.name() + " is not a network of the zoo");
+  return {};
+}
+
 std::map<std::string, torch::Tensor> state_dict(const torch::nn::Module& module) {
   std::map<std::string, torch::Tensor> out;
   for (const auto& p : module.named_parameters(true)) out[p.key()] = p.value().detach().cpu();

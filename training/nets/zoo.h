@@ -30,6 +30,11 @@ const std::vector<ModelEntry>& model_zoo();
 // InvalidInput listing the names when `name` is not in the zoo.
 const ModelEntry& find_model(const std::string& name);
 
+// Runs any network of the zoo on x: its forward; the multiscale discriminator's per-scale lists of layer outputs come
+// flattened and concatenated (scale 0 first). For benchmarks, exports and shape printing; training code calls the
+// typed modules. InternalError for a module that is not from the zoo.
+torch::Tensor forward_output(torch::nn::Module& net, const torch::Tensor& x);
+
 // Every parameter and buffer by its registered (= reference) name, detached, on the CPU.
 std::map<std::string, torch::Tensor> state_dict(const torch::nn::Module& module);
 
