@@ -128,7 +128,7 @@ TEST(FaceRecognition, GradientsMatchCentralDifferencesInDouble) {
     const double h = 1e-7;  // the net is piecewise linear (ReLU, max pool): small steps cross no kink
     const double numeric = (f(x + h * v).item<double>() - f(x - h * v).item<double>()) / (2 * h);
     const double analytic = (grad * v).sum().item<double>();
-    EXPECT_NEAR(analytic, numeric, 1e-5 * std::max(1.0, std::abs(numeric))) << "direction " << k;
+    EXPECT_NEAR(analytic, numeric, 1e-4 * std::max(1.0, std::abs(numeric))) << "direction " << k;
   }
 }
 

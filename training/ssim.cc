@@ -1,0 +1,64 @@
+#include "training/ssim.h"
+
+#include <torch/torch.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace bareskin::losses {
+namespace F = torch::nn::functional;
+namespace {
+
+void check_pair(const torch::Tensor& a, const torch::Tensor& b, const char* what) {
+  if (a.dim() != 4 || a.sizes() != b.sizes())
+    throw InvalidInput(what, "images of shapes " + c10::str(a.sizes()) + " and " + c10::str(b.sizes()),
+                       "pass two [B, C, H, W] batches of the same shape");
+}
+
+// Normalised 1-D Gaussian weights exp(−x²/2σ²), x = −r..r.
+torch::Tensor gaussian(int window, double sigma, const torch::TensorOptions& options) {
+  const torch::Tensor x = torch::arange(window, options) - double(window / 2);
+  const torch::Tensor g = torch::exp(-x * x / (2 * sigma * sigma));
+  return g / g.sum();
+}
+
+}  // namespace
+
+torch::Tensor ssim_map(const torch::Tensor& a, const torch::Tensor& b, const SsimOptions& options) {
+  check_pair(a, b, "ssim");
+  const int w = options.window;
+  if (w < 1 || w % 2 == 0 || options.sigma <= 0 || options.data_range <= 0)
+    throw InvalidInput("ssim", "window " + std::to_string(w) + ", sigma " + std::to_string(options.sigma) +
+                                   ", data range " + std::to_string(options.data_range),
+                       "the window must be odd and positive, sigma and data range positive");
+  if (a.size(2) < w || a.size(3) < w)
+    throw InvalidInput("ssim", "images of " + std::to_string(a.size(2)) + "x" + std::to_string(a.size(3)) +
+                                   " pixels are smaller than the " + std::to_string(w) + "-pixel window",
+                       "use larger images or a smaller window");
+  const int64_t c = a.size(1);
+  // The five moments filtered at once: a depthwise separable Gaussian over [x, y, x², y², xy].
+  const torch::Tensor g = gaussian(w, options.sigma, a.options());
+  const torch::Tensor stacked = torch::cat({a, b, a * a, b * b, a * b}, 1);
+  const int64_t groups = 5 * c;
+  torch::Tensor m = F::conv2d(stacked, g.view({1, 1, w, 1}).expand({groups, 1, w, 1}),
+                              F::Conv2dFuncOptions().groups(groups));
+  m = F::conv2d(m, g.view({1, 1, 1, w}).expand({groups, 1, 1, w}), F::Conv2dFuncOptions().groups(groups));
+  const auto parts = m.split(c, 1);
+  const torch::Tensor &mx = parts[0], &my = parts[1];
+  const torch::Tensor vx = parts[2] - mx * mx, vy = parts[3] - my * my, cxy = parts[4] - mx * my;
+  const double c1 = std::pow(options.k1 * options.data_range, 2), c2 = std::pow(options.k2 * options.data_range, 2);
+  return (2 * mx * my + c1) * (2 * cxy + c2) / ((mx * mx + my * my + c1) * (vx + vy + c2));
+}
+
+torch::Tensor ssim(const torch::Tensor& a, const torch::Tensor& b, const SsimOptions& options) {
+  return ssim_map(a, b, options).mean({1, 2, 3});
+}
+
+torch::Tensor psnr(const torch::Tensor& a, const torch::Tensor& b, double data_range) {
+  check_pair(a, b, "psnr");
+  const torch::Tensor mse = (a - b).pow(2).mean({1, 2, 3});
+  return 10 * torch::log10(data_range * data_range / mse);
+}
+
+}  // namespace bareskin::losses
