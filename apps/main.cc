@@ -13,6 +13,7 @@ std::function<void()> setup_mm_fit_command(CLI::App&, const Globals&);
 std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
+std::function<void()> setup_train_command(CLI::App&, const Globals&);
 #endif
 
 const std::vector<Command>& commands() {
@@ -30,6 +31,8 @@ const std::vector<Command>& commands() {
 #ifdef BARESKIN_WITH_DETECT
       {"landmarks", "Images", "Detect faces and their 68 landmarks in a photo (face-api's networks in LibTorch)",
        setup_landmarks_command},
+      {"train", "Training", "The network zoo (--list-models, --print-model) and run weights for Python (export)",
+       setup_train_command},
 #endif
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},

@@ -213,4 +213,24 @@ void load_module_weights(const std::string& path, const std::string& name, torch
   }
 }
 
+void export_module(const std::string& checkpoint, const std::string& name, const std::string& output) {
+  const SafeTensors file = SafeTensors::open(checkpoint);
+  const nlohmann::json meta = read_metadata(file);
+  std::map<std::string, torch::Tensor> tensors;
+  std::set<std::string> modules;
+  const std::string prefix = "module." + name + ".";
+  for (const auto& key : file.names()) {
+    if (key.rfind("module.", 0) == 0) modules.insert(key.substr(7, key.find('.', 7) - 7));
+    if (key.rfind(prefix, 0) == 0) tensors[key.substr(prefix.size())] = to_tensor(file.tensor(key), checkpoint);
+  }
+  if (tensors.empty()) {
+    std::string names;
+    for (const auto& m : modules) names += (names.empty() ? "" : ", ") + m;
+    throw InvalidInput(checkpoint, "has no module '" + name + "' (it holds: " + names + ")", "pass one of those to --module");
+  }
+  save_tensors(output, tensors,
+               {{"module", name}, {"task", meta.at("task").get<std::string>()},
+                {"step", std::to_string(meta.at("step").get<int64_t>())}, {"config", meta.at("config").dump()}});
+}
+
 }  // namespace bareskin::train

@@ -46,4 +46,9 @@ int64_t read_checkpoint_step(const std::string& path);
 // Only the module weights (for inference and export): "module.<name>.*" into `module`.
 void load_module_weights(const std::string& path, const std::string& name, torch::nn::Module& module);
 
+// A run's module as a plain state dict (the reference implementation's parameter names, as the zoo registers
+// them), for Python users: the checkpoint's "module.<name>.*" tensors without the prefix, with the run's config as
+// metadata. InvalidInput naming the modules the checkpoint holds when `name` is not one of them.
+void export_module(const std::string& checkpoint, const std::string& name, const std::string& output);
+
 }  // namespace bareskin::train

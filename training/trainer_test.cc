@@ -251,6 +251,25 @@ TEST(Trainer, RefusesAnotherConfigAnotherNetAndAnExistingRun) {
   EXPECT_EQ(read_file(checkpoint_path(dir)), before);  // nothing overwritten
 }
 
+TEST(Trainer, ExportsAModuleUnderItsOwnNames) {
+  const std::string dir = testing::temp_dir() + "/export";
+  TwoNetTask task;
+  StreamSource source(2, 0, 1);
+  Trainer(options(dir, 2), task, source, nullptr).run();
+  export_module(checkpoint_path(dir), "A", dir + "/A.safetensors");
+  const auto exported = load_tensors(dir + "/A.safetensors");
+  const auto params = task.a->named_parameters();
+  EXPECT_EQ(exported.size(), params.size());  // no buffers in A
+  for (const auto& p : params) EXPECT_TRUE(torch::equal(exported.at(p.key()), p.value())) << p.key();
+  try {
+    export_module(checkpoint_path(dir), "G", dir + "/G.safetensors");
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("A, B"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir + "/G.safetensors"));
+}
+
 TEST(Schedule, Factors) {
   Schedule linear{"linear", 10};
   EXPECT_EQ(linear.factor(5, 20), 1.0);

@@ -1,0 +1,99 @@
+// bareskin train: the network zoo (--list-models, --print-model) and the runs' weights for other tools (export).
+// The models' own trainings (recon, bareskin, texture, upscale) are subcommands of their own issues' commands and all
+// run on training/trainer.h.
+#include <torch/torch.h>
+
+#include <filesystem>
+#include <iostream>
+
+#include "apps/cli.h"
+#include "apps/detector.h"
+#include "core/error.h"
+#include "training/checkpoint.h"
+#include "training/nets/zoo.h"
+#include "training/trainer.h"
+
+namespace bareskin::cli {
+namespace {
+
+// 54413955 -> "54,413,955"
+std::string parameter_count(torch::nn::Module& module) {
+  int64_t n = 0;
+  for (const auto& p : module.parameters()) n += p.numel();
+  std::string digits = std::to_string(n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i && (digits.size() - i) % 3 == 0) out += ',';
+    out += digits[i];
+  }
+  return out;
+}
+
+nlohmann::json parse_options(const std::string& text) {
+  if (text.empty()) return nlohmann::json::object();
+  try {
+    auto j = nlohmann::json::parse(text);
+    if (!j.is_object()) throw InvalidInput("--options", "must be a JSON object", "e.g. --options '{\"ngf\": 32}'");
+    return j;
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InvalidInput("--options", std::string("is not JSON (") + e.what() + ")", "e.g. --options '{\"ngf\": 32}'");
+  }
+}
+
+void list_models() {
+  std::cout << fmt::format("{:<24} {:>14}  {}\n", "model", "parameters", "what it is");
+  for (const auto& entry : nets::model_zoo()) {
+    auto net = entry.make(nlohmann::json::object());
+    std::cout << fmt::format("{:<24} {:>14}  {}\n", entry.name, parameter_count(*net), entry.summary);
+  }
+  std::cout << "\nDefaults are the paper's sizes; 'bareskin train --print-model NAME' shows the options.\n";
+}
+
+void print_model(const std::string& name, const std::string& options_text, bool structure) {
+  const auto& entry = nets::find_model(name);
+  nlohmann::json options = entry.defaults;
+  options.update(parse_options(options_text));
+  auto net = entry.make(options);
+  std::cout << entry.name << ": " << entry.summary << "\n"
+            << "parameters: " << parameter_count(*net) << "\n" << "options: " << options.dump(2) << "\n";
+  if (structure) {
+    std::cout << "\n" << *net << "\n";
+  }
+}
+
+}  // namespace
+
+std::function<void()> setup_train_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    bool list = false, structure = false;
+    std::string print, options, checkpoint, module, output;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_flag("--list-models", opt->list, "List every network with its parameter count at the paper's sizes");
+  app.add_option("--print-model", opt->print, "Show one network: summary, options (JSON), parameter count");
+  app.add_option("--options", opt->options, "With --print-model: JSON options over the defaults, e.g. '{\"ngf\": 32}'");
+  app.add_flag("--structure", opt->structure, "With --print-model: also print the module tree");
+  CLI::App* e = app.add_subcommand("export", "Write a run's module as a plain state dict (reference parameter names)");
+  e->add_option("checkpoint", opt->checkpoint, "A run folder or its checkpoint.safetensors")->required();
+  e->add_option("--module", opt->module, "Which module of the run (e.g. G, D, E)")->required();
+  e->add_option("-o,--output", opt->output, "Output .safetensors (load with safetensors + load_state_dict)")->required();
+  app.footer("Examples:\n  bareskin train --list-models\n  bareskin train --print-model unet256 --options "
+             "'{\"ngf\": 32, \"num_downs\": 7}'\n  bareskin train export runs/bsn --module G -o G.safetensors\n"
+             "docs/training.md describes the trainer, the run folder, multi-GPU and SLURM.");
+  return [opt, &app, &globals] {
+    set_torch_threads(globals);
+    if (app.got_subcommand("export")) {
+      std::string path = opt->checkpoint;
+      if (std::filesystem::is_directory(path)) path = train::checkpoint_path(path);
+      train::export_module(path, opt->module, opt->output);
+      if (!globals.quiet()) std::cerr << "wrote " << opt->output << "\n";
+    } else if (opt->list) {
+      list_models();
+    } else if (!opt->print.empty()) {
+      print_model(opt->print, opt->options, opt->structure);
+    } else {
+      throw CLI::ValidationError("train", "give --list-models, --print-model NAME or a subcommand");
+    }
+  };
+}
+
+}  // namespace bareskin::cli
