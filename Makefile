@@ -7,7 +7,9 @@ JOBS       ?= $(shell nproc)
 export CCACHE_SLOPPINESS = pch_defines,time_macros,include_file_mtime,include_file_ctime
 export BARESKIN_ASSETS  ?= $(CURDIR)/assets
 
-.PHONY: all deps build test demo gpu gpu-bench gpu-vendor fuzz clean help
+PREFIX     ?= /usr/local
+
+.PHONY: all deps build test demo install gpu gpu-bench gpu-vendor fuzz clean help
 all: build
 
 help:
@@ -15,6 +17,7 @@ help:
 	@echo "make test    install what is missing, build, run all tests (LABEL=unit|cli|torch to select)"
 	@echo "make deps    Debian packages + pinned npm assets (idempotent)"
 	@echo "make build   configure and build into $(BUILD)/"
+	@echo "make install PREFIX=/usr/local   bareskin on PATH, assets + template + docs in PREFIX/share/bareskin"
 	@echo "make gpu     Torch-side build on the GPU machine (see docs/gpu.md)"
 	@echo "make gpu-bench  ... then the GPU figures (differentiable render, face networks)"
 	@echo "make fuzz    libFuzzer targets (clang) into build-fuzz/, run each FUZZ_SECONDS"
@@ -34,6 +37,10 @@ test: build
 
 demo: build
 	@bash scripts/demo.sh $(BUILD)/bin out/demo
+
+# The tool, its assets (with their licences), a default template and the docs under PREFIX (docs/cli.md).
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 # GPU machine (no package registry): LibTorch from pip torch, spdlog/fmt headers carried in .gpu-vendor/.
 GPU_BUILD ?= build-gpu

@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "apps/cli.h"
+#include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -21,9 +22,27 @@
 
 namespace bareskin::cli {
 
+void set_torch_threads(const Globals& globals) {
+  // LibTorch defaults to the physical cores (1 on a 2-vCPU machine); follow --threads like the thread pool does.
+  torch::set_num_threads(globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency()));
+}
+
+ScanLandmarkDetector scan_landmark_detector(const Globals& globals) {
+  set_torch_threads(globals);
+  return [](const Mesh& scan, const Image* diffuse) {
+    static const detect::FaceApi net(detect::default_face_api_folder());
+    const detect::ScanLandmarks found = detect::detect_scan_landmarks(net, scan, diffuse);
+    DetectedLandmarks out;
+    out.landmarks = found.landmarks;
+    out.detector_score = found.detector_score;
+    out.snapped_to_silhouette = found.off_surface;
+    return out;
+  };
+}
+
 std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string photo, output, draw, weights = detect::default_face_api_folder(), device = "cpu";
+    std::string photo, output, draw, weights, device = "cpu";
     detect::DetectOptions detect;
   };
   auto opt = std::make_shared<Options>();
@@ -34,8 +53,8 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                                             "under 'faces' with 'box' [x, y, w, h] and 'score'")
       ->required();
   d->add_option("--draw", opt->draw, "Also write the photo with boxes and landmarks drawn (PNG/JPEG)");
-  d->add_option("--weights", opt->weights, "Folder with face-api's tfjs models ('make deps' fills it)")
-      ->capture_default_str();
+  d->add_option("--weights", opt->weights, "Folder with face-api's tfjs models (default: face_api/ in the assets, "
+                                          "docs/cli.md)");
   d->add_option("--input-size", opt->detect.input_size, "Detector input size (multiple of 32): larger finds smaller faces")
       ->capture_default_str();
   d->add_option("--min-score", opt->detect.min_score, "Drop detections scoring below")->capture_default_str()
@@ -45,7 +64,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   d->add_option("--device", opt->device, "cpu or cuda")->capture_default_str()->check(CLI::IsMember({"cpu", "cuda"}));
 
   struct ScanOptions {
-    std::string scan, texture, output, draw, weights = detect::default_face_api_folder();
+    std::string scan, texture, output, draw, weights;
     detect::ScanLandmarkOptions detect;
   };
   auto sc = std::make_shared<ScanOptions>();
@@ -54,15 +73,15 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--texture", sc->texture, "Diffuse map, when the scan is a mesh file (else: grey)");
   s->add_option("-o,--output", sc->output, "3D landmark JSON (mm), as scan/landmarks.json")->required();
   s->add_option("--draw", sc->draw, "Also write the front render with the 2D landmarks drawn (PNG)");
-  s->add_option("--weights", sc->weights, "Folder with face-api's tfjs models")->capture_default_str();
+  s->add_option("--weights", sc->weights, "Folder with face-api's tfjs models (default: face_api/ in the assets)");
   s->add_option("--size", sc->detect.size, "Render size")->capture_default_str()->check(CLI::Range(128, 4096));
   s->add_option("--refinements", sc->detect.refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10));
 
   return [opt, sc, s, &globals] {
-    // LibTorch defaults to the physical cores (1 on a 2-vCPU machine); follow --threads like every other command.
-    torch::set_num_threads(globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency()));
+    set_torch_threads(globals);
     if (s->parsed()) {
+      if (sc->weights.empty()) sc->weights = detect::default_face_api_folder();
       std::string mesh_path = sc->scan, texture = sc->texture;
       if (std::filesystem::is_directory(sc->scan)) {
         mesh_path.clear();
@@ -96,6 +115,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     }
     if (lower_extension(opt->output) != ".json")
       throw InvalidInput(opt->output, "landmarks are written as JSON", "name the output *.json");
+    if (opt->weights.empty()) opt->weights = detect::default_face_api_folder();
     detect::FaceApi net(opt->weights);
     if (opt->device == "cuda") net.to(torch::kCUDA);
     const Image image = read_image(opt->photo);

@@ -6,18 +6,20 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "apps/detector.h"
 #include "apps/model_input.h"
-#include "apps/scan_register.h"
 #include "core/svg_chart.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "morphable/build.h"
+#include "morphable/coefficients.h"
 #include "core/landmarks.h"
 #include "morphable/fit.h"
 #include "morphable/metrics.h"
 #include "scan/blendshapes.h"
+#include "scan/register_folder.h"
 
 namespace bareskin::cli {
 namespace {
@@ -91,7 +93,7 @@ std::string stem_path(const std::string& model_path) {
 
 std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string scans, registered, output = "model.safetensors", template_dir = "template", blendshapes, export_obj;
+    std::string scans, registered, output = "model.safetensors", template_dir, blendshapes, export_obj;
     int maps_res = 1024;
     BuildOptions build;
   };
@@ -102,7 +104,8 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
   app.add_option("-o,--output", opt->output, "Model file (safetensors)")->capture_default_str();
   app.add_option("--registered", opt->registered, "Registered subjects (cache of 'scan register'); default: "
                                                   "'registered' beside the model");
-  app.add_option("--template", opt->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
+  app.add_option("--template", opt->template_dir, "Template folder from 'bareskin template' (default: BARESKIN_TEMPLATE, "
+                                                  "then the installed one; docs/cli.md)");
   app.add_option("--maps-res", opt->maps_res, "Map resolution when registering scans")->capture_default_str();
   CLI::Option* shape_k = app.add_option("--shape-components", opt->build.shape_components,
                                         "Identity components (alpha); the default is clamped to subjects - 1, a given count is not")
@@ -132,13 +135,13 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
     opt->build.exact.expression = exp_k->count() > 0;
     const fs::path out_dir = fs::path(opt->output).parent_path();
     if (opt->registered.empty()) opt->registered = (out_dir / "registered").string();
-    const TemplateFace face = read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");
+    opt->template_dir = find_template_folder(opt->template_dir);
+    const TemplateFace face = read_template_folder(opt->template_dir);
 
     std::vector<std::string> subjects;
     double register_seconds = 0;
     if (!opt->scans.empty()) {
-      RegisterArgs reg;
-      reg.template_dir = opt->template_dir;
+      RegisterFolderOptions reg;
       reg.scans = opt->scans;
       reg.output = opt->registered;
       reg.maps.resolution = opt->maps_res;
@@ -147,7 +150,11 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
         throw InvalidInput("", "--maps-res 0 leaves no diffuse maps for the appearance model",
                            "give --maps-res 1024, or --appearance-components 0");
       }
-      subjects = register_folder(face, reg, globals);
+      reg.detect = scan_landmark_detector(globals);
+      ProgressBar register_bar = globals.progress("scan register");
+      subjects = register_folder(face, reg, register_bar.callback());
+      register_bar.finish();
+      globals.write_resolved_config(reg.output + "/config.json");
       register_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     } else {
       subjects = registered_subjects(opt->registered);
@@ -182,6 +189,8 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
         {"variance_explained", {{"shape", report.shape_variance_explained},
                                 {"appearance", report.appearance_variance_explained}}},
         {"gpa_iterations", report.gpa_iterations},
+        {"appearance_subjects", report.appearance_subjects},
+        {"subjects_without_diffuse", report.subjects_without_diffuse},
         {"notes", report.notes},
         {"seconds", {{"register", register_seconds},
                      {"read_shapes", report.seconds_read_shapes},
@@ -370,9 +379,12 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
     if (!opt->no_photometric) {
       Image image = read_image(opt->image);
       if (image.color_space == ColorSpace::sRGB) image = to_linear(image);
-      Mesh posed = model.topology;
-      posed.V = model.shape(fit.alpha, fit.beta);
-      posed.V = ((posed.V * euler_rotation(fit.rotation).transpose()).rowwise() + fit.translation.transpose()).eval();
+      Coefficients pose;
+      pose.alpha = fit.alpha;
+      pose.beta = fit.beta;
+      pose.rotation = fit.rotation;
+      pose.translation = fit.translation;
+      const Mesh posed = posed_mesh(model, pose);
       Image skin;
       if (!opt->skin_mask.empty()) {
         skin = read_image(opt->skin_mask);
@@ -386,24 +398,25 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       photo = fit_photometric(model, posed, camera, image, opt->photo);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    nlohmann::json j = {{"alpha", std::vector<double>(fit.alpha.data(), fit.alpha.data() + fit.alpha.size())},
-                        {"beta", std::vector<double>(fit.beta.data(), fit.beta.data() + fit.beta.size())},
-                        {"rotation", {fit.rotation.x(), fit.rotation.y(), fit.rotation.z()}},
-                        {"translation", {fit.translation.x(), fit.translation.y(), fit.translation.z()}},
-                        {"landmark_rms_px", fit.rms_px},
-                        {"iterations", fit.iterations},
-                        {"seconds", seconds},
-                        {"view", opt->view},
-                        {"image_size", info.width},
-                        {"terms", opt->no_photometric ? "landmarks + regularisation"
-                                                      : "landmarks + regularisation, then photometric (delta, gamma)"}};
+    Coefficients c;
+    c.alpha = fit.alpha;
+    c.beta = fit.beta;
+    c.rotation = fit.rotation;
+    c.translation = fit.translation;
+    c.extra = {{"landmark_rms_px", fit.rms_px},
+               {"iterations", fit.iterations},
+               {"seconds", seconds},
+               {"view", opt->view},
+               {"image_size", info.width},
+               {"terms", opt->no_photometric ? "landmarks + regularisation"
+                                             : "landmarks + regularisation, then photometric (delta, gamma)"}};
     if (!opt->no_photometric) {
-      j["delta"] = std::vector<double>(photo.delta.data(), photo.delta.data() + photo.delta.size());
-      j["gamma"] = photo.gamma;
-      j["photometric_psnr_db"] = photo.psnr_db;
-      j["photometric_pixels"] = photo.pixels;
+      c.delta = photo.delta;
+      c.gamma = photo.gamma;
+      c.extra["photometric_psnr_db"] = photo.psnr_db;
+      c.extra["photometric_pixels"] = photo.pixels;
     }
-    write_file_atomic(opt->output, j.dump(1) + "\n");
+    write_coefficients(opt->output, c);
     if (!opt->trace.empty()) write_fit_trace(opt->trace, fit, photo);
     spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations; "
                  "photometric PSNR {:.1f} dB over {} pixels ({:.2f} s) -> {}",

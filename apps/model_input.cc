@@ -1,6 +1,5 @@
 #include "apps/model_input.h"
 
-#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -8,6 +7,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/mesh_io.h"
+#include "morphable/coefficients.h"
 #include "morphable/model.h"
 
 namespace bareskin::cli {
@@ -15,47 +15,12 @@ namespace bareskin::cli {
 ModelInstance model_instance(const std::string& model_path, const std::string& coeffs_path) {
   if (coeffs_path.empty()) throw InvalidInput("", "--model needs --coeffs", "pass the fit's coefficients (JSON)");
   const MorphableModel model = read_model(model_path);
-  const auto doc = nlohmann::json::parse(read_file(coeffs_path), nullptr, false);
-  if (doc.is_discarded() || !doc.is_object()) throw InvalidInput(coeffs_path, "is not a JSON object", "");
-  const auto numbers = [&](const char* key, size_t expected) {
-    std::vector<double> v;
-    if (!doc.contains(key)) return std::vector<double>(expected, 0.0);
-    if (!doc[key].is_array()) throw InvalidInput(coeffs_path, std::string(key) + " is not a list", "");
-    for (const auto& x : doc[key]) {
-      if (!x.is_number() || !std::isfinite(x.get<double>())) {
-        throw InvalidInput(coeffs_path, std::string(key) + " holds a value that is not a finite number", "");
-      }
-      v.push_back(x.get<double>());
-    }
-    if (expected && v.size() != expected) {
-      throw InvalidInput(coeffs_path, std::string(key) + " needs " + std::to_string(expected) + " numbers", "");
-    }
-    return v;
-  };
-  const auto vec = [](const std::vector<double>& v) {
-    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size()));
-  };
-  const std::vector<double> a = numbers("alpha", 0), b = numbers("beta", 0), d = numbers("delta", 0),
-                            r = numbers("rotation", 3), t = numbers("translation", 3);
+  const Coefficients c = read_coefficients(coeffs_path);
   ModelInstance out;
-  out.mesh = model.topology;
-  out.mesh.V = model.shape(vec(a), vec(b));
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(r[2], Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r[1], Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(r[0], Eigen::Vector3d::UnitX())).toRotationMatrix();
-  out.mesh.V = ((out.mesh.V * R.transpose()).rowwise() + Eigen::RowVector3d(t[0], t[1], t[2])).eval();
-  out.mesh.N.resize(0, 3);
+  out.mesh = posed_mesh(model, c);
   out.landmark_vertices = model.landmark_vertices;
-  if (model.appearance_resolution > 0 && model.appearance_mean.size() > 0) {
-    const int R_ = model.appearance_resolution;
-    out.appearance = Image(R_, R_, 3, ColorSpace::Linear);
-    out.appearance.pixels = model.appearance(vec(d));
-  }
-  if (doc.contains("gamma")) {
-    const std::vector<double> g = numbers("gamma", 27);
-    std::array<double, 27> gamma{};
-    std::copy(g.begin(), g.end(), gamma.begin());
-    out.gamma = gamma;
-  }
+  out.appearance = appearance_image(model, c);
+  out.gamma = c.gamma;
   return out;
 }
 

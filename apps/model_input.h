@@ -1,7 +1,5 @@
-// Commands that take "a mesh, or a morphable model at some coefficients" (render, uvtools unwarp/mask) share this.
-// Coefficient files (JSON; what mm-fit will write): "alpha", "beta", "delta" lists of standardised coefficients,
-// "rotation" [rx, ry, rz] radians applied as Rz·Ry·Rx, "translation" [tx, ty, tz] mm, "gamma" 27 SH coefficients;
-// every entry optional (zero, or no lighting).
+// Commands that take "a mesh, or a morphable model at some coefficients" (render, uvtools unwarp/mask) share this
+// flag handling; the coefficient file itself is morphable/coefficients.h.
 #pragma once
 #include <array>
 #include <optional>

@@ -49,21 +49,139 @@ std::array<double, 27> lighting(const std::string& sh) {
   return g;
 }
 
+struct RenderArgs {
+  std::string mesh, model, coeffs, output, landmarks, blendshapes, texture, landmarks_out;
+  std::vector<std::string> expression;
+  std::string view = "front";
+  PreviewOptions preview;
+  bool draw_landmarks = false;
+  bool no_wireframe = false, no_shading = false;
+  std::string camera, sh = "default";
+  std::vector<std::string> views, passes = {"colour"};
+  bool cull = false;
+};
+
+// --blendshapes with --expression NAME=WEIGHT: the mesh posed by the weighted deltas (normals dropped).
+void pose_expression(Mesh& mesh, const std::string& blendshapes, const std::vector<std::string>& expression) {
+  if (!expression.empty() && blendshapes.empty()) {
+    throw InvalidInput("", "--expression needs --blendshapes FILE", "pass scans/blendshapes/blendshapes.safetensors");
+  }
+  if (blendshapes.empty()) return;
+  const SafeTensors st = SafeTensors::open(blendshapes);
+  const TensorView& deltas = st.tensor("deltas", DType::F32, {-1, mesh.V.rows(), 3});
+  const auto names = nlohmann::json::parse(st.metadata().count("names") ? st.metadata().at("names") : "", nullptr, false);
+  if (names.is_discarded() || !names.is_array() || int64_t(names.size()) != deltas.shape[0]) {
+    throw InvalidInput(blendshapes, "metadata 'names' does not list the blendshapes", "rewrite it with 'scan synth'");
+  }
+  const std::vector<float> d = deltas.to_vector<float>();
+  for (const std::string& item : expression) {
+    const size_t eq = item.find('=');
+    const std::string name = item.substr(0, eq);
+    double weight = 1.0;
+    if (eq != std::string::npos) {
+      try {
+        weight = std::stod(item.substr(eq + 1));
+      } catch (const std::exception&) {
+        throw InvalidInput("", "--expression '" + item + "': weight is not a number", "write NAME=WEIGHT");
+      }
+    }
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) throw InvalidInput(blendshapes, "has no blendshape '" + name + "'", "see its names.json");
+    const size_t k = size_t(it - names.begin()), n = size_t(mesh.V.rows());
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) mesh.V(Eigen::Index(i), c) += weight * d[(k * n + i) * 3 + size_t(c)];
+  }
+  mesh.N.resize(0, 3);  // recomputed for the posed shape
+}
+
+// One pass of a frame as the image to write: depth normalised (nearer brighter) and colours sRGB-encoded unless EXR.
+Image pass_image(const Frame& frame, const std::string& pass, bool exr) {
+  Image img = pass == "colour" ? frame.colour : pass == "albedo" ? frame.albedo : pass == "normal" ? frame.normal
+                                                : pass == "mask" ? frame.mask : frame.depth;
+  if (pass == "depth" && !exr) {  // nearer brighter, over the covered range
+    float lo = 1e30f, hi = -1e30f;
+    for (size_t i = 0; i < img.pixels.size(); ++i)
+      if (frame.mask.pixels[i] > 0) lo = std::min(lo, img.pixels[i]), hi = std::max(hi, img.pixels[i]);
+    for (size_t i = 0; i < img.pixels.size(); ++i)
+      img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
+  }
+  if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
+  return img;
+}
+
+// --camera: every view's frame, its passes and projected landmarks.
+void render_with_camera(const RenderArgs& opt, const Mesh& mesh, const ModelInstance& instance, bool sh_given) {
+  const std::vector<std::string> views = opt.views.empty() ? std::vector<std::string>{opt.view} : opt.views;
+  if ((views.size() > 1 && opt.output.find("{view}") == std::string::npos) ||
+      (opt.passes.size() > 1 && opt.output.find("{pass}") == std::string::npos)) {
+    throw InvalidInput("", "several views or passes need {view} / {pass} in -o", "e.g. -o out/face_{view}_{pass}.png");
+  }
+  ShadeOptions shade;
+  shade.gamma = instance.gamma && !sh_given ? *instance.gamma : lighting(opt.sh);
+  shade.cull_back_faces = opt.cull;
+  Image texture;
+  if (!opt.texture.empty()) {
+    texture = read_image(opt.texture);
+    if (texture.color_space == ColorSpace::sRGB) texture = to_linear(texture);
+    shade.texture = &texture;
+  } else if (!instance.appearance.empty()) {
+    shade.texture = &instance.appearance;
+  }
+  std::vector<int> landmark_ids;  // for --landmarks-out and --draw-landmarks, checked before anything is written
+  if (!opt.landmarks_out.empty() || opt.draw_landmarks) {
+    landmark_ids = opt.landmarks.empty() ? instance.landmark_vertices : read_landmark_vertex_ids(opt.landmarks, mesh);
+    if (landmark_ids.size() != 68) {
+      throw InvalidInput(opt.landmarks, "--landmarks-out and --draw-landmarks need 68 landmark vertices, got " +
+                                            std::to_string(landmark_ids.size()), "pass the template's landmarks.json as --landmarks");
+    }
+  }
+  for (const std::string& view : views) {
+    if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
+    const Camera cam = command_camera(mesh, !opt.model.empty(), view, opt.camera, opt.preview.size);
+    const Frame frame = render_frame(mesh, cam, shade);
+    Landmarks lm;  // the 68 landmarks projected into this view, when asked for
+    if (!landmark_ids.empty()) {
+      lm.units = "px";
+      lm.points.resize(68, 2);
+      for (int k = 0; k < 68; ++k) {
+        const Eigen::Vector3d p = cam.project(mesh.V.row(landmark_ids[size_t(k)]).transpose());
+        lm.points.row(k) << p.x(), p.y();
+      }
+    }
+    if (!opt.landmarks_out.empty()) write_landmarks(expand(opt.landmarks_out, "{view}", view), lm);
+    if (frame.dropped_behind) spdlog::warn("render: {} triangles behind the camera were dropped", frame.dropped_behind);
+    for (const std::string& pass : opt.passes) {
+      const std::string path = expand(expand(opt.output, "{view}", view), "{pass}", pass);
+      const bool exr = path.size() > 4 && path.substr(path.size() - 4) == ".exr";
+      Image img = pass_image(frame, pass, exr);
+      if ((pass == "colour" || pass == "albedo") && opt.draw_landmarks) {
+        draw_landmarks(img, lm.points, {0.1f, 0.9f, 0.2f}, std::max(1, opt.preview.size / 200));
+      }
+      ImageWriteOptions w;
+      if (!exr && (pass == "depth" || pass == "normal")) w.type = PixelType::UInt16;
+      write_image(path, img, w);
+    }
+  }
+}
+
+// Without --camera: the preview picture (shaded + wireframe + landmarks, or the UV layout).
+void render_preview_picture(RenderArgs& opt, const Mesh& mesh) {
+  opt.preview.view = parse_preview_view(opt.view);
+  opt.preview.wireframe = !opt.no_wireframe;
+  opt.preview.shaded = !opt.no_shading;
+  if (!opt.landmarks.empty()) opt.preview.landmark_vertices = read_landmark_vertex_ids(opt.landmarks, mesh);
+  Image texture;
+  if (!opt.texture.empty()) {
+    texture = read_image(opt.texture);
+    opt.preview.texture = &texture;
+  }
+  write_image(opt.output, render_preview(mesh, opt.preview));
+}
+
 }  // namespace
 
 std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
-  struct Options {
-    std::string mesh, model, coeffs, output, landmarks, blendshapes, texture, landmarks_out;
-    std::vector<std::string> expression;
-    std::string view = "front";
-    PreviewOptions preview;
-    bool draw_landmarks = false;
-    bool no_wireframe = false, no_shading = false;
-    std::string camera, sh = "default";
-    std::vector<std::string> views, passes = {"colour"};
-    bool cull = false;
-  };
-  auto opt = std::make_shared<Options>();
+  auto opt = std::make_shared<RenderArgs>();
   app.add_option("mesh", opt->mesh, "Mesh to draw (.obj or .ply)")->check(CLI::ExistingFile);
   app.add_option("--model", opt->model, "Or a morphable model (mm-build) ...");
   app.add_option("--coeffs", opt->coeffs, "... at these coefficients (JSON: alpha, beta, delta, rotation, translation, "
@@ -104,109 +222,9 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     ModelInstance instance;
     if (!opt->model.empty()) instance = model_instance(opt->model, opt->coeffs);
     Mesh mesh = opt->model.empty() ? read_mesh(opt->mesh) : instance.mesh;
-    if (!opt->expression.empty() && opt->blendshapes.empty()) {
-      throw InvalidInput("", "--expression needs --blendshapes FILE", "pass scans/blendshapes/blendshapes.safetensors");
-    }
-    if (!opt->blendshapes.empty()) {
-      const SafeTensors st = SafeTensors::open(opt->blendshapes);
-      const TensorView& deltas = st.tensor("deltas", DType::F32, {-1, mesh.V.rows(), 3});
-      const auto names = nlohmann::json::parse(st.metadata().count("names") ? st.metadata().at("names") : "", nullptr, false);
-      if (names.is_discarded() || !names.is_array() || int64_t(names.size()) != deltas.shape[0]) {
-        throw InvalidInput(opt->blendshapes, "metadata 'names' does not list the blendshapes", "rewrite it with 'scan synth'");
-      }
-      const std::vector<float> d = deltas.to_vector<float>();
-      for (const std::string& item : opt->expression) {
-        const size_t eq = item.find('=');
-        const std::string name = item.substr(0, eq);
-        double weight = 1.0;
-        if (eq != std::string::npos) {
-          try {
-            weight = std::stod(item.substr(eq + 1));
-          } catch (const std::exception&) {
-            throw InvalidInput("", "--expression '" + item + "': weight is not a number", "write NAME=WEIGHT");
-          }
-        }
-        const auto it = std::find(names.begin(), names.end(), name);
-        if (it == names.end()) throw InvalidInput(opt->blendshapes, "has no blendshape '" + name + "'", "see its names.json");
-        const size_t k = size_t(it - names.begin()), n = size_t(mesh.V.rows());
-        for (size_t i = 0; i < n; ++i)
-          for (int c = 0; c < 3; ++c) mesh.V(Eigen::Index(i), c) += weight * d[(k * n + i) * 3 + size_t(c)];
-      }
-      mesh.N.resize(0, 3);  // recomputed for the posed shape
-    }
-    if (!opt->camera.empty()) {
-      const std::vector<std::string> views = opt->views.empty() ? std::vector<std::string>{opt->view} : opt->views;
-      if ((views.size() > 1 && opt->output.find("{view}") == std::string::npos) ||
-          (opt->passes.size() > 1 && opt->output.find("{pass}") == std::string::npos)) {
-        throw InvalidInput("", "several views or passes need {view} / {pass} in -o", "e.g. -o out/face_{view}_{pass}.png");
-      }
-      ShadeOptions shade;
-      shade.gamma = instance.gamma && !sh_option->count() ? *instance.gamma : lighting(opt->sh);
-      shade.cull_back_faces = opt->cull;
-      Image texture;
-      if (!opt->texture.empty()) {
-        texture = read_image(opt->texture);
-        if (texture.color_space == ColorSpace::sRGB) texture = to_linear(texture);
-        shade.texture = &texture;
-      } else if (!instance.appearance.empty()) {
-        shade.texture = &instance.appearance;
-      }
-      std::vector<int> landmark_ids;  // for --landmarks-out and --draw-landmarks, checked before anything is written
-      if (!opt->landmarks_out.empty() || opt->draw_landmarks) {
-        landmark_ids = opt->landmarks.empty() ? instance.landmark_vertices : read_landmark_vertex_ids(opt->landmarks, mesh);
-        if (landmark_ids.size() != 68) {
-          throw InvalidInput(opt->landmarks, "--landmarks-out and --draw-landmarks need 68 landmark vertices, got " +
-                                                 std::to_string(landmark_ids.size()), "pass the template's landmarks.json as --landmarks");
-        }
-      }
-      for (const std::string& view : views) {
-        if (view == "uv") throw InvalidInput("", "--camera renders front, left or right views", "drop --camera for the UV layout");
-        const Camera cam = command_camera(mesh, !opt->model.empty(), view, opt->camera, opt->preview.size);
-        const Frame frame = render_frame(mesh, cam, shade);
-        Landmarks lm;  // the 68 landmarks projected into this view, when asked for
-        if (!landmark_ids.empty()) {
-          lm.units = "px";
-          lm.points.resize(68, 2);
-          for (int k = 0; k < 68; ++k) {
-            const Eigen::Vector3d p = cam.project(mesh.V.row(landmark_ids[size_t(k)]).transpose());
-            lm.points.row(k) << p.x(), p.y();
-          }
-        }
-        if (!opt->landmarks_out.empty()) write_landmarks(expand(opt->landmarks_out, "{view}", view), lm);
-        if (frame.dropped_behind) spdlog::warn("render: {} triangles behind the camera were dropped", frame.dropped_behind);
-        for (const std::string& pass : opt->passes) {
-          const std::string path = expand(expand(opt->output, "{view}", view), "{pass}", pass);
-          const bool exr = path.size() > 4 && path.substr(path.size() - 4) == ".exr";
-          Image img = pass == "colour" ? frame.colour : pass == "albedo" ? frame.albedo : pass == "normal" ? frame.normal
-                                                                                      : pass == "mask" ? frame.mask : frame.depth;
-          if (pass == "depth" && !exr) {  // nearer brighter, over the covered range
-            float lo = 1e30f, hi = -1e30f;
-            for (size_t i = 0; i < img.pixels.size(); ++i)
-              if (frame.mask.pixels[i] > 0) lo = std::min(lo, img.pixels[i]), hi = std::max(hi, img.pixels[i]);
-            for (size_t i = 0; i < img.pixels.size(); ++i)
-              img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
-          }
-          if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
-          if ((pass == "colour" || pass == "albedo") && opt->draw_landmarks) {
-            draw_landmarks(img, lm.points, {0.1f, 0.9f, 0.2f}, std::max(1, opt->preview.size / 200));
-          }
-          ImageWriteOptions w;
-          if (!exr && (pass == "depth" || pass == "normal")) w.type = PixelType::UInt16;
-          write_image(path, img, w);
-        }
-      }
-      return;
-    }
-    opt->preview.view = parse_preview_view(opt->view);
-    opt->preview.wireframe = !opt->no_wireframe;
-    opt->preview.shaded = !opt->no_shading;
-    if (!opt->landmarks.empty()) opt->preview.landmark_vertices = read_landmark_vertex_ids(opt->landmarks, mesh);
-    Image texture;
-    if (!opt->texture.empty()) {
-      texture = read_image(opt->texture);
-      opt->preview.texture = &texture;
-    }
-    write_image(opt->output, render_preview(mesh, opt->preview));
+    pose_expression(mesh, opt->blendshapes, opt->expression);
+    if (!opt->camera.empty()) return render_with_camera(*opt, mesh, instance, sh_option->count() > 0);
+    render_preview_picture(*opt, mesh);
   };
 }
 

@@ -1,23 +1,87 @@
-// bareskin scan: `scan synth` (a synthetic population of scans with ground truth) here; `scan register` in scan_register.cc.
+// bareskin scan: `scan synth` (a synthetic population of scans with ground truth) and `scan register` (the template
+// onto every scan of a folder: scan/register_folder.h).
 #include <atomic>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "apps/cli.h"
+#include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/parallel.h"
 #include "scan/blendshapes.h"
+#include "scan/register_folder.h"
 #include "scan/synth.h"
 
 namespace bareskin::cli {
 
-CLI::App* add_scan_register(CLI::App& scan, const Globals& globals, std::function<void()>& action);
+#ifndef BARESKIN_WITH_DETECT
+// Without the Torch side there is no detector: scans without landmarks.json take the fallback alignment.
+ScanLandmarkDetector scan_landmark_detector(const Globals&) { return {}; }
+void set_torch_threads(const Globals&) {}
+#endif
+
+namespace {
+
+// `scan register`: flags into RegisterFolderOptions, then register_folder.
+std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) {
+  struct Options {
+    std::string template_dir, map_format = "png";
+    RegisterFolderOptions folder;
+  };
+  auto opt = std::make_shared<Options>();
+  RegisterFolderOptions& f = opt->folder;
+  CLI::App* app = scan.add_subcommand("register", "Register the template onto every scan (landmarks + NICP), with a report");
+  app->add_option("--scans", f.scans, "Folder of scan folders (mesh.obj|ply; landmarks.json, maps and truth/ used if there)")
+      ->capture_default_str();
+  app->add_option("-o,--output", f.output, "Output folder: <id>/{mesh.ply, maps, report.json, qa_*.png}, summary.json")
+      ->capture_default_str();
+  app->add_option("--template", opt->template_dir, "Template folder from 'bareskin template' (default: BARESKIN_TEMPLATE, "
+                                                   "then the installed one; docs/cli.md)");
+  app->add_flag("--keep-going", f.keep_going, "Go on after a scan fails; list the failures at the end");
+  app->add_flag("--no-landmarks", f.no_landmarks, "Ignore landmarks: fallback alignment (centroid + similarity ICP)");
+  RegisterOptions& n = f.nicp;
+  app->add_option("--stiffness", n.stiffness, "NICP stiffness schedule")->capture_default_str()->group("NICP");
+  app->add_option("--landmark-weight", n.landmark_weight, "Landmark weight per step")->capture_default_str()->group("NICP");
+  app->add_option("--trim", n.trim_mm, "Correspondence distance trim per step (mm)")->capture_default_str()->group("NICP");
+  app->add_option("--nodes", n.nodes, "NICP node count (template remeshed; 0: every template vertex)")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--iterations", n.iterations_per_step, "ICP iterations per stiffness step")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--max-normal-angle", n.max_normal_angle_deg, "Reject correspondences beyond this angle")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--consistency", n.consistency, "Stiffness: weight of neighbouring affines agreeing at the nodes")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--affine-stiffness", n.affine_stiffness,
+                  "Stiffness: weight of Amberg's affine difference (--consistency 0 --affine-stiffness 1: Amberg's)")
+      ->capture_default_str()->group("NICP");
+  app->add_option("--huber", n.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
+  app->add_option("--maps-res", f.maps.resolution,
+                  "Transfer the maps the scan has (diffuse, normal, roughness, specular) into the template UV at this "
+                  "resolution (0: no maps)")
+      ->capture_default_str()->group("Maps");
+  app->add_option("--map-format", opt->map_format, "png, tif or exr")->capture_default_str()->group("Maps");
+  app->add_option("--heat-max", f.heat_max_mm, "Error (mm) shown red in the QA heat maps")->capture_default_str();
+  return [opt, &globals] {
+    RegisterFolderOptions& f = opt->folder;
+    f.nicp.check();
+    f.maps.format = parse_map_format(opt->map_format);
+    if (f.maps.resolution != 0) f.maps.check();
+    const TemplateFace face = read_template_folder(opt->template_dir);
+    f.detect = scan_landmark_detector(globals);
+    ProgressBar bar = globals.progress("scan register");
+    register_folder(face, f, bar.callback());
+    bar.finish();
+    globals.write_resolved_config(f.output + "/config.json");
+  };
+}
+
+}  // namespace
 
 std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string template_dir = "template", output = "scans", map_format = "png";
+    std::string template_dir, output = "scans", map_format = "png";
     SynthOptions synth;
   };
   auto opt = std::make_shared<Options>();
@@ -25,7 +89,8 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
   CLI::App* synth = app.add_subcommand("synth", "Make a synthetic population of scans with ground truth");
   synth->add_option("-o,--output", opt->output, "Population folder (one folder per subject + manifest.json)")
       ->capture_default_str();
-  synth->add_option("--template", opt->template_dir, "Template folder from 'bareskin template'")->capture_default_str();
+  synth->add_option("--template", opt->template_dir, "Template folder from 'bareskin template' (default: "
+                                                     "BARESKIN_TEMPLATE, then the installed one; docs/cli.md)");
   synth->add_option("--count", opt->synth.count, "Subjects")->capture_default_str();
   synth->add_option("--seed", opt->synth.seed, "Population seed (same seed: identical files)")->capture_default_str();
   synth->add_option("--vertices", opt->synth.scan_vertices, "Vertices per scan (about; 2 triangles each)")
@@ -57,14 +122,13 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
       ->capture_default_str()->group("Identity");
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
       ->capture_default_str()->group("Identity");
-  auto register_action = std::make_shared<std::function<void()>>();
-  add_scan_register(app, globals, *register_action);
+  const std::function<void()> register_action = add_scan_register(app, globals);
   return [opt, &globals, synth, register_action] {
-    if (!synth->parsed()) return (*register_action)();
+    if (!synth->parsed()) return register_action();
     opt->synth.maps.format = parse_map_format(opt->map_format);
     opt->synth.check();
-    const TemplateFace face =
-        read_template(opt->template_dir + "/face.obj", opt->template_dir + "/landmarks.json");
+    opt->template_dir = find_template_folder(opt->template_dir);
+    const TemplateFace face = read_template_folder(opt->template_dir);
     make_directories(opt->output);
     // Resumable: a subject folder appears only when complete (atomic), so existing ones are skipped.
     std::vector<int> todo;

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "apps/cli.h"
+#include "core/assets.h"
 #include "core/files.h"
 #include "core/error.h"
 #include "template/template_face.h"
@@ -11,7 +12,7 @@
 namespace bareskin::cli {
 
 struct TemplateCommandOptions {
-  std::string assets = std::getenv("BARESKIN_ASSETS") ? std::getenv("BARESKIN_ASSETS") : "assets";
+  std::string assets;  // empty: the search path of core/assets.h
   std::string output = "template";
   TemplateOptions refine;
 };
@@ -20,14 +21,16 @@ std::function<void()> setup_template_command(CLI::App& app, const Globals& globa
   auto opt = std::make_shared<TemplateCommandOptions>();
   app.add_option("-o,--output", opt->output, "Output directory (face.obj, landmarks.json, regions.json, face.safetensors)")
       ->capture_default_str();
-  app.add_option("--assets", opt->assets, "Folder filled by 'make deps' (env BARESKIN_ASSETS)")->capture_default_str();
+  app.add_option("--assets", opt->assets, "Folder filled by 'make deps' (default: BARESKIN_ASSETS, then the installed "
+                                          "assets, then the source tree's; docs/cli.md)");
   app.add_option("--vertices", opt->refine.target_vertices, "Vertex count of the dense template (about)")
       ->capture_default_str()->group("Refinement");
   app.add_option("--remesh-iterations", opt->refine.remesh_iterations, "Isotropic remeshing passes")
       ->capture_default_str()->group("Refinement");
   return [opt, &globals] {
     opt->refine.check();
-    const std::string mp = opt->assets + "/mediapipe_face_mesh", human = opt->assets + "/human";
+    const std::string assets = find_data_dir(DataKind::Assets, opt->assets, "mediapipe_face_mesh");
+    const std::string mp = assets + "/mediapipe_face_mesh", human = assets + "/human";
     const std::string bundle_path = mp + "/face_mesh_solution_packed_assets.data";
     const std::string loader_path = mp + "/face_mesh_solution_packed_assets_loader.js";
     const std::string tables_path = human + "/facemeshcoords.ts";
@@ -49,7 +52,7 @@ std::function<void()> setup_template_command(CLI::App& app, const Globals& globa
                    "from npm @vladmandic/human@3.3.6 (MIT), refined to " +
                        std::to_string(dense.mesh.V.rows()) + " vertices");
     for (const char* notice : {"/mediapipe_face_mesh/NOTICE", "/human/LICENSE"}) {
-      const std::string src = opt->assets + notice;
+      const std::string src = assets + notice;
       if (std::filesystem::exists(src)) {
         write_file_atomic(out.path() + "/" + std::filesystem::path(notice).parent_path().filename().string() + "." +
                               std::filesystem::path(notice).filename().string(),

@@ -1,6 +1,7 @@
-// bareskin uvtools: UV-space tools. `bake`: a set of maps (up to 16K) resized to smaller sizes in one streamed,
-// seam-aware pass (uvtools/bake.h). `unwarp`: an image into the mesh's UV through a camera, with visibility
-// (uvtools/unwarp.h).
+// bareskin uvtools: UV-space tools, one setup + run per subcommand. `bake`: a set of maps (up to 16K) resized to
+// smaller sizes in one streamed pass, seam-aware with a layout (uvtools/bake.h). `unwarp`: an image into the mesh's UV
+// through a camera, with visibility (uvtools/unwarp.h). `mask`: face-parsing labels or synthetic occluders into a UV
+// mask (uvtools/mask.h).
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -9,185 +10,68 @@
 #include <sstream>
 
 #include "apps/cli.h"
+#include "apps/model_input.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "core/mesh_io.h"
 #include "core/image_io.h"
-#include "apps/model_input.h"
+#include "core/mesh_io.h"
 #include "morphable/model.h"
 #include "uvtools/bake.h"
-#include "render/shade.h"
 #include "uvtools/mask.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::cli {
+namespace {
 
 namespace fs = std::filesystem;
 
+std::vector<int> parse_sizes(const std::string& text) {
+  std::vector<int> sizes;
+  std::stringstream list(text);
+  for (std::string item; std::getline(list, item, ',');) {
+    try {
+      size_t used = 0;
+      sizes.push_back(std::stoi(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw InvalidInput("", "--sizes: '" + item + "' is not a whole number", "give e.g. --sizes 4096,1024");
+    }
+  }
+  return sizes;
+}
 
-std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
+std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
   struct Options {
-    std::string input, output, layout = "template/face.obj", sizes = "4096,1024";
+    std::string input, output, layout, sizes = "4096,1024";
     MapResizeOptions resize;
   };
   auto opt = std::make_shared<Options>();
-  app.require_subcommand(1);
-  CLI::App* bake = app.add_subcommand("bake", "Resize a set of UV maps (16K → 4K, 1K, ...) out of core, seam-aware");
+  CLI::App* bake = uvtools.add_subcommand("bake", "Resize a set of UV maps (16K → 4K, 1K, ...) out of core, seam-aware");
   bake->add_option("input", opt->input, "Folder with diffuse/normal/roughness/specular .exr|.tif|.png")->required();
   bake->add_option("-o,--output", opt->output, "Output folder: <size>/<map>.<format>")->required();
   bake->add_option("--sizes", opt->sizes, "Output sizes, comma-separated; each must divide the input size")
       ->capture_default_str();
-  bake->add_option("--layout", opt->layout, "Mesh whose UV islands the maps follow (the template)")->capture_default_str();
+  bake->add_option("--layout", opt->layout, "Mesh whose UV islands the maps follow (e.g. the template's face.obj): "
+                                            "seam-aware. Without it: a plain area-correct resize per map type");
   bake->add_option("--format", opt->resize.format, "exr (half, zip, tiled), png or tif (16-bit)")->capture_default_str();
   bake->add_flag("--mipmap", opt->resize.mipmap, "EXR/TIFF: also write the mip chain");
   bake->add_flag("--toksvig", opt->resize.toksvig, "Roughness absorbs the variance of the averaged normals");
   bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
-  struct UnwarpArgs {
-    std::string image, mesh, model, coeffs, output, view = "front", camera = "pinhole";
-    UnwarpOptions unwarp;
-  };
-  auto un = std::make_shared<UnwarpArgs>();
-  CLI::App* unwarp_app = app.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
-  unwarp_app->alias("unwrap");  // DESIGN.md's name
-  unwarp_app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
-  unwarp_app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image");
-  unwarp_app->add_option("--model", un->model, "Or a morphable model (mm-build) ...");
-  unwarp_app->add_option("--coeffs", un->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
-  unwarp_app->add_option("-o,--output", un->output, "UV map, RGB (.exr linear, .png/.tif sRGB 16-bit); the confidence "
-                                                    "(cos of the view angle, 0 = unseen) goes beside it as <name>_confidence")
-      ->required();
-  unwarp_app->add_option("--view", un->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
-      ->check(CLI::IsMember({"front", "left", "right"}));
-  unwarp_app->add_option("--camera", un->camera, "pinhole or weak, as 'render --camera'")->capture_default_str()
-      ->check(CLI::IsMember({"pinhole", "weak"}));
-  unwarp_app->add_option("--size", un->unwarp.size, "UV map size")->capture_default_str();
-  unwarp_app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
-      ->capture_default_str();
-  struct MaskArgs {
-    std::string labels, mesh, model, coeffs, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
-    int size = 1024, image_size = 512;
-    uint64_t seed = 1;
-  };
-  auto mk = std::make_shared<MaskArgs>();
-  CLI::App* mask_app = app.add_subcommand("mask", "Face-parsing labels (CelebAMask-HQ) → a UV mask of the seen, uncovered "
-                                                  "face; or synthetic occluders (hair, glasses, hand, hat)");
-  mask_app->add_option("labels", mk->labels, "Label image: one channel of CelebAMask-HQ class indices (0-18, 19 = hand)");
-  mask_app->add_option("--mesh", mk->mesh, "Mesh with UVs, posed as in the image");
-  mask_app->add_option("--model", mk->model, "Or a morphable model (mm-build) ...");
-  mask_app->add_option("--coeffs", mk->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
-  mask_app->add_option("-o,--output", mk->output, "UV mask (8-bit PNG: 255 = face seen and uncovered)")->required();
-  mask_app->add_option("--view", mk->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
-      ->check(CLI::IsMember({"front", "left", "right"}));
-  mask_app->add_option("--camera", mk->camera, "pinhole or weak")->capture_default_str()
-      ->check(CLI::IsMember({"pinhole", "weak"}));
-  mask_app->add_option("--size", mk->size, "UV mask size")->capture_default_str();
-  mask_app->add_option("--synthetic", mk->synthetic, "Instead of a label image: the face as seen, covered by these "
-                                                     "occluders drawn at random (hair,glasses,hand,hat)")->group("Synthetic");
-  mask_app->add_option("--landmarks", mk->landmarks, "Landmark JSON with the mesh's \"vertex_ids\" (for --synthetic; "
-                                                     "a --model has its own)")
-      ->group("Synthetic");
-  mask_app->add_option("--seed", mk->seed, "Random seed of the occluders' shapes")->capture_default_str()->group("Synthetic");
-  mask_app->add_option("--image-size", mk->image_size, "Size of the synthetic label image")->capture_default_str()
-      ->group("Synthetic");
-  mask_app->add_option("--labels-out", mk->labels_out, "Also write the synthetic label image here (PNG)")->group("Synthetic");
-  return [opt, un, unwarp_app, mk, mask_app, &globals] {
-    if (mask_app->parsed()) {
-      if (mk->labels.empty() == mk->synthetic.empty()) {
-        throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
-      }
-      const Mesh mesh = posed_mesh(mk->mesh, mk->model, mk->coeffs);
-      LabelImage labels;
-      if (!mk->labels.empty()) {
-        const Image img = read_image(mk->labels, ColorSpace::Data);
-        if (img.channels != 1) {
-          throw InvalidInput(mk->labels, "has " + std::to_string(img.channels) + " channels; labels are one channel of "
-                                         "class indices", "convert the label map to a single-channel index PNG");
-        }
-        labels.width = img.width;
-        labels.height = img.height;
-        for (float v : img.pixels) {
-          const int l = int(std::lround(v * 255));
-          if (l > kHand) throw InvalidInput(mk->labels, "holds label " + std::to_string(l) + ", above 19", "use CelebAMask-HQ indices");
-          labels.label.push_back(uint8_t(l));
-        }
-      } else {
-        labels.width = labels.height = mk->image_size;
-      }
-      if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
-      const Camera cam = command_camera(mesh, !mk->model.empty(), mk->view, mk->camera, labels.width);
-      if (!mk->synthetic.empty()) {
-        const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
-        std::vector<int> ids;
-        if (!mk->landmarks.empty()) {
-          ids = read_landmark_vertex_ids(mk->landmarks, mesh, 68);
-        } else if (!mk->model.empty()) {
-          ids = read_model(mk->model).landmark_vertices;
-        } else {
-          throw InvalidInput("", "--synthetic needs --landmarks (or --model)", "pass template/landmarks.json");
-        }
-        std::vector<Eigen::Vector2d> lm;
-        for (int id : ids) {
-          const Eigen::Vector3d p = cam.project(mesh.V.row(id).transpose());
-          lm.emplace_back(p.x(), p.y());
-        }
-        const Frame frame = render_frame(mesh, cam, ShadeOptions());
-        for (float m : frame.mask.pixels) labels.label.push_back(m > 0 ? kSkin : kBackground);
-        std::mt19937_64 rng(mk->seed);
-        for (Occluder o : occluders) draw_occluder(labels, o, lm, rng);
-        if (!mk->labels_out.empty()) {
-          Image out(labels.width, labels.height, 1, ColorSpace::Data);
-          for (size_t i = 0; i < labels.label.size(); ++i) out.pixels[i] = labels.label[i] / 255.f;
-          write_image(mk->labels_out, out);
-        }
-      }
-      int64_t kept = 0;
-      const std::vector<uint8_t> mask = uv_face_mask(labels, mesh, cam, mk->size, &kept);
-      Image out(mk->size, mk->size, 1, ColorSpace::Data);
-      for (size_t i = 0; i < mask.size(); ++i) out.pixels[i] = mask[i];
-      write_image(mk->output, out);
-      spdlog::info("uvtools mask: {} texels of the face seen and uncovered -> {}", kept, mk->output);
-      return;
-    }
-    if (unwarp_app->parsed()) {
-      const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
-      const Image image = read_image(un->image);
-      if (image.width != image.height) {
-        throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
-      }
-      const Camera cam = command_camera(mesh, !un->model.empty(), un->view, un->camera, image.width);
-      const UnwarpResult r = unwarp(image, mesh, cam, un->unwarp);
-      const fs::path out_path(un->output);
-      const bool exr = out_path.extension() == ".exr";
-      ImageWriteOptions w;
-      if (!exr) w.type = PixelType::UInt16;
-      const std::string confidence_path =
-          (out_path.parent_path() / (out_path.stem().string() + "_confidence" + out_path.extension().string())).string();
-      write_image(un->output, exr ? r.colour : to_srgb(r.colour), w);
-      write_image(confidence_path, r.confidence, w);
-      spdlog::info("uvtools unwarp: {} of {} texels of the UV layout seen ({:.1f}%) -> {}", r.seen, r.in_layout,
-                   100.0 * double(r.seen) / double(std::max<int64_t>(r.in_layout, 1)), un->output);
-      return;
-    }
-    opt->resize.sizes.clear();
-    std::stringstream list(opt->sizes);
-    for (std::string item; std::getline(list, item, ',');) {
-      try {
-        size_t used = 0;
-        opt->resize.sizes.push_back(std::stoi(item, &used));
-        if (used != item.size()) throw std::invalid_argument(item);
-      } catch (const std::exception&) {
-        throw InvalidInput("", "--sizes: '" + item + "' is not a whole number", "give e.g. --sizes 4096,1024");
-      }
-    }
+  return [opt, bake, &globals] {
+    if (!bake->parsed()) return;
+    opt->resize.sizes = parse_sizes(opt->sizes);
     opt->resize.check();
-    const Mesh layout = read_mesh(opt->layout);
+    std::optional<Mesh> layout;
+    if (!opt->layout.empty()) layout = read_mesh(opt->layout);
+    else spdlog::info("uvtools bake: no --layout: a plain area-correct resize per map type, without seam handling");
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar = globals.progress("uvtools bake");
-    const MapResizeReport r = resize_maps(opt->input, layout, opt->resize, opt->output, bar.callback());
+    const MapResizeReport r = resize_maps(opt->input, layout ? &*layout : nullptr, opt->resize, opt->output, bar.callback());
     bar.finish();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     nlohmann::json j = {{"input", opt->input},           {"input_size", r.input_size},
                         {"sizes", opt->resize.sizes},    {"maps", r.maps},
+                        {"layout", layout ? opt->layout : "none: plain resize, no seam handling"},
                         {"island_fraction", r.island_fraction}, {"flipped_uv_triangles", r.flipped_triangles},
                         {"overlapping_texels", r.overlapping_texels}, {"seconds", seconds}};
     write_file_atomic(opt->output + "/bake.json", j.dump(1) + "\n");
@@ -199,8 +83,127 @@ std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& global
       spdlog::warn("uvtools bake: {}: {} texels lie in two or more UV triangles (overlapping islands)", opt->layout,
                    r.overlapping_texels);
     }
-    spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({:.1f}% of texels in UV islands)", r.maps.size(),
-                 r.input_size, opt->sizes, seconds, 100 * r.island_fraction);
+    spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({})", r.maps.size(), r.input_size, opt->sizes, seconds,
+                 layout ? fmt::format("{:.1f}% of texels in UV islands", 100 * r.island_fraction) : "no layout");
+  };
+}
+
+std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
+  struct Options {
+    std::string image, mesh, model, coeffs, output, view = "front", camera = "pinhole";
+    UnwarpOptions unwarp;
+  };
+  auto un = std::make_shared<Options>();
+  CLI::App* app = uvtools.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
+  app->alias("unwrap");  // the paper's word
+  app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
+  app->add_option("--mesh", un->mesh, "Mesh with UVs, posed as in the image");
+  app->add_option("--model", un->model, "Or a morphable model (mm-build) ...");
+  app->add_option("--coeffs", un->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
+  app->add_option("-o,--output", un->output, "UV map, RGB (.exr linear, .png/.tif sRGB 16-bit); the confidence "
+                                             "(cos of the view angle, 0 = unseen) goes beside it as <name>_confidence")
+      ->required();
+  app->add_option("--view", un->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+      ->check(CLI::IsMember({"front", "left", "right"}));
+  app->add_option("--camera", un->camera, "pinhole or weak, as 'render --camera'")->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "weak"}));
+  app->add_option("--size", un->unwarp.size, "UV map size")->capture_default_str();
+  app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
+      ->capture_default_str();
+  return [un, app] {
+    if (!app->parsed()) return;
+    const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
+    const Image image = read_image(un->image);
+    if (image.width != image.height) {
+      throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
+    }
+    const Camera cam = command_camera(mesh, !un->model.empty(), un->view, un->camera, image.width);
+    const UnwarpResult r = unwarp(image, mesh, cam, un->unwarp);
+    const fs::path out_path(un->output);
+    const bool exr = out_path.extension() == ".exr";
+    ImageWriteOptions w;
+    if (!exr) w.type = PixelType::UInt16;
+    const std::string confidence_path =
+        (out_path.parent_path() / (out_path.stem().string() + "_confidence" + out_path.extension().string())).string();
+    write_image(un->output, exr ? r.colour : to_srgb(r.colour), w);
+    write_image(confidence_path, r.confidence, w);
+    spdlog::info("uvtools unwarp: {} of {} texels of the UV layout seen ({:.1f}%) -> {}", r.seen, r.in_layout,
+                 100.0 * double(r.seen) / double(std::max<int64_t>(r.in_layout, 1)), un->output);
+  };
+}
+
+std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
+  struct Options {
+    std::string labels, mesh, model, coeffs, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
+    int size = 1024, image_size = 512;
+    uint64_t seed = 1;
+  };
+  auto mk = std::make_shared<Options>();
+  CLI::App* app = uvtools.add_subcommand("mask", "Face-parsing labels (CelebAMask-HQ) → a UV mask of the seen, uncovered "
+                                                 "face; or synthetic occluders (hair, glasses, hand, hat)");
+  app->add_option("labels", mk->labels, "Label image: one channel of CelebAMask-HQ class indices (0-18, 19 = hand)");
+  app->add_option("--mesh", mk->mesh, "Mesh with UVs, posed as in the image");
+  app->add_option("--model", mk->model, "Or a morphable model (mm-build) ...");
+  app->add_option("--coeffs", mk->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
+  app->add_option("-o,--output", mk->output, "UV mask (8-bit PNG: 255 = face seen and uncovered)")->required();
+  app->add_option("--view", mk->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+      ->check(CLI::IsMember({"front", "left", "right"}));
+  app->add_option("--camera", mk->camera, "pinhole or weak")->capture_default_str()
+      ->check(CLI::IsMember({"pinhole", "weak"}));
+  app->add_option("--size", mk->size, "UV mask size")->capture_default_str();
+  app->add_option("--synthetic", mk->synthetic, "Instead of a label image: the face as seen, covered by these "
+                                                "occluders drawn at random (hair,glasses,hand,hat)")->group("Synthetic");
+  app->add_option("--landmarks", mk->landmarks, "Landmark JSON with the mesh's \"vertex_ids\" (for --synthetic; "
+                                                "a --model has its own)")
+      ->group("Synthetic");
+  app->add_option("--seed", mk->seed, "Random seed of the occluders' shapes")->capture_default_str()->group("Synthetic");
+  app->add_option("--image-size", mk->image_size, "Size of the synthetic label image")->capture_default_str()
+      ->group("Synthetic");
+  app->add_option("--labels-out", mk->labels_out, "Also write the synthetic label image here (PNG)")->group("Synthetic");
+  return [mk, app] {
+    if (!app->parsed()) return;
+    if (mk->labels.empty() == mk->synthetic.empty()) {
+      throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
+    }
+    const Mesh mesh = posed_mesh(mk->mesh, mk->model, mk->coeffs);
+    LabelImage labels;
+    if (!mk->labels.empty()) {
+      labels = label_image(read_image(mk->labels, ColorSpace::Data), mk->labels);
+      if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
+    }
+    const int image_size = mk->labels.empty() ? mk->image_size : labels.width;
+    const Camera cam = command_camera(mesh, !mk->model.empty(), mk->view, mk->camera, image_size);
+    if (!mk->synthetic.empty()) {
+      const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
+      std::vector<int> ids;
+      if (!mk->landmarks.empty()) {
+        ids = read_landmark_vertex_ids(mk->landmarks, mesh, 68);
+      } else if (!mk->model.empty()) {
+        ids = read_model(mk->model).landmark_vertices;
+      } else {
+        throw InvalidInput("", "--synthetic needs --landmarks (or --model)", "pass template/landmarks.json");
+      }
+      labels = synthetic_labels(mesh, cam, ids, occluders, mk->seed);
+      if (!mk->labels_out.empty()) write_image(mk->labels_out, to_image(labels));
+    }
+    int64_t kept = 0;
+    const std::vector<uint8_t> mask = uv_face_mask(labels, mesh, cam, mk->size, &kept);
+    Image out(mk->size, mk->size, 1, ColorSpace::Data);
+    for (size_t i = 0; i < mask.size(); ++i) out.pixels[i] = mask[i];
+    write_image(mk->output, out);
+    spdlog::info("uvtools mask: {} texels of the face seen and uncovered -> {}", kept, mk->output);
+  };
+}
+
+}  // namespace
+
+std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
+  app.require_subcommand(1);
+  const std::function<void()> runs[] = {setup_bake(app, globals), setup_unwarp(app, globals), setup_mask(app, globals)};
+  return [bake = runs[0], unwarp = runs[1], mask = runs[2]] {
+    bake();  // each runs only when its subcommand was parsed
+    unwarp();
+    mask();
   };
 }
 

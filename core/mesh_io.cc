@@ -4,6 +4,7 @@
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -11,11 +12,13 @@
 #include <map>
 #include <mutex>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <vector>
 
 #include "core/files.h"
 #include "core/error.h"
+#include "core/log.h"
 
 namespace bareskin {
 namespace {
@@ -153,6 +156,72 @@ size_t check_obj_text(const std::string& path, const std::string& bytes) {
   return faces;
 }
 
+// OpenMesh's OBJ reader gives the corners of a polygon with texture coordinates the wrong UVs, so polygons are split
+// in the text before it reads them: a quad along its shorter diagonal (the other one where that edge exists already:
+// a second copy would make the surface non-manifold), a larger polygon as a fan from its first corner. Each corner
+// keeps its own "v/vt/vn" token, so UV seams stay. Returns the text unchanged (and 0 polygons) when every face is a
+// triangle; `faces`: the face lines of the result. check_obj_text has validated the numbers.
+std::string triangulate_obj_polygons(const std::string& bytes, size_t& polygons, size_t& faces) {
+  polygons = faces = 0;
+  std::vector<std::string> lines;
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<std::vector<std::string>> corners;  // per line: the face's corner tokens (empty: not a face)
+  std::vector<std::vector<long>> ids;             // ... and their 0-based vertex indices
+  std::set<std::pair<long, long>> edges;
+  const auto edge = [](long a, long b) { return std::make_pair(std::min(a, b), std::max(a, b)); };
+  std::istringstream in(bytes);
+  for (std::string line; std::getline(in, line);) {
+    lines.push_back(line);
+    corners.emplace_back();
+    ids.emplace_back();
+    const bool v = line.rfind("v ", 0) == 0 || line.rfind("v\t", 0) == 0;
+    const bool f = line.rfind("f ", 0) == 0 || line.rfind("f\t", 0) == 0;
+    if (v) {
+      std::istringstream t(line.substr(2));
+      Eigen::Vector3d p = Eigen::Vector3d::Zero();
+      t >> p.x() >> p.y() >> p.z();
+      positions.push_back(p);
+    }
+    if (!f) continue;
+    std::istringstream t(line.substr(2));
+    for (std::string c; t >> c;) {
+      const long i = std::strtol(c.c_str(), nullptr, 10);  // 1-based, or negative: relative to the vertices so far
+      corners.back().push_back(c);
+      ids.back().push_back(i > 0 ? i - 1 : long(positions.size()) + i);
+    }
+    const std::vector<long>& k = ids.back();
+    for (size_t c = 0; c < k.size(); ++c) edges.insert(edge(k[c], k[(c + 1) % k.size()]));
+    if (k.size() > 3) ++polygons;
+  }
+  if (polygons == 0) return bytes;
+  const auto position = [&](long k) {
+    return k >= 0 && k < long(positions.size()) ? positions[size_t(k)] : Eigen::Vector3d::Zero();
+  };
+  std::ostringstream out;
+  for (size_t l = 0; l < lines.size(); ++l) {
+    const std::vector<long>& k = ids[l];
+    const size_t n = k.size();
+    if (n <= 3) {
+      out << lines[l] << '\n';
+      faces += n > 0;
+      continue;
+    }
+    size_t first = 0;
+    if (n == 4) {
+      const bool shorter_13 = (position(k[1]) - position(k[3])).squaredNorm() < (position(k[0]) - position(k[2])).squaredNorm();
+      first = shorter_13 ? 1 : 0;
+      if (edges.count(edge(k[first], k[first + 2]))) first = 1 - first;
+      edges.insert(edge(k[first], k[first + 2]));
+    }
+    const std::vector<std::string>& c = corners[l];
+    for (size_t j = 1; j + 1 < n; ++j) {
+      out << "f " << c[first] << ' ' << c[(first + j) % n] << ' ' << c[(first + j + 1) % n] << '\n';
+      ++faces;
+    }
+  }
+  return out.str();
+}
+
 }  // namespace
 
 Mesh read_mesh(const std::string& path) {
@@ -166,11 +235,22 @@ Mesh read_mesh(const std::string& path) {
   om.request_vertex_normals();
   OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                               OpenMesh::IO::Options::VertexNormal;
+  size_t polygons = 0, triangulated_faces = 0;
+  const std::string triangulated =
+      obj_faces ? triangulate_obj_polygons(bytes, polygons, triangulated_faces) : std::string();
+  if (polygons > 0) {
+    spdlog::debug("{}: {} polygon(s) with more than 3 corners split into triangles", path, polygons);
+  }
   bool ok;
   std::string log;
   {
     CapturedOpenMeshLog capture;
-    ok = OpenMesh::IO::read_mesh(om, path, opt);
+    if (polygons > 0) {
+      std::istringstream text(triangulated);
+      ok = OpenMesh::IO::read_mesh(om, text, ".obj", opt);
+    } else {
+      ok = OpenMesh::IO::read_mesh(om, path, opt);
+    }
     log = capture.text();
   }
   if (!ok) {
@@ -183,7 +263,8 @@ Mesh read_mesh(const std::string& path) {
                        "repair the mesh (non-manifold or degenerate faces) before using it");
   }
   if (om.n_faces() == 0) throw InvalidInput(path, "has no faces", "the file is truncated or not a triangle mesh");
-  if (obj_faces && om.n_faces() != obj_faces) {
+  const size_t expected_faces = polygons > 0 ? triangulated_faces : obj_faces;
+  if (obj_faces && om.n_faces() != expected_faces) {
     throw InvalidInput(path, "the reader kept " + std::to_string(om.n_faces()) + " of " + std::to_string(obj_faces) +
                                  " faces (degenerate or non-manifold faces)",
                        "repair the mesh before using it");
@@ -195,28 +276,50 @@ Mesh read_mesh(const std::string& path) {
     const auto p = om.point(v);
     mesh.V.row(v.idx()) << p[0], p[1], p[2];
   }
-  mesh.F.resize(om.n_faces(), 3);
+  // Polygons left (from a PLY: UVs per vertex there) are split into triangles: a quad along its shorter diagonal, a
+  // larger polygon as a fan from its first corner.
   const bool corner_uv = opt.face_has_texcoord(), vertex_uv = !corner_uv && opt.vertex_has_texcoord();
-  if (corner_uv) mesh.FUV.resize(om.n_faces(), 3);
   std::map<std::pair<double, double>, int> uv_index;  // OpenMesh keeps UVs per halfedge; index equal values once
   std::vector<std::pair<double, double>> uvs;
+  std::vector<std::array<int, 3>> tris, tri_uvs;
+  tris.reserve(om.n_faces());
+  size_t ply_polygons = 0;
+  std::vector<int> corner_v, corner_t;
   for (auto f : om.faces()) {
-    if (om.valence(f) != 3) {
-      throw InvalidInput(path, "face " + std::to_string(f.idx()) + " has " + std::to_string(om.valence(f)) + " corners",
-                         "triangulate the mesh first");
-    }
-    int corner = 0;
+    corner_v.clear();
+    corner_t.clear();
     for (auto h : om.fh_range(f)) {
-      mesh.F(f.idx(), corner) = om.to_vertex_handle(h).idx();
+      corner_v.push_back(om.to_vertex_handle(h).idx());
       if (corner_uv) {
         const auto t = om.texcoord2D(h);
         auto [it, inserted] = uv_index.try_emplace({t[0], t[1]}, int(uvs.size()));
         if (inserted) uvs.emplace_back(t[0], t[1]);
-        mesh.FUV(f.idx(), corner) = it->second;
+        corner_t.push_back(it->second);
       }
-      ++corner;
+    }
+    const size_t k = corner_v.size();
+    if (k > 3) ++ply_polygons;
+    size_t first = 0;  // the fan's apex
+    if (k == 4) {      // the shorter diagonal: 0-2 or 1-3
+      const auto p = [&](size_t c) { return om.point(OpenMesh::VertexHandle(corner_v[c])); };
+      if ((p(1) - p(3)).sqrnorm() < (p(0) - p(2)).sqrnorm()) first = 1;
+    }
+    for (size_t c = 1; c + 1 < k; ++c) {
+      const size_t a = first, b = (first + c) % k, d = (first + c + 1) % k;
+      tris.push_back({corner_v[a], corner_v[b], corner_v[d]});
+      if (corner_uv) tri_uvs.push_back({corner_t[a], corner_t[b], corner_t[d]});
     }
   }
+  if (ply_polygons > 0) {
+    spdlog::debug("{}: {} polygon(s) with more than 3 corners split into triangles", path, ply_polygons);
+  }
+  mesh.F.resize(Eigen::Index(tris.size()), 3);
+  if (corner_uv) mesh.FUV.resize(Eigen::Index(tris.size()), 3);
+  for (size_t t = 0; t < tris.size(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      mesh.F(Eigen::Index(t), c) = tris[t][size_t(c)];
+      if (corner_uv) mesh.FUV(Eigen::Index(t), c) = tri_uvs[t][size_t(c)];
+    }
   if (corner_uv) {
     mesh.UV.resize(uvs.size(), 2);
     for (size_t i = 0; i < uvs.size(); ++i) mesh.UV.row(i) << uvs[i].first, uvs[i].second;

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <filesystem>
 
 #include "core/files.h"
@@ -125,7 +127,6 @@ TEST_F(MeshBadInput, Rejected) {
   const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   EXPECT_NE(expect_invalid("nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").find("NaN"), std::string::npos);
   EXPECT_NE(expect_invalid("inf.obj", "v 0 0 0\nv 1 -INF 0\nv 0 1 0\nf 1 2 3\n").find("line 2"), std::string::npos);
-  EXPECT_NE(expect_invalid("quad.obj", tri + "v 1 1 0\nf 1 2 4 3\n").find("corners"), std::string::npos);
   expect_invalid("range.obj", tri + "f 1 2 7\n");
   expect_invalid("uvrange.obj", tri + "vt 0 0\nf 1/1 2/2 3/3\n");
   expect_invalid("empty.obj", "");
@@ -141,6 +142,40 @@ TEST_F(MeshBadInput, Rejected) {
   expect_invalid("nonmanifold.obj", tri + "v 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
   EXPECT_THROW(read_mesh(dir + "/missing.obj"), IoError);
   EXPECT_THROW(read_mesh(dir + "/mesh.stl"), InvalidInput);
+}
+
+// Artists' meshes come with quads: they are split on read (a quad along its shorter diagonal), UV seams kept.
+TEST(Mesh, PolygonsAreTriangulatedKeepingUvSeams) {
+  const std::string dir = testing::temp_dir();
+  // Two quads sharing the edge between vertices 2 and 3 (1-based), each with its own UV square: a seam along the
+  // shared edge. The first quad's 2-4 diagonal is the shorter one.
+  testing::write_text(dir + "/quads.obj",
+                      "v 0 0 0\nv 1 0 0\nv 1.8 1.8 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\n"
+                      "vt 0 0\nvt 0.4 0\nvt 0.4 0.4\nvt 0 0.4\nvt 0.6 0\nvt 1 0\nvt 1 0.4\nvt 0.6 0.4\n"
+                      "f 1/1 2/2 3/3 4/4\nf 2/5 5/6 6/7 3/8\n");
+  const Mesh m = read_mesh(dir + "/quads.obj");
+  ASSERT_EQ(m.F.rows(), 4);
+  ASSERT_EQ(m.FUV.rows(), 4);
+  EXPECT_EQ(m.UV.rows(), 8);  // vertices 2 and 3 keep two UVs each: the seam
+  double area = 0;
+  for (Eigen::Index f = 0; f < m.F.rows(); ++f) {
+    const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+    for (int k = 0; k < 3; ++k) {  // each corner's UV is the one its quad gave that vertex
+      const int v = m.F(f, k);
+      const Eigen::Vector2d uv = m.UV.row(m.FUV(f, k));
+      const bool left = uv.x() < 0.5;
+      const double expected_x = left ? std::vector<double>{0, 0.4, 0.4, 0, 0, 0}[size_t(v)]
+                                     : std::vector<double>{0, 0.6, 0.6, 0, 1, 1}[size_t(v)];
+      EXPECT_NEAR(uv.x(), expected_x, 1e-6) << "face " << f << " corner " << k;  // OpenMesh keeps UVs as float
+    }
+  }
+  EXPECT_NEAR(area, 1.8 + 1.0, 1e-6);  // the two quads' areas (shoelace)
+  // The first quad is split along its shorter diagonal (vertices 2-4, 1-based), so no triangle holds both 1 and 3.
+  for (Eigen::Index f = 0; f < 2; ++f) {
+    const auto row = m.F.row(f);
+    EXPECT_FALSE((row.array() == 0).any() && (row.array() == 2).any()) << "face " << f;
+  }
 }
 
 TEST(Mesh, UnwritableDirectoryIsIoErrorWithoutPartialFile) {

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "core/assets.h"
 #include "core/error.h"
 #include "detect/tfjs_weights.h"
 
@@ -112,8 +113,7 @@ torch::Tensor photo_tensor(const Image& image, const std::string& source) {
 }
 
 std::string default_face_api_folder() {
-  const char* assets = std::getenv("BARESKIN_ASSETS");
-  return (std::filesystem::path(assets ? assets : "assets") / "face_api").string();
+  return (std::filesystem::path(find_data_dir(DataKind::Assets, "", "face_api")) / "face_api").string();
 }
 
 FaceApi::FaceApi(const std::string& folder) {

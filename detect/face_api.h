@@ -83,7 +83,7 @@ class FaceApi {
 // than 64 px or with another channel count.
 torch::Tensor photo_tensor(const Image& image, const std::string& source);
 
-// The default weights folder: $BARESKIN_ASSETS/face_api, else assets/face_api.
+// The default weights folder: face_api/ in the assets folder core/assets.h finds (IoError listing the places searched).
 std::string default_face_api_folder();
 
 }  // namespace bareskin::detect

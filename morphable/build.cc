@@ -24,11 +24,11 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-std::string find_file(const std::string& dir, const std::string& stem, std::initializer_list<const char*> extensions,
-                      const std::string& hint) {
+// dir/<stem><ext> for the first extension that exists, or "".
+std::string find_file(const std::string& dir, const std::string& stem, std::initializer_list<const char*> extensions) {
   for (const char* ext : extensions)
     if (fs::exists(dir + "/" + stem + ext)) return dir + "/" + stem + ext;
-  throw InvalidInput(dir, "has no " + stem + " file", hint);
+  return "";
 }
 
 // Component count: the asked one, clamped to what the data allows (with a note) or refused.
@@ -100,7 +100,8 @@ RowMatrixXf read_shapes(const TemplateFace& face, const std::vector<std::string>
   std::atomic<int64_t> done{0};
   parallel_for(0, int64_t(dirs.size()), [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
-      const std::string path = find_file(dirs[size_t(i)], "mesh", {".ply", ".obj"}, "run 'bareskin scan register' first");
+      const std::string path = find_file(dirs[size_t(i)], "mesh", {".ply", ".obj"});
+      if (path.empty()) throw InvalidInput(dirs[size_t(i)], "has no mesh.ply or mesh.obj", "run 'bareskin scan register' first");
       const Mesh m = read_mesh(path);
       if (m.V.rows() != V) {
         throw InvalidInput(path, "has " + std::to_string(m.V.rows()) + " vertices, the template " + std::to_string(V),
@@ -117,6 +118,91 @@ RowMatrixXf read_shapes(const TemplateFace& face, const std::vector<std::string>
   }, 1);
   return X;
 }
+
+namespace {
+
+// The appearance model: diffuse maps in the template UV, linear light, box-filtered to R x R, texels inside the layout
+// only, PCA over the subjects that have a map (the others are listed in the report: photogrammetry scans may bring
+// geometry alone). Fewer than two such subjects: no appearance model (InvalidInput when a count was asked for).
+void build_appearance(const TemplateFace& face, const std::vector<std::string>& dirs, const BuildOptions& options,
+                      MorphableModel& model, BuildReport& report, const ProgressCallback& progress) {
+  const int R = options.appearance_resolution;
+  model.appearance_resolution = R;
+  model.appearance_mask = uv_mask(face.mesh, R);
+  model.appearance_mean = Eigen::VectorXf::Zero(3 * R * R);
+  model.appearance_basis.resize(0, 3 * R * R);
+  if (options.appearance_components == 0) return;
+  auto t = std::chrono::steady_clock::now();
+  std::vector<std::string> maps;
+  for (const std::string& d : dirs) {
+    const std::string path = find_file(d, "diffuse", {".png", ".tif", ".tiff", ".exr"});
+    if (path.empty()) report.subjects_without_diffuse.push_back(fs::path(d).filename().string());
+    else maps.push_back(path);
+  }
+  const int m = int(maps.size());
+  if (m < 2) {
+    const std::string line = "appearance: " + std::to_string(m) + " of " + std::to_string(dirs.size()) +
+                             " subjects have a diffuse map; an appearance model needs at least 2";
+    if (options.exact.appearance) throw InvalidInput("", line, "register scans that have diffuse maps, or --appearance-components 0");
+    report.notes.push_back(line + "; the model has none");
+    spdlog::warn("mm-build: {}", report.notes.back());
+    return;
+  }
+  if (!report.subjects_without_diffuse.empty()) {
+    std::string names;
+    for (const std::string& s : report.subjects_without_diffuse) names += (names.empty() ? "" : ", ") + s;
+    report.notes.push_back("appearance: " + std::to_string(report.subjects_without_diffuse.size()) + " of " +
+                           std::to_string(dirs.size()) + " subjects have no diffuse map (" + names +
+                           "); the appearance model is built from the other " + std::to_string(m));
+    spdlog::warn("mm-build: {}", report.notes.back());
+  }
+  std::vector<int64_t> texels;
+  for (size_t p = 0; p < model.appearance_mask.size(); ++p)
+    if (model.appearance_mask[p]) texels.push_back(int64_t(p));
+  RowMatrixXf A(m, 3 * Eigen::Index(texels.size()));
+  std::atomic<int64_t> done{0};
+  parallel_for(0, m, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const std::string& path = maps[size_t(i)];
+      Image img = read_image(path);
+      if (img.color_space == ColorSpace::sRGB) img = to_linear(img);
+      if (img.width != img.height || img.width % R != 0 || img.channels < 3) {
+        throw InvalidInput(path, "is " + std::to_string(img.width) + "x" + std::to_string(img.height) + "x" +
+                                     std::to_string(img.channels) + "; the appearance model needs square RGB maps "
+                                     "whose size is a multiple of " + std::to_string(R),
+                           "choose --appearance-res dividing the map size");
+      }
+      const int f = img.width / R;
+      for (size_t k = 0; k < texels.size(); ++k) {
+        const int x = int(texels[k] % R), y = int(texels[k] / R);
+        for (int c = 0; c < 3; ++c) {
+          double sum = 0;
+          for (int dy = 0; dy < f; ++dy)
+            for (int dx = 0; dx < f; ++dx) sum += img.at(x * f + dx, y * f + dy, c);
+          A(i, Eigen::Index(3 * k) + c) = float(sum / (f * f));
+        }
+      }
+      if (!A.row(i).allFinite()) throw InvalidInput(path, "holds NaN or Inf", "re-transfer the maps");
+      bareskin::report(progress, ++done, m, "reading maps");
+    }
+  }, 1);
+  report.seconds_read_maps = seconds_since(t);
+  t = std::chrono::steady_clock::now();
+  const int k = settle(options.appearance_components, m - 1, "appearance", options.exact.appearance, report);
+  const Pca appearance = pca(A, k, 0, "appearance");
+  model.appearance_basis = RowMatrixXf::Zero(k, 3 * R * R);
+  for (size_t q = 0; q < texels.size(); ++q)
+    for (int c = 0; c < 3; ++c) {
+      model.appearance_mean(3 * texels[q] + c) = float(appearance.mean(Eigen::Index(3 * q) + c));
+      model.appearance_basis.col(3 * texels[q] + c) = appearance.basis.col(Eigen::Index(3 * q) + c).cast<float>();
+    }
+  model.appearance_stddev = appearance.variance.cwiseSqrt().cast<float>();
+  report.appearance_subjects = m;
+  report.appearance_variance_explained = appearance.variance.sum() / appearance.total_variance;
+  report.seconds_appearance_pca = seconds_since(t);
+}
+
+}  // namespace
 
 MorphableModel build_model(const TemplateFace& face, const std::vector<std::string>& dirs,
                            const std::vector<NamedShape>& blendshapes, const BuildOptions& options, BuildReport& report,
@@ -154,60 +240,8 @@ MorphableModel build_model(const TemplateFace& face, const std::vector<std::stri
   report.seconds_shape_pca = seconds_since(t);
   X.resize(0, 0);
 
-  // Appearance: diffuse maps in the template UV, linear light, box-filtered to R x R, texels inside the layout only.
-  const int R = options.appearance_resolution;
-  model.appearance_resolution = R;
-  model.appearance_mask = uv_mask(face.mesh, R);
-  model.appearance_mean = Eigen::VectorXf::Zero(3 * R * R);
-  model.appearance_basis.resize(0, 3 * R * R);
-  if (options.appearance_components > 0) {
-    t = std::chrono::steady_clock::now();
-    std::vector<int64_t> texels;
-    for (size_t p = 0; p < model.appearance_mask.size(); ++p)
-      if (model.appearance_mask[p]) texels.push_back(int64_t(p));
-    RowMatrixXf A(n, 3 * Eigen::Index(texels.size()));
-    std::atomic<int64_t> done{0};
-    parallel_for(0, n, [&](int64_t b, int64_t e) {
-      for (int64_t i = b; i < e; ++i) {
-        const std::string path = find_file(dirs[size_t(i)], "diffuse", {".png", ".tif", ".tiff", ".exr"},
-                                           "register with maps (scan register --maps-res 1024), or use "
-                                           "--appearance-components 0");
-        Image img = read_image(path);
-        if (img.color_space == ColorSpace::sRGB) img = to_linear(img);
-        if (img.width != img.height || img.width % R != 0 || img.channels < 3) {
-          throw InvalidInput(path, "is " + std::to_string(img.width) + "x" + std::to_string(img.height) + "x" +
-                                       std::to_string(img.channels) + "; the appearance model needs square RGB maps "
-                                       "whose size is a multiple of " + std::to_string(R),
-                             "choose --appearance-res dividing the map size");
-        }
-        const int f = img.width / R;
-        for (size_t k = 0; k < texels.size(); ++k) {
-          const int x = int(texels[k] % R), y = int(texels[k] / R);
-          for (int c = 0; c < 3; ++c) {
-            double sum = 0;
-            for (int dy = 0; dy < f; ++dy)
-              for (int dx = 0; dx < f; ++dx) sum += img.at(x * f + dx, y * f + dy, c);
-            A(i, Eigen::Index(3 * k) + c) = float(sum / (f * f));
-          }
-        }
-        if (!A.row(i).allFinite()) throw InvalidInput(path, "holds NaN or Inf", "re-transfer the maps");
-        bareskin::report(progress, ++done, n, "reading maps");
-      }
-    }, 1);
-    report.seconds_read_maps = seconds_since(t);
-    t = std::chrono::steady_clock::now();
-    const int k = settle(options.appearance_components, n - 1, "appearance", options.exact.appearance, report);
-    const Pca appearance = pca(A, k, 0, "appearance");
-    model.appearance_basis = RowMatrixXf::Zero(k, 3 * R * R);
-    for (size_t q = 0; q < texels.size(); ++q)
-      for (int c = 0; c < 3; ++c) {
-        model.appearance_mean(3 * texels[q] + c) = float(appearance.mean(Eigen::Index(3 * q) + c));
-        model.appearance_basis.col(3 * texels[q] + c) = appearance.basis.col(Eigen::Index(3 * q) + c).cast<float>();
-      }
-    model.appearance_stddev = appearance.variance.cwiseSqrt().cast<float>();
-    report.appearance_variance_explained = appearance.variance.sum() / appearance.total_variance;
-    report.seconds_appearance_pca = seconds_since(t);
-  }
+  // Appearance: from the subjects that have a diffuse map.
+  build_appearance(face, dirs, options, model, report, progress);
 
   // Expression: each blendshape's deltas turned by the rotation taking the template's normal to the mean's at that
   // vertex (the mean identity's local frame), then an orthonormal basis by SVD (through the K x K Gram matrix); the

@@ -36,6 +36,8 @@ struct BuildReport {
   double shape_variance_explained = 0, appearance_variance_explained = 0;
   double seconds_read_shapes = 0, seconds_gpa = 0, seconds_shape_pca = 0, seconds_read_maps = 0,
          seconds_appearance_pca = 0, seconds_expression = 0;
+  int appearance_subjects = 0;                        // subjects with a diffuse map (the appearance PCA's)
+  std::vector<std::string> subjects_without_diffuse;  // left out of the appearance model
   std::vector<std::string> notes;  // clamped component counts and the like
 };
 
@@ -46,9 +48,10 @@ std::vector<uint8_t> face_regions(const TemplateFace& face, std::vector<std::str
 // 1 for texels of an R x R UV image (row 0 at the top) whose centre lies in a UV triangle of `mesh`.
 std::vector<uint8_t> uv_mask(const Mesh& mesh, int resolution);
 
-// The subjects' folders → the model. The folders hold mesh.ply (or .obj) with the template's topology and a diffuse
-// map in the template UV (square, a multiple of R). InvalidInput naming the file on a wrong vertex count or triangle
-// list, NaN, a missing or mis-sized map, fewer than 3 subjects, no variance.
+// The subjects' folders → the model. The folders hold mesh.ply (or .obj) with the template's topology and, for the
+// appearance model, a diffuse map in the template UV (square, a multiple of R); subjects without one are left out of
+// the appearance model and listed in the report. InvalidInput naming the file on a wrong vertex count or triangle
+// list, NaN, a mis-sized map, fewer than 3 subjects, no variance.
 MorphableModel build_model(const TemplateFace& face, const std::vector<std::string>& subject_dirs,
                            const std::vector<NamedShape>& blendshapes, const BuildOptions& options, BuildReport& report,
                            const ProgressCallback& progress = {});

@@ -13,13 +13,18 @@
 
 namespace bareskin {
 
+// A scan's maps; an empty image is a map the scan does not have (photogrammetry gives a diffuse map alone).
 struct ScanMaps {
   Image diffuse;                       // linear
   Image normal, roughness, specular;   // data; normal as stored, (n + 1) / 2
+  MapSelection present() const;
+  std::vector<std::string> names() const;  // the present maps' names, in the order above
 };
 
-// Reads dir/{diffuse,normal,roughness,specular}.{png,tif,exr} (the first extension found). InvalidInput naming the
-// missing map otherwise.
+// The path of dir/<name>.{png,tif,tiff,exr} (the first extension found), or "" when there is none.
+std::string find_map(const std::string& dir, const std::string& name);
+
+// Reads whichever of dir/{diffuse,normal,roughness,specular}.{png,tif,tiff,exr} exist (none is fine).
 ScanMaps read_scan_maps(const std::string& dir);
 
 struct TransferResult {
@@ -28,14 +33,16 @@ struct TransferResult {
   std::vector<uint8_t> texel_class;
 };
 
-// `registered`: template topology with its UVs, vertices on the scan (mm). `scan`: with UVs. Writes the four maps to
-// `out_dir` at options.resolution.
+// `registered`: template topology with its UVs, vertices on the scan (mm). `scan`: with UVs. Writes the maps the scan
+// has to `out_dir` at options.resolution (at least one must be present).
 TransferResult transfer_maps(const Mesh& registered, const Mesh& scan, const ScanMaps& maps, const BakeOptions& options,
                              const std::string& out_dir, const ProgressCallback& progress = {});
 
 // Diffuse PSNR (dB, on sRGB-encoded values in [0,1]) and median normal angle (degrees) between transferred maps and
-// truth maps of the same size, over texels of `texel_class` == 1 (away from seams).
+// truth maps of the same size, over texels of `texel_class` == 1 (away from seams); each only where that map was
+// transferred (has_diffuse, has_normal).
 struct TransferErrors {
+  bool has_diffuse = false, has_normal = false;
   double diffuse_psnr_db = 0, normal_median_deg = 0, normal_p95_deg = 0;
   int64_t texels = 0;
 };

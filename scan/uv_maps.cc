@@ -5,6 +5,7 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "core/error.h"
@@ -42,7 +43,7 @@ void BakeOptions::check() const {
 
 void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::string& dir,
                    const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric, int x, int y)>& texel,
-                   const ProgressCallback& progress) {
+                   const ProgressCallback& progress, const MapSelection& which) {
   options.check();
   const Mesh& m = mesh;
   const int R = options.resolution, gutter = options.gutter;
@@ -50,10 +51,11 @@ void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::stri
   const std::string ext = map_extension(options.format);
   ImageWriteOptions io;
   io.type = exr ? PixelType::Half : PixelType::UInt16;
-  ImageStreamWriter diffuse(dir + "/diffuse" + ext, R, R, 3, exr ? ColorSpace::Linear : ColorSpace::sRGB, io);
-  ImageStreamWriter normal(dir + "/normal" + ext, R, R, 3, ColorSpace::Data, io);
-  ImageStreamWriter roughness(dir + "/roughness" + ext, R, R, 1, ColorSpace::Data, io);
-  ImageStreamWriter specular(dir + "/specular" + ext, R, R, 1, ColorSpace::Data, io);
+  std::optional<ImageStreamWriter> diffuse, normal, roughness, specular;
+  if (which.diffuse) diffuse.emplace(dir + "/diffuse" + ext, R, R, 3, exr ? ColorSpace::Linear : ColorSpace::sRGB, io);
+  if (which.normal) normal.emplace(dir + "/normal" + ext, R, R, 3, ColorSpace::Data, io);
+  if (which.roughness) roughness.emplace(dir + "/roughness" + ext, R, R, 1, ColorSpace::Data, io);
+  if (which.specular) specular.emplace(dir + "/specular" + ext, R, R, 1, ColorSpace::Data, io);
 
   // Triangles in texel coordinates (x right, y down from the top row), binned by band.
   const int bands = (R + options.band_rows - 1) / options.band_rows;
@@ -156,18 +158,16 @@ void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::stri
     if (writing.valid()) writing.get();  // the previous band is on disk (rethrows its error)
     writing = std::async(std::launch::async, [&, yb, ye, band] {
       const Band& out = bands_buf[band % 2];
-      diffuse.write_rows(yb, ye, out.d.data());
-      normal.write_rows(yb, ye, out.n.data());
-      roughness.write_rows(yb, ye, out.r.data());
-      specular.write_rows(yb, ye, out.s.data());
+      if (diffuse) diffuse->write_rows(yb, ye, out.d.data());
+      if (normal) normal->write_rows(yb, ye, out.n.data());
+      if (roughness) roughness->write_rows(yb, ye, out.r.data());
+      if (specular) specular->write_rows(yb, ye, out.s.data());
     });
     report(progress, band + 1, bands, "maps");
   }
   if (writing.valid()) writing.get();
-  diffuse.commit();
-  normal.commit();
-  roughness.commit();
-  specular.commit();
+  for (auto* w : {&diffuse, &normal, &roughness, &specular})
+    if (*w) (*w)->commit();
 }
 
 }  // namespace bareskin

@@ -24,6 +24,12 @@ struct BakeOptions {
   void check() const;
 };
 
+// Which of the four maps a bake writes (a scan may bring only some: photogrammetry gives a diffuse map alone).
+struct MapSelection {
+  bool diffuse = true, normal = true, roughness = true, specular = true;
+  bool any() const { return diffuse || normal || roughness || specular; }
+};
+
 struct MapTexel {
   Eigen::Vector3f diffuse;  // linear
   Eigen::Vector3f normal;   // tangent space, unit
@@ -33,9 +39,10 @@ struct MapTexel {
 // For each texel centre of the mesh's UV atlas: the face whose UV triangle holds it, or within `options.gutter` texels
 // the nearest face at its closest point; `texel(face, barycentric, x, y)` gives the value at texel (x, y), rows from
 // the top (called in parallel).
-// Writes dir/{diffuse,normal,roughness,specular}<ext> atomically; texels outside every chart are 0 (normal: +z).
+// Writes dir/{diffuse,normal,roughness,specular}<ext> (those `which` selects; the texel's other fields are ignored)
+// atomically; texels outside every chart are 0 (normal: +z).
 void write_uv_maps(const Mesh& mesh, const BakeOptions& options, const std::string& dir,
                    const std::function<MapTexel(int face, const Eigen::Vector3f& barycentric, int x, int y)>& texel,
-                   const ProgressCallback& progress = {});
+                   const ProgressCallback& progress = {}, const MapSelection& which = {});
 
 }  // namespace bareskin

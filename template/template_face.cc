@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "core/assets.h"
 #include "core/files.h"
 #include "core/error.h"
 #include "core/landmarks.h"
@@ -243,6 +244,15 @@ TemplateFace read_template(const std::string& obj_path, const std::string& landm
     }
   }
   return t;
+}
+
+std::string find_template_folder(const std::string& given) {
+  return find_data_dir(DataKind::Template, given, "face.obj");
+}
+
+TemplateFace read_template_folder(const std::string& given) {
+  const std::string dir = find_template_folder(given);
+  return read_template(dir + "/face.obj", dir + "/landmarks.json");
 }
 
 }  // namespace bareskin

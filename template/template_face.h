@@ -43,4 +43,10 @@ void write_template(const std::string& dir, const TemplateFace& face, const std:
 // nearest vertex). regions.json beside the landmarks is optional.
 TemplateFace read_template(const std::string& obj_path, const std::string& landmarks_path);
 
+// The template folder (face.obj + landmarks.json) commands use: `given` (--template) if not empty, else the search
+// path of core/assets.h (BARESKIN_TEMPLATE, then share/bareskin/template beside the executable); IoError listing the
+// places searched when there is none.
+std::string find_template_folder(const std::string& given);
+TemplateFace read_template_folder(const std::string& given);
+
 }  // namespace bareskin

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "core/error.h"
 #include "core/files.h"
@@ -160,15 +161,19 @@ void MapResizeOptions::check() const {
   if (gutter < 0 || gutter > 256) throw InvalidInput("", "--gutter must lie in [0, 256]", "");
 }
 
-MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const MapResizeOptions& options,
-                            const std::string& out_dir, const ProgressCallback& progress) {
-  options.check();
-  if (!layout.has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
-  std::vector<MapFile> maps = find_maps(in_dir);
-  MapResizeReport result;
-  // Every map: square, one size for the set, each output size dividing it.
-  const ImageFileInfo first = probe_image(maps.front().path);
-  const int N = first.width;
+namespace {
+
+// One output size of one map while it is being filtered.
+struct Output {
+  int size, factor;
+  std::vector<float> value;
+  std::vector<uint8_t> filled;
+  std::vector<float> length;  // normals: the averaged vector's length (for Toksvig)
+};
+
+// The map set: every map square, one size for the set, each output size dividing it. Sizes come back largest first.
+int check_map_set(const std::vector<MapFile>& maps, std::vector<int>& sizes) {
+  const int N = probe_image(maps.front().path).width;
   for (const MapFile& m : maps) {
     const ImageFileInfo info = probe_image(m.path);
     if (info.width != info.height) {
@@ -183,7 +188,6 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
       throw InvalidInput(m.path, "a normal map needs 3 channels, it has " + std::to_string(info.channels), "");
     }
   }
-  std::vector<int> sizes = options.sizes;
   std::sort(sizes.begin(), sizes.end(), std::greater<int>());
   sizes.erase(std::unique(sizes.begin(), sizes.end()), sizes.end());
   for (int s : sizes) {
@@ -192,13 +196,126 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
                                                 " does not divide it", "choose sizes that divide the input size");
     }
   }
+  return N;
+}
+
+// Decodes a band in place: sRGB → linear, normals (v + 1) / 2 → v; a zero normal inside an island is an error.
+void decode_band(const MapFile& m, bool decode_srgb, int C, int Cin, int N, int y0, int rows, std::vector<float>& band,
+                 const std::vector<uint8_t>& mask) {
+  parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r)
+      for (int x = 0; x < N; ++x) {
+        float* p = &band[(size_t(r) * size_t(N) + size_t(x)) * size_t(Cin)];
+        if (decode_srgb) {
+          for (int c = 0; c < std::min(C, 3); ++c) p[c] = srgb_to_linear(p[c]);
+        } else if (m.kind == Kind::Normal) {
+          for (int c = 0; c < 3; ++c) p[c] = 2 * p[c] - 1;
+          if (mask[size_t(r) * size_t(N) + size_t(x)] && p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 0.0025f) {
+            throw InvalidInput(m.path, "holds a zero normal vector at texel (" + std::to_string(x) + ", " +
+                                           std::to_string(y0 + r) + ") inside a UV island",
+                               "repair the normal map (unit vectors encoded as (n + 1) / 2)");
+          }
+        }
+      }
+  }, 8);
+}
+
+// The box filter of one output size over the band's island texels (normals renormalised, their length kept).
+void filter_band(Kind kind, int C, int Cin, int N, int y0, int rows, const std::vector<float>& band,
+                 const std::vector<uint8_t>& mask, Output& o) {
+  const int f = o.factor, out_rows = rows / f;
+  parallel_for(0, int64_t(out_rows) * o.size, [&](int64_t t0, int64_t t1) {
+    for (int64_t t = t0; t < t1; ++t) {
+      const int oy = int(t / o.size), ox = int(t % o.size);
+      double sum[4] = {0, 0, 0, 0};
+      int n = 0;
+      for (int dy = 0; dy < f; ++dy) {
+        const size_t row = size_t(oy * f + dy) * size_t(N);
+        for (int dx = 0; dx < f; ++dx) {
+          const size_t i = row + size_t(ox * f + dx);
+          if (!mask[i]) continue;
+          const float* p = &band[i * size_t(Cin)];
+          for (int c = 0; c < C; ++c) sum[c] += p[c];
+          ++n;
+        }
+      }
+      if (!n) continue;
+      const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
+      o.filled[o_i] = 1;
+      float* v = &o.value[o_i * size_t(C)];
+      for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
+      if (kind == Kind::Normal) {
+        const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        o.length[o_i] = len;
+        for (int c = 0; c < 3; ++c) v[c] /= std::max(len, 1e-12f);
+      }
+    }
+  }, 256);
+}
+
+// Toksvig: the averaged normal's length L < 1 measures the normal variance under the texel; with GGX alpha =
+// roughness^2, alpha'^2 = alpha^2 + (1 - L) / L.
+void toksvig(Output& o, int C, const std::vector<float>& L) {
+  for (size_t i = 0; i < o.filled.size(); ++i) {
+    if (!o.filled[i]) continue;
+    const double l = std::clamp(double(L[i]), 1e-3, 1.0);
+    for (int c = 0; c < C; ++c) {
+      const double a = double(o.value[i * size_t(C) + size_t(c)]) * o.value[i * size_t(C) + size_t(c)];
+      o.value[i * size_t(C) + size_t(c)] = float(std::sqrt(std::min(1.0, std::sqrt(a * a + (1 - l) / l))));
+    }
+  }
+}
+
+// Gutters, normals encoded, then the file (the values move into the image: no second copy of a 4K map).
+void write_output(Output& o, const MapFile& m, int C, const MapResizeOptions& options, const std::string& dir) {
+  fill_gutter(o.value, o.filled, o.size, C, options.gutter);
+  if (m.kind == Kind::Normal) {  // encode (n + 1) / 2; beyond the gutter, +z
+    for (size_t i = 0; i < o.filled.size(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        float& v = o.value[i * size_t(C) + size_t(c)];
+        v = o.filled[i] ? 0.5f * (v + 1) : (c == 2 ? 1.f : 0.5f);
+      }
+  }
+  Image img;
+  img.width = img.height = o.size;
+  img.channels = C;
+  img.color_space = m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data;
+  img.pixels = std::move(o.value);
+  std::vector<uint8_t>().swap(o.filled);
+  ImageWriteOptions w;
+  if (options.format == "exr") {
+    w.type = PixelType::Half;
+    w.compression = "zip";
+    w.tiled = true;
+  } else {
+    w.type = PixelType::UInt16;
+    if (m.kind == Kind::Colour) img = to_srgb(img);
+  }
+  w.mipmap = options.mipmap && options.format != "png";
+  write_image(dir + "/" + std::to_string(o.size) + "/" + m.name + "." + options.format, img, w);
+}
+
+}  // namespace
+
+MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const MapResizeOptions& options,
+                            const std::string& out_dir, const ProgressCallback& progress) {
+  // 1. The maps and sizes; the layout's islands (without a layout every texel counts: a plain resize).
+  options.check();
+  if (layout && !layout->has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
+  std::vector<MapFile> maps = find_maps(in_dir);
+  MapResizeReport result;
+  std::vector<int> sizes = options.sizes;
+  const int N = check_map_set(maps, sizes);
   result.input_size = N;
+  result.layout = layout != nullptr;
   const int F = N / sizes.back();                       // the largest factor
   const int band_rows = F * std::max(1, 128 / F);        // input rows per pass: a multiple of every factor
-  const IslandRaster raster(layout, N, band_rows);
-  result.flipped_triangles = raster.flipped;
+  std::optional<IslandRaster> raster;
+  if (layout) raster.emplace(*layout, N, band_rows);
+  result.flipped_triangles = raster ? raster->flipped : 0;
 
-  // Normal before roughness, so that Toksvig can use the normals' lengths.
+  // 2. Map by map, band by band: read, decode, box-filter into every output size. Normal before roughness, so that
+  // Toksvig can use the normals' lengths.
   std::stable_sort(maps.begin(), maps.end(), [](const MapFile& a, const MapFile& b) {
     return a.kind == Kind::Normal && b.kind != Kind::Normal;
   });
@@ -212,15 +329,8 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
     const MapFile& m = maps[mi];
     result.maps.push_back(m.name);
     ImageStreamReader in(m.path, m.kind == Kind::Colour ? std::nullopt : std::optional<ColorSpace>(ColorSpace::Data));
-    const int C = std::min(in.info().channels, 4);
-    const int Cin = in.info().channels;
+    const int C = std::min(in.info().channels, 4), Cin = in.info().channels;
     const bool decode_srgb = m.kind == Kind::Colour && in.info().color_space == ColorSpace::sRGB;
-    struct Output {
-      int size, factor;
-      std::vector<float> value;
-      std::vector<uint8_t> filled;
-      std::vector<float> length;  // normals
-    };
     std::vector<Output> outs;
     for (int s : sizes) {
       Output o{s, N / s, std::vector<float>(size_t(s) * size_t(s) * size_t(C), 0.f), std::vector<uint8_t>(size_t(s) * size_t(s), 0), {}};
@@ -232,108 +342,25 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const
     for (int64_t b = 0; b < bands; ++b) {
       const int y0 = int(b * band_rows), rows = std::min(band_rows, N - y0);
       in.read_rows(y0, y0 + rows, band.data());
-      raster.band(int(b), rows, mask, overlaps);
+      if (raster) raster->band(int(b), rows, mask, overlaps);
+      else mask.assign(size_t(rows) * size_t(N), 1);
       if (mi == 0) covered_total += std::count(mask.begin(), mask.end(), uint8_t(1));
-      // Decode in place: sRGB → linear, normals (v + 1) / 2 → v; a zero normal inside an island is an error.
-      parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
-        for (int64_t r = r0; r < r1; ++r)
-          for (int x = 0; x < N; ++x) {
-            float* p = &band[(size_t(r) * size_t(N) + size_t(x)) * size_t(Cin)];
-            if (decode_srgb) {
-              for (int c = 0; c < std::min(C, 3); ++c) p[c] = srgb_to_linear(p[c]);
-            } else if (m.kind == Kind::Normal) {
-              for (int c = 0; c < 3; ++c) p[c] = 2 * p[c] - 1;
-              if (mask[size_t(r) * size_t(N) + size_t(x)] && p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 0.0025f) {
-                throw InvalidInput(m.path, "holds a zero normal vector at texel (" + std::to_string(x) + ", " +
-                                               std::to_string(y0 + r) + ") inside a UV island",
-                                   "repair the normal map (unit vectors encoded as (n + 1) / 2)");
-              }
-            }
-          }
-      }, 8);
-      // Box filter per output size over the island texels only.
-      for (Output& o : outs) {
-        const int f = o.factor, out_rows = rows / f;
-        parallel_for(0, int64_t(out_rows) * o.size, [&](int64_t t0, int64_t t1) {
-          for (int64_t t = t0; t < t1; ++t) {
-            const int oy = int(t / o.size), ox = int(t % o.size);
-            double sum[4] = {0, 0, 0, 0};
-            int n = 0;
-            for (int dy = 0; dy < f; ++dy) {
-              const size_t row = size_t(oy * f + dy) * size_t(N);
-              for (int dx = 0; dx < f; ++dx) {
-                const size_t i = row + size_t(ox * f + dx);
-                if (!mask[i]) continue;
-                const float* p = &band[i * size_t(Cin)];
-                for (int c = 0; c < C; ++c) sum[c] += p[c];
-                ++n;
-              }
-            }
-            if (!n) continue;
-            const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
-            o.filled[o_i] = 1;
-            float* v = &o.value[o_i * size_t(C)];
-            for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
-            if (m.kind == Kind::Normal) {
-              const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-              o.length[o_i] = len;
-              for (int c = 0; c < 3; ++c) v[c] /= std::max(len, 1e-12f);
-            }
-          }
-        }, 256);
-      }
+      decode_band(m, decode_srgb, C, Cin, N, y0, rows, band, mask);
+      for (Output& o : outs) filter_band(m.kind, C, Cin, N, y0, rows, band, mask, o);
       report(progress, int64_t(mi) * bands + b + 1, int64_t(maps.size()) * bands, "resizing " + m.name);
     }
     if (mi == 0) {
       result.island_fraction = double(covered_total) / (double(N) * N);
       result.overlapping_texels = overlaps.load();
     }
-    // Toksvig: the averaged normal's length L < 1 measures the normal variance under the texel; with GGX alpha =
-    // roughness^2, alpha'^2 = alpha^2 + (1 - L) / L.
+    // 3. Toksvig, gutters, the files.
     if (m.kind == Kind::Normal) {
       for (Output& o : outs) normal_length[o.size] = o.length;
     }
     if (options.toksvig && m.name == "roughness" && !normal_length.empty()) {
-      for (Output& o : outs) {
-        const std::vector<float>& L = normal_length[o.size];
-        for (size_t i = 0; i < o.filled.size(); ++i) {
-          if (!o.filled[i]) continue;
-          const double l = std::clamp(double(L[i]), 1e-3, 1.0);
-          for (int c = 0; c < C; ++c) {
-            const double a = double(o.value[i * size_t(C) + size_t(c)]) * o.value[i * size_t(C) + size_t(c)];
-            o.value[i * size_t(C) + size_t(c)] = float(std::sqrt(std::min(1.0, std::sqrt(a * a + (1 - l) / l))));
-          }
-        }
-      }
+      for (Output& o : outs) toksvig(o, C, normal_length[o.size]);
     }
-    // Gutters, then the files.
-    for (Output& o : outs) {
-      fill_gutter(o.value, o.filled, o.size, C, options.gutter);
-      if (m.kind == Kind::Normal) {  // encode (n + 1) / 2; beyond the gutter, +z
-        for (size_t i = 0; i < o.filled.size(); ++i)
-          for (int c = 0; c < 3; ++c) {
-            float& v = o.value[i * size_t(C) + size_t(c)];
-            v = o.filled[i] ? 0.5f * (v + 1) : (c == 2 ? 1.f : 0.5f);
-          }
-      }
-      Image img;  // takes the values over: no second copy of a 4K map
-      img.width = img.height = o.size;
-      img.channels = C;
-      img.color_space = m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data;
-      img.pixels = std::move(o.value);
-      std::vector<uint8_t>().swap(o.filled);
-      ImageWriteOptions w;
-      if (options.format == "exr") {
-        w.type = PixelType::Half;
-        w.compression = "zip";
-        w.tiled = true;
-      } else {
-        w.type = PixelType::UInt16;
-        if (m.kind == Kind::Colour) img = to_srgb(img);
-      }
-      w.mipmap = options.mipmap && options.format != "png";
-      write_image(out.path() + "/" + std::to_string(o.size) + "/" + m.name + "." + options.format, img, w);
-    }
+    for (Output& o : outs) write_output(o, m, C, options, out.path());
   }
   out.commit();
   return result;

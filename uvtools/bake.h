@@ -26,6 +26,7 @@ struct MapResizeOptions {
 
 struct MapResizeReport {
   int input_size = 0;
+  bool layout = false;                // false: no layout given, every texel counted (no seam handling)
   std::vector<std::string> maps;      // the map names found, in processing order
   double island_fraction = 0;         // of input texels inside a UV island
   int flipped_triangles = 0;          // UV triangles wound against the majority
@@ -34,9 +35,10 @@ struct MapResizeReport {
 
 // Reads in_dir/{diffuse,normal,roughness,specular}.{exr,tif,tiff,png} (those present; all square and the same size)
 // and writes out_dir/<size>/<map>.<format> for every size, atomically (a failure leaves no out_dir). `layout`: a mesh
-// whose UVs define the islands (the template). InvalidInput naming the file for mixed sizes, non-square maps, sizes
-// that do not divide the input, a zero normal inside an island, truncated or NaN pixels.
-MapResizeReport resize_maps(const std::string& in_dir, const Mesh& layout, const MapResizeOptions& options,
+// whose UVs define the islands (the template); nullptr: no seam handling, a plain area-correct (box) resize per map
+// type over every texel. InvalidInput naming the file for mixed sizes, non-square maps, sizes that do not divide the
+// input, a zero normal inside an island, truncated or NaN pixels.
+MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const MapResizeOptions& options,
                             const std::string& out_dir, const ProgressCallback& progress = {});
 
 }  // namespace bareskin

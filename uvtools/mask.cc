@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "render/shade.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin {
@@ -136,6 +137,47 @@ void draw_occluder(LabelImage& img, Occluder occluder, const std::vector<Vec>& l
       break;
     }
   }
+}
+
+LabelImage label_image(const Image& img, const std::string& source) {
+  if (img.channels != 1) {
+    throw InvalidInput(source, "has " + std::to_string(img.channels) + " channels; labels are one channel of class indices",
+                       "convert the label map to a single-channel index PNG");
+  }
+  LabelImage labels;
+  labels.width = img.width;
+  labels.height = img.height;
+  labels.label.reserve(img.pixels.size());
+  for (float v : img.pixels) {
+    const long l = std::lround(v * 255);
+    if (l < 0 || l > kHand) throw InvalidInput(source, "holds label " + std::to_string(l) + ", outside 0-19", "use CelebAMask-HQ indices");
+    labels.label.push_back(uint8_t(l));
+  }
+  return labels;
+}
+
+Image to_image(const LabelImage& labels) {
+  Image out(labels.width, labels.height, 1, ColorSpace::Data);
+  for (size_t i = 0; i < labels.label.size(); ++i) out.pixels[i] = labels.label[i] / 255.f;
+  return out;
+}
+
+LabelImage synthetic_labels(const Mesh& mesh, const Camera& camera, const std::vector<int>& landmark_vertices,
+                            const std::vector<Occluder>& occluders, uint64_t seed) {
+  std::vector<Eigen::Vector2d> lm;
+  for (int id : landmark_vertices) {
+    if (id < 0 || id >= mesh.V.rows()) throw InvalidInput("landmarks", "vertex id " + std::to_string(id) + " is outside the mesh", "");
+    const Eigen::Vector3d p = camera.project(mesh.V.row(id).transpose());
+    lm.emplace_back(p.x(), p.y());
+  }
+  LabelImage labels;
+  labels.width = camera.width;
+  labels.height = camera.height;
+  const Frame frame = render_frame(mesh, camera, ShadeOptions());
+  for (float m : frame.mask.pixels) labels.label.push_back(m > 0 ? kSkin : kBackground);
+  std::mt19937_64 rng(seed);
+  for (Occluder o : occluders) draw_occluder(labels, o, lm, rng);
+  return labels;
 }
 
 std::vector<uint8_t> uv_face_mask(const LabelImage& labels, const Mesh& mesh, const Camera& camera, int size,

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/image.h"
 #include "core/mesh.h"
 #include "render/camera.h"
 
@@ -35,6 +36,17 @@ const char* to_string(Occluder o);
 
 // Paints an occluder over `labels`, shaped and placed at random (from `rng`) relative to the 68 landmarks in pixels.
 void draw_occluder(LabelImage& labels, Occluder occluder, const std::vector<Eigen::Vector2d>& landmarks, std::mt19937_64& rng);
+
+// A label image from a one-channel image of class indices (index = value * 255): InvalidInput naming `source` for more
+// channels or a label above 19. And back (8-bit data).
+LabelImage label_image(const Image& img, const std::string& source);
+Image to_image(const LabelImage& labels);
+
+// Synthetic labels: the mesh as the camera sees it (skin where it covers, background elsewhere), covered by the
+// occluders drawn at random (seeded) around the projected landmark vertices. InvalidInput for a landmark vertex
+// outside the mesh.
+LabelImage synthetic_labels(const Mesh& mesh, const Camera& camera, const std::vector<int>& landmark_vertices,
+                            const std::vector<Occluder>& occluders, uint64_t seed);
 
 // The UV mask (size x size, 1 = face surface seen and uncovered) of a label image through the mesh and camera.
 // InvalidInput when the labels' size is not the camera's.

@@ -1,10 +1,8 @@
 #!/usr/bin/env bash
 # --config: a JSON file sets flags, the command line wins over it, and the resolved config.json written next to the
 # outputs reproduces the run when fed back.
-set -eu
-bin=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+source "$(dirname "$0")/lib.sh" "$@"
+set -e
 vertices() { "$bin" inspect --json "$1/face.obj" | /usr/bin/python3 -c 'import json,sys; print(json.load(sys.stdin)["vertices"])'; }
 near() { /usr/bin/python3 -c "import sys; a,b=int(sys.argv[1]),int(sys.argv[2]); sys.exit(abs(a-b) > 0.05*b)" "$1" "$2"; }
 

@@ -3,14 +3,9 @@
 # a render of a synthetic scan: same faces, scores within 1e-3, points within 0.5 px. Grey, 16-bit and 8K photos
 # work; landmarks scan + scan register without landmarks.json work on a synthetic scan; bad input (not an image, a
 # tiny image, no face, truncated weights, a manifest of another model) gets one line, exit 3, and no output.
-set -u
-bin=$1
-here=$(cd "$(dirname "$0")" && pwd)
+source "$(dirname "$0")/lib.sh" "$@"
 assets=${BARESKIN_ASSETS:-$here/../../assets}
 export BARESKIN_ASSETS=$assets
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
 passed=0
 ok() { passed=$((passed + 1)); }
 astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
@@ -98,10 +93,7 @@ ok
 expect_error() {  # expect_error NAME NEEDLE args...
   local name=$1 needle=$2
   shift 2
-  "$bin" landmarks detect -q "$@" -o "$work/bad_$name.json" 2> "$work/err"
-  local code=$?
-  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
-    && [ ! -e "$work/bad_$name.json" ] || fail "$name: exit $code: $(cat "$work/err")"
+  expect_failure 3 "$needle" "$work/bad_$name.json" -- "$bin" landmarks detect -q "$@" -o "$work/bad_$name.json"
   ok
 }
 echo "not an image" > "$work/text.png"

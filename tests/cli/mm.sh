@@ -5,13 +5,7 @@
 # triangle list, a NaN vertex, too few subjects, identical subjects, too many components asked, a missing diffuse map:
 # each one line naming the problem, exit 3, no model written. Last, mm-build from scans is killed with -9 while it
 # registers and rerun: the model is identical to an uninterrupted build.
-set -u
-bin=$1
-here=$(cd "$(dirname "$0")" && pwd)
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
-py=/usr/bin/python3
+source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 8 --vertices 8000 --res 64 --truth-res 64 -o "$work/s" || fail "synth"
 for s in "$work"/s/subject_*; do
@@ -74,9 +68,8 @@ echo '{"alpha": [2, -1], "beta": [1], "delta": [1], "rotation": [0, 0.3, 0]}' > 
 "$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/fit.json" --camera pinhole --passes colour,mask \
   --size 64 -o "$work/model_{pass}.png" || fail "render model"
 oiiotool --stats "$work/model_mask.png" | grep -q "Stats Max: 255 (of 255)" || fail "render model: empty mask"
-"$bin" render -q "$work/m/obj/mean.obj" --model "$work/m/model.safetensors" --coeffs "$work/fit.json" -o "$work/x.png" \
-  2> "$work/err"
-[ $? -eq 3 ] && grep -q "give a mesh, or --model" "$work/err" || fail "render mesh and model: $(cat "$work/err")"
+expect_failure 3 "give a mesh, or --model" "$work/x.png" -- \
+  "$bin" render -q "$work/m/obj/mean.obj" --model "$work/m/model.safetensors" --coeffs "$work/fit.json" -o "$work/x.png"
 # mm-fit: landmarks of a render at known coefficients give the coefficients back.
 echo '{"alpha": [1.2, -0.8, 0.5], "delta": [0.8], "rotation": [0.05, 0.25, -0.03], "translation": [5, -8, 20]}' \
   > "$work/truth.json"
@@ -104,9 +97,8 @@ assert abs(f["delta"][0] - 0.8) < 0.2 and f["photometric_psnr_db"] > 30, (f["del
 print(f"ok   mm-fit: landmark RMS {f['landmark_rms_px']:.3f} px, photometric PSNR {f['photometric_psnr_db']:.1f} dB, "
       f"delta {f['delta'][0]:.3f} (true 0.8)")
 PY
-"$bin" mm-fit -q "$work/truth.png" --model "$work/m/model.safetensors" --landmarks "$work/t/landmarks.json" \
-  -o "$work/bad_fit.json" 2> "$work/err"
-[ $? -eq 3 ] && grep -q "68 2D landmarks" "$work/err" && [ ! -e "$work/bad_fit.json" ] || fail "mm-fit 3D landmarks: $(cat "$work/err")"
+expect_failure 3 "68 2D landmarks" "$work/bad_fit.json" -- "$bin" mm-fit -q "$work/truth.png" \
+  --model "$work/m/model.safetensors" --landmarks "$work/t/landmarks.json" -o "$work/bad_fit.json"
 grep -q '<polyline' "$work/trace_landmarks.svg" && grep -q '<polyline' "$work/trace_photometric.svg" || fail "mm-fit trace charts"
 # --skin-mask: a glove painted over a cheek pulls δ and γ when every face pixel counts; with the glove masked out the
 # fit recovers δ as on the clean render. A mask of another size is refused.
@@ -136,13 +128,11 @@ assert skin["photometric_pixels"] < none["photometric_pixels"]
 assert abs(none["delta"][0] - 0.8) > 2 * abs(skin["delta"][0] - 0.8), (none["delta"][0], skin["delta"][0])
 print(f"ok   mm-fit --skin-mask: delta {skin['delta'][0]:.3f} with the glove masked, {none['delta'][0]:.3f} without (true 0.8)")
 PY
-"$bin" mm-fit -q "$work/occluded.png" --model "$work/m/model.safetensors" --landmarks "$work/lm.json" \
-  --skin-mask "$work/skin_small.png" -o "$work/bad_mask.json" 2> "$work/err"
-[ $? -eq 3 ] && grep -q "skin_small.png.*64x64" "$work/err" && [ ! -e "$work/bad_mask.json" ] || fail "mm-fit mask size: $(cat "$work/err")"
+expect_failure 3 "skin_small.png: is 64x64" "$work/bad_mask.json" -- "$bin" mm-fit -q "$work/occluded.png" \
+  --model "$work/m/model.safetensors" --landmarks "$work/lm.json" --skin-mask "$work/skin_small.png" -o "$work/bad_mask.json"
 echo '{"alpha": [1, "x"]}' > "$work/badc.json"
-"$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr" \
-  2> "$work/err"
-[ $? -eq 3 ] && grep -q "alpha holds a value" "$work/err" || fail "bad coefficients: $(cat "$work/err")"
+expect_failure 3 "alpha holds a value" "$work/x.exr" -- \
+  "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr"
 
 # Bad input: one line, exit 3, no model.
 broken() {  # broken NAME: a copy of the registered set to break
@@ -152,15 +142,12 @@ broken() {  # broken NAME: a copy of the registered set to break
 expect_error() {  # expect_error NAME NEEDLE mm-build-args...
   local name=$1 needle=$2
   shift 2
-  build "$@" -o "$work/out_$name/model.safetensors" 2> "$work/err"
-  local code=$?
-  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
-    && [ ! -e "$work/out_$name/model.safetensors" ] || fail "$name: exit $code: $(cat "$work/err")"
+  expect_failure 3 "$needle" "$work/out_$name/model.safetensors" -- build "$@" -o "$work/out_$name/model.safetensors"
 }
 d=$(broken vertices)
 $py -c "import sys; p=sys.argv[1]; l=open(p).readlines(); i=max(k for k,x in enumerate(l) if x.startswith('v ')); open(p,'w').writelines(l[:i+1]+[l[i]]+l[i+1:])" \
   "$d/subject_0003/mesh.obj"
-expect_error vertices "subject_0003/mesh.obj: has .* vertices, the template" --registered "$d"
+expect_error vertices "vertices, the template" --registered "$d"
 d=$(broken triangles)
 $py -c "import sys; p=sys.argv[1]; l=open(p).readlines(); i=[k for k,x in enumerate(l) if x.startswith('f ')]; l[i[0]],l[i[1]]=l[i[1]],l[i[0]]; open(p,'w').writelines(l)" \
   "$d/subject_0002/mesh.obj"
@@ -173,9 +160,45 @@ expect_error few "at least 3 subjects" --registered "$work/b_few"
 mkdir -p "$work/b_same" && for k in 1 2 3 4; do cp -r "$work/r/subject_0000" "$work/b_same/subject_$k"; done
 expect_error same "no variance" --registered "$work/b_same"
 expect_error components "50 components asked" --registered "$work/r" --shape-components 50
+# Geometry without maps (photogrammetry gives a diffuse map or none): a subject without a diffuse map is left out of
+# the appearance model and named; the appearance mean is then the numpy mean of the other seven maps. With no maps
+# at all there is no appearance model (a warning), or one line and exit 3 when a component count was asked for.
 d=$(broken nomap)
 rm "$d/subject_0004/diffuse.png"
-expect_error nomap "subject_0004: has no diffuse" --registered "$d"
+build --registered "$d" -o "$work/out_nomap/model.safetensors" 2> "$work/err" || fail "nomap: $(cat "$work/err")"
+grep -q "1 of 8 subjects have no diffuse map (subject_0004)" "$work/err" || fail "nomap: no warning: $(cat "$work/err")"
+$py - "$here/../python" "$d" "$work/out_nomap" <<'PY' || fail "nomap: appearance model"
+import json, os, sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import read
+from safetensors_oracle import read_safetensors
+from mm_oracle import srgb_to_linear
+reg, out = sys.argv[2], sys.argv[3]
+summary = json.load(open(out + "/model.build.json"))
+assert summary["subjects_without_diffuse"] == ["subject_0004"], summary["subjects_without_diffuse"]
+assert summary["appearance_subjects"] == 7 and summary["subjects"] == 8, summary
+t = read_safetensors(out + "/model.safetensors")[1]
+R = t["appearance_mean"].shape[0]
+mask = t["appearance_mask"].astype(bool)
+maps = [f"{reg}/{s}/diffuse.png" for s in sorted(os.listdir(reg)) if os.path.exists(f"{reg}/{s}/diffuse.png")]
+assert len(maps) == 7
+def box(path):  # the map box-filtered to R x R in linear light
+    img = srgb_to_linear(read(path)[..., :3])
+    f = img.shape[0] // R
+    return img.reshape(R, f, R, f, 3).mean((1, 3))
+acc = sum(box(p) for p in maps) / 7
+err = np.abs(acc[mask] - t["appearance_mean"][mask]).max()
+assert err < 1e-4, err
+print(f"ok   mm-build without one diffuse map: appearance mean of the 7 with maps, max difference {err:.2e}")
+PY
+d=$(broken nomaps)
+rm "$d"/subject_*/diffuse.png
+build --registered "$d" -o "$work/out_nomaps/model.safetensors" 2> "$work/err" || fail "nomaps: $(cat "$work/err")"
+grep -q "0 of 8 subjects have a diffuse map" "$work/err" || fail "nomaps: no warning: $(cat "$work/err")"
+$py -c "import json,sys; s=json.load(open(sys.argv[1])); assert s['components']['appearance'] == 0, s" \
+  "$work/out_nomaps/model.build.json" || fail "nomaps: an appearance model from no maps"
+expect_error nomaps_asked "0 of 8 subjects have a diffuse map" --registered "$d" --appearance-components 3
 
 # kill -9 while registering, rerun: identical model (same paths, so the same provenance line).
 clean_build() { build "$work/s" --registered "$work/k/registered" --maps-res 64 -o "$work/k/model.safetensors"; }

@@ -3,11 +3,7 @@
 # colour's background, a weak-perspective camera and an SH file work; bad input (several views without {view}, an SH
 # file without 27 numbers, a NaN vertex, --draw-landmarks without landmark vertices) gets one line and exit 3, and no
 # image; --draw-landmarks draws at the points --landmarks-out writes.
-set -u
-bin=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
+source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 mesh=$work/t/face.obj
 "$bin" render -q "$mesh" --camera pinhole --views front,left,right --passes colour,albedo,depth,mask --size 96 \
@@ -46,10 +42,7 @@ echo '[0.8,0,0,0,0,0,0,0,0, 0.8,0,0,0,0,0,0,0,0, 0.8,0,0,0,0,0,0,0,0]' > "$work/
 expect_error() {  # expect_error NAME NEEDLE render-args...
   local name=$1 needle=$2
   shift 2
-  "$bin" render -q "$@" -o "$work/bad_$name.png" 2> "$work/err"
-  local code=$?
-  [ $code -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "$needle" "$work/err" \
-    && [ ! -e "$work/bad_$name.png" ] || fail "$name: exit $code: $(cat "$work/err")"
+  expect_failure 3 "$needle" "$work/bad_$name.png" -- "$bin" render -q "$@" -o "$work/bad_$name.png"
 }
 expect_error views "{view}" "$mesh" --camera pinhole --views front,left
 echo '[1, 2, 3]' > "$work/short.json"

@@ -1,10 +1,9 @@
 #!/usr/bin/env bash
 # Both directions against numpy, which knows nothing of our code: numpy writes a file per the specification and our
 # reader must report the same tensors; our template writer's file must parse with numpy and match its OBJ twin.
-set -eu
-bin=$1 oracle=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+source "$(dirname "$0")/lib.sh" "$@"
+set -e
+oracle=$2
 /usr/bin/python3 "$oracle" --write "$work/ref.safetensors" > "$work/expected.json"
 "$bin" inspect --json --stats "$work/ref.safetensors" > "$work/ours.json"
 /usr/bin/python3 - "$work/expected.json" "$work/ours.json" <<'PY'

@@ -1,11 +1,7 @@
 #!/usr/bin/env bash
 # scan synth maps: readable by oiiotool (an independent reader) in each format, truth maps, kill -9 + resume gives the
 # same bytes as an uninterrupted run, bad map options get one line and exit 3.
-set -u
-bin=$1
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-fail() { echo "FAIL: $*"; exit 1; }
+source "$(dirname "$0")/lib.sh" "$@"
 passed=0
 ok() { passed=$((passed + 1)); }
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
@@ -46,10 +42,7 @@ done
 [ -z "$(find "$work/killed" -name '.*partial*')" ] || fail "a partial subject was left behind"
 ok
 
-synth --count 1 --res 128 --map-format bmp -o "$work/bad" 2> "$work/err"
-[ $? -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q "map format" "$work/err" && [ ! -e "$work/bad" ] \
-  || fail "bad map format: $(cat "$work/err")"
-synth --count 1 --res 5 -o "$work/bad" 2> "$work/err"
-[ $? -eq 3 ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -q -- "--res" "$work/err" || fail "bad --res: $(cat "$work/err")"
+expect_failure 3 "map format" "$work/bad" -- synth --count 1 --res 128 --map-format bmp -o "$work/bad"
+expect_failure 3 "--res" "$work/bad" -- synth --count 1 --res 5 -o "$work/bad"
 ok
 echo "$passed passed, 0 failed"

@@ -8,6 +8,7 @@
    output texel lies inside an island.
 
 usage: bake_oracle.py LAYOUT.obj INPUT_DIR OUTPUT_DIR SIZE [SIZE...]
+       LAYOUT "-": a bake without a layout, where every texel counts (a plain box filter per map type).
 """
 import os
 import subprocess
@@ -65,7 +66,7 @@ def main(layout, src, dst, sizes):
             for e in (".exr", ".tif", ".png") if os.path.exists(f"{src}/{m}{e}")]
     first = next(f"{src}/{maps[0]}{e}" for e in (".exr", ".tif", ".png") if os.path.exists(f"{src}/{maps[0]}{e}"))
     n = read(first).shape[0]
-    mask = island_mask(layout, n)
+    mask = island_mask(layout, n) if layout != "-" else np.ones((n, n), bool)
     for m in maps:
         path = next(f"{src}/{m}{e}" for e in (".exr", ".tif", ".png") if os.path.exists(f"{src}/{m}{e}"))
         img = read(path)

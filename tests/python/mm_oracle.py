@@ -108,11 +108,12 @@ def main(model_path, registered, metrics_csv, export=None):
         R = t["appearance_mean"].shape[0]
         mask = t["appearance_mask"].astype(bool)
         acc = np.zeros((R, R, 3))
-        for s in subjects:
+        with_maps = [s for s in subjects if os.path.exists(f"{registered}/{s}/diffuse.png")]  # others are left out
+        for s in with_maps:
             img = srgb_to_linear(read(f"{registered}/{s}/diffuse.png")[..., :3])
             f = img.shape[0] // R
             acc += img.reshape(R, f, R, f, 3).mean((1, 3))
-        acc /= n
+        acc /= len(with_maps)
         err = np.abs(acc[mask] - t["appearance_mean"][mask]).max()
         good &= check("appearance mean", err < 1e-4, f"max difference over {mask.sum()} texels {err:.2e}")
 

@@ -1,0 +1,17 @@
+// What the geometry commands take from the Torch side when it is built (BARESKIN_WITH_DETECT): the scan landmark
+// detector that `scan register` and `mm-build` use for scans without landmarks.json. Defined in
+// apps/landmarks_command.cc, or in apps/scan_command.cc as "none" without the Torch side.
+#pragma once
+#include "apps/cli.h"
+#include "scan/register_folder.h"
+
+namespace bareskin::cli {
+
+// face-api's networks on a front render of the scan (detect/scan_landmarks.h); sets LibTorch's threads from --threads.
+// Empty without the Torch side: such scans then take the fallback alignment.
+ScanLandmarkDetector scan_landmark_detector(const Globals& globals);
+
+// LibTorch's intra-op threads follow --threads (0: every core). A no-op without the Torch side.
+void set_torch_threads(const Globals& globals);
+
+}  // namespace bareskin::cli

@@ -1,0 +1,307 @@
+#include "scan/register_folder.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/mesh_io.h"
+#include "core/parallel.h"
+#include "core/safetensors.h"
+#include "render/preview.h"
+#include "scan/transfer.h"
+
+namespace bareskin {
+namespace {
+
+namespace fs = std::filesystem;
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Where a scan's landmarks come from: its landmarks.json, the detector, or none (the fallback alignment). Detected
+// points are a few mm off (docs/cli.md): they place the template, then give way to the surface early.
+struct ScanLandmarkSource {
+  std::optional<Landmarks> landmarks;
+  nlohmann::json detected;  // null unless detected
+  RegisterOptions nicp;
+};
+
+ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, const std::string& scan_dir,
+                                  const RegisterFolderOptions& options) {
+  ScanLandmarkSource out;
+  out.nicp = options.nicp;
+  if (options.no_landmarks) return out;
+  if (fs::exists(scan_dir + "/landmarks.json")) {
+    out.landmarks = read_landmarks(scan_dir + "/landmarks.json");
+    check_scan_landmarks(face, *out.landmarks, scan_dir + "/landmarks.json");
+    return out;
+  }
+  if (!options.detect) return out;
+  std::optional<Image> diffuse;
+  if (const std::string p = find_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) diffuse = to_linear(read_image(p));
+  const DetectedLandmarks found = options.detect(scan, diffuse ? &*diffuse : nullptr);
+  out.landmarks = found.landmarks;
+  for (int k = 17; k < 68; ++k) out.nicp.landmark_ids.push_back(k);
+  for (size_t i = 0; i < out.nicp.landmark_weight.size(); ++i)
+    out.nicp.landmark_weight[i] = i < 3 ? 10.0 / std::pow(3.0, double(i)) : 0;
+  out.detected = {{"detector_score", found.detector_score}, {"used", "17-67 (the jaw contour is left out)"},
+                  {"snapped_to_silhouette", found.snapped_to_silhouette}};
+  return out;
+}
+
+// The dense truth correspondence, when the scan came from `scan synth`.
+struct Truth {
+  std::optional<Eigen::MatrixX3d> point;
+  std::optional<Eigen::VectorXi> face;
+};
+
+Truth read_truth(const std::string& scan_dir, int64_t template_vertices) {
+  Truth t;
+  const std::string path = scan_dir + "/truth/correspondence.safetensors";
+  if (!fs::exists(path)) return t;
+  const SafeTensors truth = SafeTensors::open(path);
+  const int64_t n = template_vertices;
+  const std::vector<float> p = truth.tensor("template_to_scan_point", DType::F32, {n, 3}).to_vector<float>();
+  const std::vector<int32_t> f = truth.tensor("template_to_scan_face", DType::I32, {n}).to_vector<int32_t>();
+  t.point = Eigen::Map<const Eigen::Matrix<float, -1, 3, Eigen::RowMajor>>(p.data(), n, 3).cast<double>();
+  t.face = Eigen::Map<const Eigen::VectorXi>(f.data(), n);
+  return t;
+}
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The detected points against the template's landmark vertices carried onto the scan by the truth.
+nlohmann::json detected_vs_truth(const TemplateFace& face, const Landmarks& landmarks, const Eigen::MatrixX3d& truth) {
+  std::vector<double> e;
+  for (int k = 0; k < 68; ++k) e.push_back((landmarks.points.row(k) - truth.row(face.landmark_vertices[size_t(k)])).norm());
+  return {{"median", median(e)}, {"median_17_67", median(std::vector<double>(e.begin() + 17, e.end()))}};
+}
+
+// Whichever maps the scan has, into the template UV at options.maps.resolution; the report's "maps" entry.
+nlohmann::json transfer_scan_maps(const Mesh& registered, const Mesh& scan, const std::string& scan_dir,
+                                  const std::string& out_dir, const BakeOptions& maps_options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ScanMaps maps = read_scan_maps(scan_dir);
+  nlohmann::json j = {{"transferred", maps.names()}};
+  if (!maps.present().any()) {
+    j["note"] = "the scan has no diffuse, normal, roughness or specular map: geometry only";
+    return j;
+  }
+  const TransferResult tr = transfer_maps(registered, scan, maps, maps_options, out_dir);
+  j["resolution"] = maps_options.resolution;
+  j["seconds"] = seconds_since(t0);
+  const std::string truth_maps = scan_dir + "/truth/maps";
+  const std::string truth_diffuse = truth_maps + "/diffuse" + map_extension(maps_options.format);
+  if (fs::exists(truth_diffuse) && probe_image(truth_diffuse).width == maps_options.resolution) {
+    const TransferErrors te = compare_maps(out_dir, truth_maps, tr.texel_class);
+    nlohmann::json vs = {{"texels_away_from_seams", te.texels}};
+    if (te.has_diffuse) vs["diffuse_psnr_db"] = te.diffuse_psnr_db;
+    if (te.has_normal) vs["normal_angle_median_deg"] = te.normal_median_deg, vs["normal_angle_p95_deg"] = te.normal_p95_deg;
+    j["vs_truth"] = vs;
+  }
+  return j;
+}
+
+// QA: the error per vertex as a heat map (blue 0 .. red heat_max_mm), front and left.
+void write_qa(const Mesh& registered, const Eigen::VectorXd& per_vertex, double heat_max_mm, const std::string& dir) {
+  PreviewOptions preview;
+  preview.size = 512;
+  preview.wireframe = false;
+  preview.vertex_colors.resize(registered.V.rows(), 3);
+  for (Eigen::Index i = 0; i < registered.V.rows(); ++i) {
+    preview.vertex_colors.row(i) = heat_color(per_vertex(i) / heat_max_mm).transpose();
+  }
+  write_image(dir + "/qa_front.png", render_preview(registered, preview));
+  preview.view = PreviewView::Left;
+  write_image(dir + "/qa_left.png", render_preview(registered, preview));
+}
+
+nlohmann::json registration_report(const std::string& id, const std::string& mesh_path, const Mesh& scan,
+                                   const Registration& reg, const RegistrationErrors& err, const nlohmann::json& detected) {
+  const RegistrationStats& s = reg.stats;
+  nlohmann::json report;
+  report["subject"] = id;
+  report["scan"] = mesh_path;
+  report["scan_vertices"] = scan.V.rows();
+  report["scan_triangles"] = scan.F.rows();
+  report["alignment"] = !s.used_landmarks ? "FALLBACK: no landmarks; centroid + RMS radius + similarity ICP"
+                        : detected.is_null() ? "landmarks (Umeyama similarity)"
+                                             : "detected landmarks 17-67 (Umeyama similarity)";
+  if (!detected.is_null()) report["landmarks_detected"] = detected;
+  report["similarity_scale"] = s.similarity_scale;
+  report["landmark_rms_after_similarity_mm"] = s.landmark_rms_after_similarity_mm;
+  report["nicp_iterations"] = s.iterations;
+  report["nicp_nodes"] = s.nodes;
+  report["accepted_fraction"] = s.accepted_fraction;
+  report["surface_distance_mm"] = {{"median", err.distance_median}, {"p95", err.distance_p95}, {"max", err.distance_max}};
+  if (err.has_truth) {
+    report["correspondence_error_mm"] = {
+        {"median", err.correspondence_median}, {"p95", err.correspondence_p95}, {"max", err.correspondence_max}};
+  }
+  if (err.has_landmarks) report["landmark_error_mm"] = {{"mean", err.landmark_mean}, {"max", err.landmark_max}};
+  return report;
+}
+
+nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const RegisterFolderOptions& options) {
+  // 1. Read the scan and its landmarks (given, detected or none).
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string id = fs::path(scan_dir).filename().string(), mesh_path = scan_mesh_path(scan_dir);
+  const Mesh scan = read_mesh(mesh_path);
+  const ScanLandmarkSource lm = scan_landmarks(face, scan, scan_dir, options);
+  const Landmarks* landmarks = lm.landmarks ? &*lm.landmarks : nullptr;
+  const double read_seconds = seconds_since(t0);
+
+  // 2. Register, and measure against the surface, the landmarks and (for synthetic scans) the truth.
+  const Registration reg = register_scan(face, scan, landmarks, lm.nicp);
+  const Truth truth = read_truth(scan_dir, face.mesh.V.rows());
+  const RegistrationErrors err = measure_registration(face, reg.V, scan, landmarks, truth.point ? &*truth.point : nullptr,
+                                                      truth.face ? &*truth.face : nullptr);
+
+  // 3. Outputs: the registered mesh, the maps the scan has, QA pictures, the report; all or nothing.
+  AtomicDirectory out(options.output + "/" + id);
+  nlohmann::json detected = lm.detected;
+  if (!detected.is_null()) {
+    write_landmarks(out.path() + "/landmarks_detected.json", *landmarks);
+    if (truth.point) detected["error_vs_truth_mm"] = detected_vs_truth(face, *landmarks, *truth.point);
+  }
+  Mesh registered = face.mesh;
+  registered.V = reg.V;
+  registered.N = vertex_normals(registered.V, registered.F);
+  write_mesh(out.path() + "/mesh.ply", registered);  // binary PLY: template topology, per-vertex UVs
+  nlohmann::json maps;
+  if (options.maps.resolution > 0) maps = transfer_scan_maps(registered, scan, scan_dir, out.path(), options.maps);
+  write_qa(registered, err.per_vertex, options.heat_max_mm, out.path());
+
+  nlohmann::json report = registration_report(id, mesh_path, scan, reg, err, detected);
+  const RegistrationStats& s = reg.stats;
+  report["seconds"] = {{"read", read_seconds},
+                       {"similarity", s.seconds_similarity},
+                       {"nicp", s.seconds_nicp},
+                       {"nicp_correspondences", s.seconds_correspond},
+                       {"nicp_factorize_solve", s.seconds_factorize},
+                       {"total", seconds_since(t0)}};
+  if (!maps.is_null()) report["maps"] = maps;
+  report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
+                                   ", blue 0 to red " + std::to_string(options.heat_max_mm) + " mm"}};
+  write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");
+  out.commit();
+  return report;
+}
+
+std::vector<std::string> scan_folders(const std::string& scans) {
+  if (!fs::is_directory(scans)) {
+    throw IoError(scans, "is not a folder", "give the folder 'scan synth' wrote, or one of scan folders");
+  }
+  std::vector<std::string> dirs;
+  for (const auto& entry : fs::directory_iterator(scans)) {
+    const std::string name = entry.path().filename().string();
+    if (!entry.is_directory() || name.empty() || name[0] == '.' || name == "blendshapes") continue;
+    dirs.push_back(entry.path().string());
+  }
+  std::sort(dirs.begin(), dirs.end());
+  if (dirs.empty()) throw InvalidInput(scans, "holds no scan folders", "run 'bareskin scan synth' first");
+  return dirs;
+}
+
+void log_report(const nlohmann::json& r) {
+  std::string line = fmt::format("{}: surface distance median {:.3f} mm", r["subject"].get<std::string>(),
+                                 r["surface_distance_mm"]["median"].get<double>());
+  if (r.contains("correspondence_error_mm")) {
+    line += fmt::format(", correspondence error median {:.3f} / p95 {:.3f} mm",
+                        r["correspondence_error_mm"]["median"].get<double>(), r["correspondence_error_mm"]["p95"].get<double>());
+  }
+  if (r.contains("landmark_error_mm")) line += fmt::format(", landmarks {:.2f} mm", r["landmark_error_mm"]["mean"].get<double>());
+  if (r.contains("maps") && r["maps"].contains("vs_truth")) {
+    const auto& vs = r["maps"]["vs_truth"];
+    if (vs.contains("diffuse_psnr_db")) line += fmt::format(", diffuse PSNR {:.1f} dB", vs["diffuse_psnr_db"].get<double>());
+    if (vs.contains("normal_angle_median_deg"))
+      line += fmt::format(", normals {:.2f} deg", vs["normal_angle_median_deg"].get<double>());
+  }
+  if (r.contains("maps")) {
+    const auto& t = r["maps"]["transferred"];
+    if (t.empty()) line += ", no maps (geometry only)";
+    else if (t.size() < 4) line += ", maps: " + t.dump();
+  }
+  spdlog::info("{}, {:.1f} s", line, r["seconds"]["total"].get<double>());
+}
+
+}  // namespace
+
+std::string scan_mesh_path(const std::string& dir) {
+  for (const char* name : {"/mesh.obj", "/mesh.ply"}) {
+    if (fs::exists(dir + name)) return dir + name;
+  }
+  throw InvalidInput(dir, "holds no mesh.obj or mesh.ply", "point --scans at a folder of scan folders");
+}
+
+std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
+                                         const ProgressCallback& progress) {
+  // 1. The scan folders, and which of them still need registering.
+  const std::vector<std::string> dirs = scan_folders(options.scans);
+  make_directories(options.output);
+  const auto out_dir = [&](const std::string& d) { return options.output + "/" + fs::path(d).filename().string(); };
+  std::vector<std::string> todo;
+  for (const std::string& d : dirs)
+    if (!fs::exists(out_dir(d) + "/report.json")) todo.push_back(d);
+  if (todo.size() < dirs.size()) {
+    spdlog::info("scan register: {} of {} scans already registered, skipped", dirs.size() - todo.size(), dirs.size());
+  }
+
+  // 2. Register them, in parallel over scans (one scan: the registration's own loops get every thread).
+  std::atomic<int> done{0};
+  std::mutex failures_mutex;
+  std::vector<std::pair<std::string, std::string>> failures;
+  const auto one = [&](int64_t k) {
+    try {
+      register_one(face, todo[size_t(k)], options);
+    } catch (const std::exception& e) {
+      if (!options.keep_going) throw;
+      std::lock_guard<std::mutex> lock(failures_mutex);
+      failures.emplace_back(todo[size_t(k)], e.what());
+    }
+    report(progress, ++done, int64_t(todo.size()), "scans");
+  };
+  if (todo.size() == 1) {
+    one(0);
+  } else {
+    parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+      for (int64_t k = b; k < e; ++k) one(k);
+    });
+  }
+
+  // 3. The summary over every registered scan (including ones from earlier runs), and the failures.
+  nlohmann::json summary, rows = nlohmann::json::array();
+  for (const std::string& d : dirs) {
+    const std::string report_path = out_dir(d) + "/report.json";
+    if (fs::exists(report_path)) rows.push_back(nlohmann::json::parse(read_file(report_path)));
+  }
+  summary["format"] = "bareskin.registration_summary";
+  summary["scans"] = rows;
+  summary["failures"] = nlohmann::json::array();
+  for (const auto& [dir, why] : failures) summary["failures"].push_back({{"scan", dir}, {"error", why}});
+  write_file_atomic(options.output + "/summary.json", summary.dump(1) + "\n");
+  for (const auto& r : rows) log_report(r);
+  if (!failures.empty()) {
+    for (const auto& [dir, why] : failures) spdlog::error("{}: {}", dir, why);
+    throw InvalidInput(options.scans, std::to_string(failures.size()) + " scan(s) failed (listed above and in summary.json)",
+                       "fix them and rerun: registered scans are skipped");
+  }
+  std::vector<std::string> registered;
+  for (const std::string& d : dirs) registered.push_back(out_dir(d));
+  return registered;
+}
+
+}  // namespace bareskin

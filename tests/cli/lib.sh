@@ -1,0 +1,29 @@
+# The shared prologue of the command-line tests. A test starts with
+#   source "$(dirname "$0")/lib.sh" "$@"
+# (its first argument is the bareskin binary) and gets:
+#   bin   the binary;  here  tests/cli;  py  the system python3 (numpy, skimage);  work  a temporary folder, removed on
+#   exit;  fail MESSAGE (prints FAIL: MESSAGE, exits 1);  error_ok / expect_failure (below).
+set -u
+bin=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")  # absolute: some tests run from another folder
+here=$(cd "$(dirname "${BASH_SOURCE[1]}")" && pwd)
+py=/usr/bin/python3
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+# error_ok CODE NEEDLE OUTPUT -- command...: runs the command; true when it exits with CODE, prints exactly one line on
+# stderr, that line holds NEEDLE (a fixed string), and OUTPUT (when not empty) was not left behind. The stderr stays
+# in $work/err, the exit code in $error_code.
+error_ok() {
+  local code=$1 needle=$2 output=$3
+  shift 4
+  "$@" > /dev/null 2> "$work/err"
+  error_code=$?
+  [ "$error_code" -eq "$code" ] && [ "$(grep -c . "$work/err")" -eq 1 ] && grep -qF -- "$needle" "$work/err" \
+    && { [ -z "$output" ] || [ ! -e "$output" ]; }
+}
+
+# expect_failure CODE NEEDLE OUTPUT -- command...: error_ok, or fail naming the command, its exit code and stderr.
+expect_failure() {
+  error_ok "$@" || fail "$* -> exit $error_code: $(cat "$work/err")"
+}

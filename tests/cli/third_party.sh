@@ -1,0 +1,114 @@
+#!/usr/bin/env bash
+# Scans as users bring them rather than as `scan synth` writes them, each through the real command line:
+# - a quad mesh (an artist's cleaned mesh): triangulated on read with its UV seams, -v says so, it registers as well
+#   as the triangle mesh it came from and its maps transfer;
+# - a scan with a diffuse map only (photogrammetry), and one with no maps: the geometry registers, the maps it has are
+#   transferred, the report says which;
+# - run from another folder (/) without BARESKIN_ASSETS: the template finds the assets of the build, scan register
+#   finds the template from BARESKIN_TEMPLATE, and with no template anywhere the one error line lists the places searched;
+# - uvtools bake without --layout: a plain area-correct resize per map type (numpy + oiiotool oracle), said in the log.
+source "$(dirname "$0")/lib.sh" "$@"
+"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
+"$bin" scan synth -q --template "$work/t" --count 1 --vertices 8000 --res 128 --truth-res 64 -o "$work/s" || fail "synth"
+src=$work/s/subject_0000
+reg() { "$bin" scan register -q --template "$work/t" --maps-res 64 "$@"; }
+population() { mkdir -p "$work/$1" && cp -r "$src" "$work/$1/subject_0000"; }  # population NAME: a copy of the scan
+# report.py REPORT MAPS: the registration is as accurate as register.sh asks, and exactly MAPS (comma list) were
+# transferred, with their files written and no others.
+check_report() {
+  $py - "$1" "$2" <<'PY'
+import json, os, sys
+r = json.load(open(sys.argv[1]))
+maps = [m for m in sys.argv[2].split(",") if m]
+d = os.path.dirname(sys.argv[1])
+assert r["alignment"].startswith("landmarks"), r["alignment"]
+assert r["correspondence_error_mm"]["median"] < 2.5, r["correspondence_error_mm"]
+assert r["surface_distance_mm"]["median"] < 0.05, r["surface_distance_mm"]
+assert r["maps"]["transferred"] == maps, r["maps"]
+for m in ("diffuse", "normal", "roughness", "specular"):
+    assert os.path.exists(f"{d}/{m}.png") == (m in maps), m
+vs = r["maps"].get("vs_truth", {})
+if "diffuse" in maps:
+    assert vs["diffuse_psnr_db"] > 25, vs
+if "normal" in maps:
+    assert vs["normal_angle_median_deg"] < 5, vs
+assert ("diffuse_psnr_db" in vs) == ("diffuse" in maps) and ("normal_angle_median_deg" in vs) == ("normal" in maps), vs
+print(f"ok   {r['scan_triangles']} triangles, correspondence median {r['correspondence_error_mm']['median']:.3f} mm, "
+      f"maps {maps or 'none'} {vs}")
+PY
+}
+
+# 1. Quads: pairs of triangles across an edge whose two corners carry the same UVs on both sides (so no seam is
+# crossed) become one quad "f a b d c".
+population quads
+$py - "$work/quads/subject_0000/mesh.obj" <<'PY' || fail "making the quad mesh"
+import sys
+path = sys.argv[1]
+head, faces = [], []
+for line in open(path):
+    if line.startswith("f "):
+        faces.append([tuple(int(x) for x in c.split("/")[:2]) for c in line.split()[1:]])
+    else:
+        head.append(line)
+edge_face = {}
+for i, f in enumerate(faces):
+    for k in range(3):
+        edge_face.setdefault((f[k], f[(k + 1) % 3]), i)  # directed edge with its (vertex, uv) corners
+used, out, quads = [False] * len(faces), [], 0
+for i, f in enumerate(faces):
+    if used[i]:
+        continue
+    used[i] = True
+    for k in range(3):
+        a, b, c = f[k], f[(k + 1) % 3], f[(k + 2) % 3]
+        j = edge_face.get((b, a))  # the neighbour across a-b, same UVs at a and b
+        if j is not None and not used[j]:
+            g = faces[j]
+            d = next(x for x in g if x not in (a, b))
+            used[j] = True
+            out.append([c, a, d, b])
+            quads += 1
+            break
+    else:
+        out.append(f)
+with open(path, "w") as o:
+    o.writelines(head)
+    for f in out:
+        o.write("f " + " ".join(f"{v}/{t}" for v, t in f) + "\n")
+print(f"quad mesh: {quads} quads, {len(out) - quads} triangles (from {len(faces)} triangles)")
+assert quads > 0.4 * len(faces)
+PY
+"$bin" scan register -v --template "$work/t" --maps-res 64 --scans "$work/quads" -o "$work/r_quads" > "$work/log" 2>&1 \
+  || fail "quads: $(tail -3 "$work/log")"
+grep -q "polygon(s) with more than 3 corners split into triangles" "$work/log" || fail "quads: -v does not say so"
+check_report "$work/r_quads/subject_0000/report.json" diffuse,normal,roughness,specular || fail "quads: report"
+
+# 2. A diffuse map only, and no maps at all.
+population diffuse_only
+rm "$work"/diffuse_only/subject_0000/{normal,roughness,specular}.png
+reg --scans "$work/diffuse_only" -o "$work/r_diffuse" || fail "diffuse only"
+check_report "$work/r_diffuse/subject_0000/report.json" diffuse || fail "diffuse only: report"
+population no_maps
+rm "$work"/no_maps/subject_0000/{diffuse,normal,roughness,specular}.png
+reg --scans "$work/no_maps" -o "$work/r_none" || fail "no maps"
+check_report "$work/r_none/subject_0000/report.json" "" || fail "no maps: report"
+
+# 3. From another folder, without BARESKIN_ASSETS: the build's assets and BARESKIN_TEMPLATE are found, not the CWD.
+(cd / && env -u BARESKIN_ASSETS "$bin" template -q --vertices 2000 -o "$work/t_root") || fail "template from /"
+[ -f "$work/t_root/face.obj" ] || fail "template from /: no face.obj"
+(cd / && env -u BARESKIN_ASSETS BARESKIN_TEMPLATE="$work/t" "$bin" scan register -q --maps-res 0 --scans "$work/no_maps" \
+  -o "$work/r_root") || fail "scan register from / with BARESKIN_TEMPLATE"
+[ -f "$work/r_root/subject_0000/mesh.ply" ] || fail "scan register from /: no mesh"
+cd / || fail "cd /"
+expect_failure 4 "the install folder beside the executable" "$work/r_nowhere" -- \
+  env -u BARESKIN_TEMPLATE "$bin" scan register -q --scans "$work/no_maps" -o "$work/r_nowhere"
+expect_failure 4 "/nowhere/mediapipe_face_mesh: not found in /nowhere (BARESKIN_ASSETS)" "$work/t_nowhere" -- \
+  env BARESKIN_ASSETS=/nowhere "$bin" template -q -o "$work/t_nowhere"
+cd "$work" || fail "cd back"
+
+# 4. uvtools bake without --layout: every texel counts (a plain box filter per map type), no seam handling.
+"$bin" uvtools bake "$src" -o "$work/baked" --sizes 64,32 --format png > "$work/log" 2>&1 || fail "bake: $(cat "$work/log")"
+grep -q "no --layout: a plain area-correct resize per map type" "$work/log" || fail "bake: the log does not say so"
+grep -q '"layout": "none' "$work/baked/bake.json" || fail "bake.json does not say there was no layout"
+$py "$here/../python/bake_oracle.py" - "$src" "$work/baked" 64 32 || fail "bake without a layout: oracle"
+echo "third-party scans: all cases passed"
