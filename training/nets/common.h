@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "core/error.h"
+
 namespace bareskin::nets {
 
 // Throws InvalidInput("<what> options", message, hint) when `condition` is false.
@@ -36,12 +38,6 @@ void init_normal_002(torch::nn::Module& module);
 // Parameters (elements) of a module and all its children.
 int64_t parameter_count(const torch::nn::Module& module);
 
-}  // namespace bareskin::nets
-
-// ---- template definition
-#include "core/error.h"
-
-namespace bareskin::nets {
 template <typename T>
 void read_key(const nlohmann::json& j, const std::string& what, const char* key, T& value) {
   const auto it = j.find(key);

@@ -108,6 +108,27 @@ TEST(NetsCount, ResizeConvReplacesEachTransposedConvolution) {
   EXPECT_EQ(transpose - resize, inout * (16 - 9));
 }
 
+// ---- initialisations as the references (standard deviations over >= 4,096 weights, 10% tolerance)
+
+double stddev(const torch::nn::Module& net, const std::string& name) {
+  return net.named_parameters().find(name)->std().item<double>();
+}
+
+TEST(NetsInit, AsTheReferences) {
+  torch::manual_seed(10);
+  ResNet resnet(ResNetOptions{18, 16, 10, 3});
+  // torchvision: He normal with fan out = 32·3·3 for layer2's 3×3 convolutions.
+  EXPECT_NEAR(stddev(*resnet, "layer2.0.conv2.weight"), std::sqrt(2.0 / (32 * 9)), 0.1 * std::sqrt(2.0 / (32 * 9)));
+  EXPECT_TRUE(torch::equal(resnet->named_parameters().find("bn1.weight")->detach(), torch::ones({16})));
+  UNet unet(UNetOptions{3, 3, 16, 5});
+  EXPECT_NEAR(stddev(*unet, "model.model.1.model.1.weight"), 0.02, 0.002);  // pix2pix: N(0, 0.02)
+  EXPECT_NEAR(unet->named_parameters().find("model.model.1.model.2.weight")->mean().item<double>(), 1.0, 0.02);
+  EXPECT_EQ(unet->named_parameters().find("model.model.3.bias")->abs().sum().item<double>(), 0.0);
+  MSRResNet sr(MSRResNetOptions{3, 3, 32, 1, 4});
+  // BasicSR: He normal (fan in 32·9) × 0.1.
+  EXPECT_NEAR(stddev(*sr, "body.0.conv1.weight"), 0.1 * std::sqrt(2.0 / (32 * 9)), 0.01 * std::sqrt(2.0 / (32 * 9)));
+}
+
 // ---- shapes and gradients on tiny inputs
 
 TEST(NetsForward, ResNetFeaturesAndHead) {
