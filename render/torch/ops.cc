@@ -1,9 +1,11 @@
 #include "render/torch/ops.h"
 
+#include <atomic>
 #include <cmath>
-#include <stdexcept>
+#include <cstdlib>
 #include <string>
 
+#include "core/error.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
 
@@ -17,8 +19,26 @@
 namespace bareskin::render_torch {
 namespace {
 
+// Shapes, devices and sizes: known on the host, checked on every call without touching the device.
 void require(bool ok, const std::string& what) {
-  if (!ok) throw std::invalid_argument("render_torch: " + what);
+  if (!ok) throw InvalidInput("render_torch", what, "fix the tensors passed to the render op");
+}
+
+std::atomic<bool>& device_checks_flag() {
+  static std::atomic<bool> flag{[] {
+    const char* env = std::getenv("BARESKIN_RENDER_CHECKS");
+    return env && std::string(env) == "1";
+  }()};
+  return flag;
+}
+
+// Values (NaN positions, triangle indices out of range) of CUDA tensors: reading them back waits for the device, so
+// only under the debug switch. Without it the kernel drops such triangles on the device (raster_kernel.h: setup).
+// CPU tensors are checked by the CPU rasterizer itself (InvalidInput), at no device cost.
+void check_values_on_host(const torch::Tensor& p, const torch::Tensor& t) {
+  require(torch::isfinite(p).all().item<bool>(), "pos holds NaN or Inf");
+  require(t.numel() == 0 || (t.min().item<int32_t>() >= 0 && t.max().item<int32_t>() < p.size(1)),
+          "a triangle index is out of range");
 }
 
 // The kernel's parameters for frame 0 of p ([B, V, 3] float, contiguous) and t ([F, 3] int32, contiguous).
@@ -60,6 +80,9 @@ Raster rasterize_gpu(const torch::Tensor& p, const torch::Tensor& t, int64_t hei
 
 }  // namespace
 
+void set_device_checks(bool on) { device_checks_flag() = on; }
+bool device_checks() { return device_checks_flag(); }
+
 bool cuda_rasterizer_built() {
 #ifdef BARESKIN_TORCH_CUDA
   return true;
@@ -74,11 +97,9 @@ Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t hei
   require(height > 0 && width > 0 && height * width <= (int64_t(1) << 28), "the image size must be 1 to 16384 pixels a side");
   require(tri.device() == pos.device(), "pos and tri must be on the same device");
   const torch::Tensor p = pos.detach().to(torch::kFloat).contiguous();
-  require(torch::isfinite(p).all().item<bool>(), "pos holds NaN or Inf");
   const torch::Tensor t = tri.to(torch::kInt).contiguous();
-  require(t.numel() == 0 || (t.min().item<int32_t>() >= 0 && t.max().item<int32_t>() < p.size(1)),
-          "a triangle index is out of range");
   if (p.is_cuda()) {
+    if (device_checks()) check_values_on_host(p, t);
     Raster r = rasterize_gpu(p, t, height, width, cull);
     r.bary = r.bary.to(pos.dtype());
     return r;
@@ -88,12 +109,7 @@ Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t hei
   Raster out{torch::full({B, height, width}, -1, torch::kLong), torch::zeros({B, height, width, 2}, torch::kFloat)};
   for (int64_t b = 0; b < B; ++b) {
     const RasterInput in = raster_input(p.narrow(0, b, 1), t, height, width, cull);
-    RasterOutput r;
-    try {
-      r = bareskin::rasterize(in);
-    } catch (const std::exception& e) {
-      throw std::invalid_argument(std::string("render_torch: ") + e.what());
-    }
+    RasterOutput r = bareskin::rasterize(in);  // InvalidInput for NaN positions or indices out of range
     out.triangle[b].copy_(torch::from_blob(r.triangle.data(), {height, width}, torch::kInt).to(torch::kLong));
     out.bary[b].copy_(torch::from_blob(r.bary.data(), {height, width, 2}, torch::kFloat));
   }

@@ -17,10 +17,16 @@ struct Raster {
   torch::Tensor bary;      // [B, H, W, 2]: b1, b2 (perspective-correct), no gradient
 };
 
-// pos: [B, V, 3] pixel x, pixel y (row 0 at the top) and depth w > 0; tri: [F, 3] integer. Throws std::invalid_argument
-// for wrong shapes, indices out of range or NaN positions.
+// pos: [B, V, 3] pixel x, pixel y (row 0 at the top) and depth w > 0; tri: [F, 3] integer. Throws InvalidInput
+// (core/error.h) for wrong shapes or sizes; for NaN positions or indices out of range with CPU tensors. CUDA tensors
+// are not read back (that would wait for the device on every call): the kernel drops such triangles, unless the debug
+// switch (set_device_checks, or BARESKIN_RENDER_CHECKS=1 in the environment) checks them and throws.
 Raster rasterize(const torch::Tensor& pos, const torch::Tensor& tri, int64_t height, int64_t width,
                  bool cull_back_faces = false);
+
+// The debug switch above: value checks of CUDA inputs that synchronise with the device. Off by default.
+void set_device_checks(bool on);
+bool device_checks();
 
 // Whether rasterize() takes CUDA tensors in this build.
 bool cuda_rasterizer_built();

@@ -8,6 +8,7 @@
 #include "core/image.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
+#include "core/error.h"
 #include "render/torch/ops.h"
 
 namespace bareskin {
@@ -112,7 +113,7 @@ TEST(RenderTorch, ShShadeEqualsCoreIrradiance) {
         const Eigen::Vector3d e = sh_irradiance(nv, g.data_ptr<double>());
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(out[b][i][j][c].item<double>(), albedo[b][i][j][c].item<double>() * e[c], 1e-12);
       }
-  EXPECT_THROW(sh_shade(albedo, normal, gamma.narrow(1, 0, 9)), std::invalid_argument);
+  EXPECT_THROW(sh_shade(albedo, normal, gamma.narrow(1, 0, 9)), InvalidInput);
 }
 
 // The CUDA rasterizer against the CPU one, and the differentiable render (interpolate + SH shading + loss) forward and
@@ -150,13 +151,34 @@ TEST(RenderTorch, CudaMatchesCpu) {
   }
 }
 
+// CUDA tensors are not read back per call: a triangle with an index out of range or a NaN corner is dropped on the
+// device (the image equals the one without it); the debug switch checks them on the host and throws instead.
+TEST(RenderTorch, CudaBadValuesDroppedOnDeviceOrCheckedUnderTheSwitch) {
+  if (!cuda_rasterizer_built()) GTEST_SKIP() << "built without the CUDA rasterizer";
+  if (!torch::cuda::is_available()) GTEST_SKIP() << "no CUDA device";
+  const torch::Device gpu(torch::kCUDA);
+  const torch::Tensor pos = soup(3, 32, torch::kFloat, 1).to(gpu);
+  const torch::Tensor good = soup_triangles(2).to(gpu);  // the first two triangles
+  torch::Tensor bad = soup_triangles(3).to(gpu).clone();
+  bad[2][1] = 1000;  // the third triangle: an index out of range
+  ASSERT_FALSE(device_checks());
+  const Raster kept = rasterize(pos, good, 32, 32), dropped = rasterize(pos, bad, 32, 32);
+  EXPECT_TRUE(torch::equal(kept.triangle.cpu(), dropped.triangle.cpu()));
+  set_device_checks(true);
+  EXPECT_THROW(rasterize(pos, bad, 32, 32), InvalidInput);
+  torch::Tensor nan_pos = pos.clone();
+  nan_pos[0][0][0] = NAN;
+  EXPECT_THROW(rasterize(nan_pos, good, 32, 32), InvalidInput);
+  set_device_checks(false);
+}
+
 TEST(RenderTorch, RefusesBadInput) {
   const torch::Tensor tri = soup_triangles(2);
   torch::Tensor pos = soup(2, 16, torch::kFloat, 1);
-  EXPECT_THROW(rasterize(pos.reshape({6, 3}), tri, 16, 16), std::invalid_argument);
+  EXPECT_THROW(rasterize(pos.reshape({6, 3}), tri, 16, 16), InvalidInput);
   pos[0][1][0] = NAN;
-  EXPECT_THROW(rasterize(pos, tri, 16, 16), std::invalid_argument);
-  EXPECT_THROW(rasterize(soup(2, 16, torch::kFloat, 1), tri + 10, 16, 16), std::invalid_argument);
+  EXPECT_THROW(rasterize(pos, tri, 16, 16), InvalidInput);
+  EXPECT_THROW(rasterize(soup(2, 16, torch::kFloat, 1), tri + 10, 16, 16), InvalidInput);
 }
 
 }  // namespace
