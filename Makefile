@@ -51,12 +51,14 @@ gpu:
 	cmake --build $(GPU_BUILD) -j $(JOBS)
 	ctest --test-dir $(GPU_BUILD) --output-on-failure
 
-# GPU figures for bench/BENCHMARKS.md: the differentiable render (CUDA events) and the face networks. The template's
+# GPU figures for bench/BENCHMARKS.md: the differentiable render (CUDA events), the face networks, the loader and the
+# BareSkinNet-like training step. The template's
 # face.safetensors comes from the CPU machine (make demo) with the tree.
 GPU_TEMPLATE ?= out/demo/template
 gpu-bench: gpu
 	$(GPU_BUILD)/bin/render_torch_bench $(GPU_TEMPLATE) 20
 	$(GPU_BUILD)/bin/detect_bench
+	$(GPU_BUILD)/bin/training_bench --steps 20
 
 # Run on the CPU machine before sending the tree to the GPU machine.
 gpu-vendor:

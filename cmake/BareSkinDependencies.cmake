@@ -8,6 +8,10 @@ find_package(Threads REQUIRED)
 # headers travel in .gpu-vendor/ there; the library is a dependency of its CMake).
 find_package(ZLIB REQUIRED)
 find_package(PNG REQUIRED)
+if(BARESKIN_TORCH_ONLY)
+  # The GPU machine has the runtime library only (a dependency of its CMake) and the headers from .gpu-vendor/.
+  find_library(LibArchive_LIBRARY NAMES archive libarchive.so.13)
+endif()
 find_package(LibArchive REQUIRED)
 
 if(BARESKIN_TORCH_ONLY)
