@@ -96,7 +96,7 @@ void Globals::write_resolved_config(const std::string& path) const {
 }
 
 int run(int argc, char** argv) {
-  // Page faults are expensive on our VMs: keep large allocations in the heap instead of fresh mmaps (ENV.md).
+  // Page faults are expensive on our VMs: keep large allocations in the heap instead of fresh mmaps (docs/environment.md).
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
 

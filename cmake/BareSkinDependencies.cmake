@@ -30,7 +30,7 @@ else()
   find_package(CGAL REQUIRED)
   find_package(OpenEXR REQUIRED)
   find_package(OpenImageIO REQUIRED)
-  # Debian's OpenImageIO config lists /usr/include/opencv4 (absent unless OpenCV is installed): drop it (ENV.md).
+  # Debian's OpenImageIO config lists /usr/include/opencv4 (absent unless OpenCV is installed): drop it (docs/environment.md).
   get_target_property(_oiio_inc OpenImageIO::OpenImageIO INTERFACE_INCLUDE_DIRECTORIES)
   if(_oiio_inc)
     list(FILTER _oiio_inc EXCLUDE REGEX "opencv4")

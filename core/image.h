@@ -1,5 +1,5 @@
 // An image as interleaved float pixels, rows top to bottom, with the colour space its values are in.
-// All maths happens in linear light; sRGB is an encoding for 8/16-bit files (DESIGN.md §5).
+// All maths happens in linear light; sRGB is an encoding for 8/16-bit files (docs/pipeline.md).
 #pragma once
 #include <Eigen/Core>
 #include <cstdint>

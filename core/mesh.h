@@ -1,5 +1,5 @@
 // A triangle mesh as plain Eigen data (libigl style). Units are millimetres; right-handed, +y up, +z toward the camera
-// (DESIGN.md §5). UVs are per corner, so seams survive a read/write round trip.
+// (docs/pipeline.md). UVs are per corner, so seams survive a read/write round trip.
 #pragma once
 #include <Eigen/Core>
 #include <string>

@@ -1,4 +1,4 @@
-// The 3D morphable model (DESIGN.md §5): shape S = S̄ + B_id α + B_exp β on the template topology (mm) and diffuse
+// The 3D morphable model (frame: docs/pipeline.md): shape S = S̄ + B_id α + B_exp β on the template topology (mm) and diffuse
 // appearance A = Ā + B_a δ in the template UV (linear RGB). Bases are stored orthonormal with their standard deviations
 // beside them; coefficients are standardised (α, β, δ ~ N(0, 1) over the training population), so
 // S = S̄ + U_id diag(σ_id) α, and likewise for β and δ. Eigen only: the Torch side reads the same file.

@@ -1,4 +1,4 @@
-// Cameras for the renderer (DESIGN.md §5: mm, +y up, +z toward the camera, which looks down −z).
+// Cameras for the renderer (docs/pipeline.md, units and axes: mm, +y up, +z toward the camera, which looks down −z).
 // Pinhole: a world point x goes to the camera frame p = R x + t (p_z < 0 in front), then to pixels
 // (cx + f p_x / −p_z, cy − f p_y / −p_z), row 0 at the top. Weak perspective: (cx + s p_x, cy − s p_y).
 // Defaults follow Deep3DFaceRecon: focal 1015 px for a 224² image, principal point at the centre, the face 1 m away.

@@ -1,5 +1,5 @@
 // Synthetic identities: smooth, plausible deformations of the template face, so that `scan synth` can make a population
-// whose shapes are not trivially linear in a small basis (DESIGN.md §3).
+// whose shapes are not trivially linear in a small basis (docs/pipeline.md).
 //
 // A displacement field on the template is the sum of
 //  - a Gaussian-process sample with a multi-scale squared-exponential kernel (as in Gaussian process morphable models,

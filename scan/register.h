@@ -1,4 +1,4 @@
-// `scan register`: brings the template onto a scan (DESIGN.md §2). A similarity from the 68 landmarks (Umeyama), then
+// `scan register`: brings the template onto a scan (docs/pipeline.md, registration). A similarity from the 68 landmarks (Umeyama), then
 // optimal-step non-rigid ICP (Amberg, Romdhani & Vetter 2007): one affine transform per template vertex, a stiffness
 // term on neighbouring transforms that is relaxed step by step (neighbours must agree at the nodes, as in embedded
 // deformation, plus a little of Amberg's affine difference), a landmark term whose weight decays, and a data

@@ -1,4 +1,4 @@
-// Procedural skin appearance for synthetic scans (DESIGN.md §3): diffuse albedo, meso-scale relief (for normal maps),
+// Procedural skin appearance for synthetic scans (docs/pipeline.md): diffuse albedo, meso-scale relief (for normal maps),
 // roughness and specular, defined as closed-form fields on the *template* surface. A scan's texel is evaluated at the
 // template point it corresponds to, so the true value at any surface point of any scan — and in the template UV after
 // a perfect registration — is known exactly.

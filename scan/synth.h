@@ -1,4 +1,4 @@
-// `scan synth`: a synthetic population of cleaned head scans with ground truth (DESIGN.md §3). Each subject is the
+// `scan synth`: a synthetic population of cleaned head scans with ground truth (docs/pipeline.md). Each subject is the
 // template deformed by a sampled identity (scan/identity.h), remeshed into its own topology so registration has real
 // work to do, with the dense truth correspondence: for every template vertex, its true point on the scan's surface.
 //

@@ -1,5 +1,5 @@
 // The template face: the fixed topology every scan is registered to and the 3DMM is built on.
-// Built from the MediaPipe canonical face (468 vertices), converted to millimetres and our axes (DESIGN.md §5), and
+// Built from the MediaPipe canonical face (468 vertices), converted to millimetres and our axes (docs/pipeline.md), and
 // refined into a dense, evenly triangulated surface of a chosen size. Any user template (OBJ with UVs + landmark file)
 // can take its place: see read_template.
 #pragma once
