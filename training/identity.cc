@@ -7,9 +7,8 @@ namespace F = torch::nn::functional;
 
 torch::Tensor identity_distance(detect::FaceRecognitionNet& net, const torch::Tensor& a, const torch::Tensor& b) {
   TORCH_CHECK(a.sizes() == b.sizes(), "identity loss: batches of shapes ", a.sizes(), " and ", b.sizes());
-  const torch::Tensor e = net->forward(torch::cat({a, b}));
-  const int64_t batch = a.size(0);
-  return 1 - F::cosine_similarity(e.slice(0, 0, batch), e.slice(0, batch), F::CosineSimilarityFuncOptions().dim(1));
+  // Two passes: a reference without gradient then costs no backward.
+  return 1 - F::cosine_similarity(net->forward(a), net->forward(b), F::CosineSimilarityFuncOptions().dim(1));
 }
 
 torch::Tensor identity_loss(detect::FaceRecognitionNet& net, const torch::Tensor& a, const torch::Tensor& b) {

@@ -111,13 +111,12 @@ void LpipsImpl::save(const std::string& path) const {
 torch::Tensor LpipsImpl::forward(const torch::Tensor& a, const torch::Tensor& b) {
   TORCH_CHECK(a.sizes() == b.sizes() && a.dim() == 4 && a.size(1) == 3, "LPIPS takes two [B, 3, H, W] batches, got ",
               a.sizes(), " and ", b.sizes());
-  const int64_t batch = a.size(0);
-  const std::vector<torch::Tensor> features = features_(torch::cat({a, b}));
-  BS_CHECK(features.size() == lin_.size(), "the trunk gives one feature map per linear layer");
-  torch::Tensor total = torch::zeros({batch}, a.options());
-  for (size_t l = 0; l < features.size(); ++l) {
-    const torch::Tensor f = unit_channels(features[l]);
-    const torch::Tensor d = (f.slice(0, 0, batch) - f.slice(0, batch)).pow(2);
+  // Two trunk passes rather than one on the concatenation: a target without gradient then costs no backward.
+  const std::vector<torch::Tensor> fa = features_(a), fb = features_(b);
+  BS_CHECK(fa.size() == lin_.size(), "the trunk gives one feature map per linear layer");
+  torch::Tensor total = torch::zeros({a.size(0)}, a.options());
+  for (size_t l = 0; l < fa.size(); ++l) {
+    const torch::Tensor d = (unit_channels(fa[l]) - unit_channels(fb[l])).pow(2);
     const torch::Tensor w = lin_[l].to(d.dtype()).view({1, -1, 1, 1});
     total = total + (d * w).sum(1).mean({1, 2});
   }
