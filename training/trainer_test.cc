@@ -248,6 +248,14 @@ TEST(Trainer, RefusesAnotherConfigAnotherNetAndAnExistingRun) {
   auto same = options(dir, 8);
   same.resume = true;
   EXPECT_THROW(Trainer(same, wider, source, nullptr).run(), InvalidInput);
+  // Another world size: the data order would differ, so the checkpoint is refused.
+  std::vector<std::unique_ptr<torch::optim::Optimizer>> none;
+  try {
+    load_checkpoint(checkpoint_path(dir), "two-net", options(dir, 4).config, {}, task.modules(), {}, none, 2);
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("1 rank(s), this run has 2"), std::string::npos) << e.what();
+  }
   EXPECT_EQ(read_file(checkpoint_path(dir)), before);  // nothing overwritten
 }
 
