@@ -137,6 +137,27 @@ TEST(Lpips, DefaultLinearWeightsAndUnknownTrunk) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(Lpips, CudaMatchesCpu) {
+  if (!torch::cuda::is_available()) GTEST_SKIP() << "no CUDA device";
+  if (!have_face_api()) GTEST_SKIP() << face_api() << " missing ('make deps')";
+  // cuDNN may use TF32 on Ampere and later (10-bit mantissa): compare in full float32 here.
+  const bool tf32 = at::globalContext().allowTF32CuDNN();
+  at::globalContext().setAllowTF32CuDNN(false);
+  torch::NoGradGuard no_grad;
+  const torch::Tensor a = picture(2, 64, 64), b = a.flip({3});
+  for (const std::string trunk : {"vgg16-random", "facenet"}) {
+    Lpips cpu(trunk, face_api()), gpu(trunk, face_api());
+    gpu->to(torch::kCUDA);
+    const torch::Tensor expected = cpu->forward(a, b);
+    const torch::Tensor got = gpu->forward(a.cuda(), b.cuda()).cpu();
+    EXPECT_LT((expected - got).abs().max().item<float>(), 1e-4 * expected.abs().max().item<float>()) << trunk;
+  }
+  detect::FaceRecognitionNet cpu(face_api()), gpu(face_api());
+  gpu->to(torch::kCUDA);
+  EXPECT_NEAR(identity_loss(cpu, a, b).item<float>(), identity_loss(gpu, a.cuda(), b.cuda()).item<float>(), 1e-4);
+  at::globalContext().setAllowTF32CuDNN(tf32);
+}
+
 TEST(Identity, ZeroForIdenticalFacesAndGradientsInDouble) {
   if (!have_face_api()) GTEST_SKIP() << face_api() << " missing ('make deps')";
   detect::FaceRecognitionNet net(face_api());
