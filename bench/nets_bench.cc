@@ -5,16 +5,16 @@
 // following ones (paper sizes: --steps − 1 of them, default 1; demo sizes: 7). On a shared machine the best step is the
 // figure to compare: contention only ever adds time.
 //   nets_bench [--paper] [--demo] [--only NAME[,NAME...]] [--steps N] [--threads T]
+#include <malloc.h>
 #include <torch/torch.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <cstdlib>
-#include <malloc.h>
+#include <cstring>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "training/nets/zoo.h"
@@ -41,8 +41,11 @@ std::vector<Case> cases() {
       {"unet256", "paper", J::object(), {4, 3, 256, 256}, true},
       {"unet256", "paper, resize_conv", {{"upsample", "resize_conv"}}, {4, 3, 256, 256}, true},
       {"unet256", "demo ngf 16, 7 downs", demo_unet, {4, 3, 128, 128}, false},
-      {"unet256", "demo ngf 16, 7 downs, resize_conv", {{"ngf", 16}, {"num_downs", 7}, {"upsample", "resize_conv"}},
-       {4, 3, 128, 128}, false},
+      {"unet256",
+       "demo ngf 16, 7 downs, resize_conv",
+       {{"ngf", 16}, {"num_downs", 7}, {"upsample", "resize_conv"}},
+       {4, 3, 128, 128},
+       false},
       {"patchgan", "paper", J::object(), {4, 6, 256, 256}, true},
       {"patchgan", "demo ndf 16", {{"ndf", 16}}, {4, 6, 128, 128}, false},
       {"pix2pixhd_global", "paper (1K)", J::object(), {1, 3, 1024, 1024}, true},
@@ -86,11 +89,16 @@ int main(int argc, char** argv) {
   std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--paper") paper = true;
-    else if (a == "--demo") demo = true;
-    else if (a == "--only" && i + 1 < argc) only = "," + std::string(argv[++i]) + ",";
-    else if (a == "--steps" && i + 1 < argc) steps = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--threads" && i + 1 < argc) threads = std::max(1, std::atoi(argv[++i]));
+    if (a == "--paper")
+      paper = true;
+    else if (a == "--demo")
+      demo = true;
+    else if (a == "--only" && i + 1 < argc)
+      only = "," + std::string(argv[++i]) + ",";
+    else if (a == "--steps" && i + 1 < argc)
+      steps = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--threads" && i + 1 < argc)
+      threads = std::max(1, std::atoi(argv[++i]));
     else {
       std::fprintf(stderr, "usage: nets_bench [--paper] [--demo] [--only NAME[,NAME...]] [--steps N] [--threads T]\n");
       return 2;
@@ -100,8 +108,9 @@ int main(int argc, char** argv) {
   torch::set_num_threads(threads);
   std::printf("LibTorch %d threads, OMP_WAIT_POLICY %s; forward + backward + Adam step, float32\n\n",
               torch::get_num_threads(), std::getenv("OMP_WAIT_POLICY"));
-  std::printf("| network | size | input | parameters | first step | best step | median step |\n"
-              "|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| network | size | input | parameters | first step | best step | median step |\n"
+      "|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases()) {
     if ((c.paper && !paper) || (!c.paper && !demo)) continue;
     if (!only.empty() && only.find("," + c.model + ",") == std::string::npos) continue;
@@ -120,8 +129,9 @@ int main(int argc, char** argv) {
       best = std::to_string(int64_t(ms.front() + 0.5)) + " ms";
       median = std::to_string(int64_t(ms[ms.size() / 2] + 0.5)) + " ms";
     }
-    std::printf("| %s | %s | %s | %lld | %.0f ms | %s | %s |\n", c.model.c_str(), c.label.c_str(), shape(c.input).c_str(),
-                static_cast<long long>(parameter_count(*net)), first, best.c_str(), median.c_str());
+    std::printf("| %s | %s | %s | %lld | %.0f ms | %s | %s |\n", c.model.c_str(), c.label.c_str(),
+                shape(c.input).c_str(), static_cast<long long>(parameter_count(*net)), first, best.c_str(),
+                median.c_str());
     std::fflush(stdout);
   }
   return 0;

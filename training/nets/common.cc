@@ -25,7 +25,8 @@ void check_keys(const nlohmann::json& j, const std::string& what, std::initializ
 
 void check_norm(const std::string& norm, const std::string& what, bool allow_none) {
   const bool ok = norm == "batch" || norm == "instance" || (allow_none && norm == "none");
-  require(ok, what, "norm '" + norm + "' is not known", allow_none ? "use batch, instance or none" : "use batch or instance");
+  require(ok, what, "norm '" + norm + "' is not known",
+          allow_none ? "use batch, instance or none" : "use batch or instance");
 }
 
 void push_norm(torch::nn::Sequential& seq, const std::string& norm, int64_t channels) {

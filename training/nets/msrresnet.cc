@@ -24,13 +24,18 @@ void init_scaled(const nn::Conv2d& c, double scale) {
   if (c->bias.defined()) c->bias.zero_();
 }
 
-torch::Tensor lrelu(const torch::Tensor& x, double slope) { return F::leaky_relu(x, F::LeakyReLUFuncOptions().negative_slope(slope)); }
+torch::Tensor lrelu(const torch::Tensor& x, double slope) {
+  return F::leaky_relu(x, F::LeakyReLUFuncOptions().negative_slope(slope));
+}
 
 }  // namespace
 
 void to_json(nlohmann::json& j, const MSRResNetOptions& o) {
-  j = {{"num_in_ch", o.num_in_ch}, {"num_out_ch", o.num_out_ch}, {"num_feat", o.num_feat},
-       {"num_block", o.num_block}, {"upscale", o.upscale}};
+  j = {{"num_in_ch", o.num_in_ch},
+       {"num_out_ch", o.num_out_ch},
+       {"num_feat", o.num_feat},
+       {"num_block", o.num_block},
+       {"upscale", o.upscale}};
 }
 
 void from_json(const nlohmann::json& j, MSRResNetOptions& o) {
@@ -123,9 +128,9 @@ VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminator
 torch::Tensor VGGStyleDiscriminatorImpl::forward(torch::Tensor x) {
   const int64_t s = options_.input_size;
   if (x.dim() != 4 || x.size(1) != options_.num_in_ch || x.size(2) != s || x.size(3) != s)
-    throw InvalidInput("srgan_d input", "shape " + c10::str(x.sizes()) + " does not fit",
-                       "give [N, " + std::to_string(options_.num_in_ch) + ", " + std::to_string(s) + ", " +
-                           std::to_string(s) + "]");
+    throw InvalidInput(
+        "srgan_d input", "shape " + c10::str(x.sizes()) + " does not fit",
+        "give [N, " + std::to_string(options_.num_in_ch) + ", " + std::to_string(s) + ", " + std::to_string(s) + "]");
   torch::Tensor h = lrelu(conv0_0_(x), 0.2);
   for (size_t i = 0; i < convs_.size(); ++i) h = lrelu(norms_[i](convs_[i](h)), 0.2);
   h = lrelu(linear1_(h.flatten(1)), 0.2);

@@ -1,8 +1,8 @@
 // Super-resolution ×4 for BareSkinNet's 4K textures, in BasicSR's layout and names:
 // - MSRResNet (BasicSR's "modified SRResNet": SRResNet without batch norm): conv_first, body (num_block residual
 //   blocks conv1 → ReLU → conv2, no BN), upconv1 (+ upconv2 for ×4) each followed by a ×2 pixel shuffle and
-//   LeakyReLU 0.1, conv_hr, conv_last; the output is added to the bilinearly upsampled input. Weights start as BasicSR's
-//   (He normal ×0.1, biases 0).
+//   LeakyReLU 0.1, conv_hr, conv_last; the output is added to the bilinearly upsampled input. Weights start as
+//   BasicSR's (He normal ×0.1, biases 0).
 // - VGGStyleDiscriminator (SRGAN's discriminator as BasicSR builds it for 128² or 256² inputs): pairs conv{k}_0
 //   (3×3, stride 1) / conv{k}_1 (4×4, stride 2) with batch norms bn{k}_{0,1} (none after conv0_0, which has the only
 //   bias), LeakyReLU 0.2, then linear1 (→100) and linear2 (→1).

@@ -37,8 +37,8 @@ void expect_gradient_at(torch::nn::Module& net, const std::string& first, const 
 // ---- parameter counts at the paper's sizes
 
 TEST(NetsCount, ResNetsMatchTorchvision) {
-  EXPECT_EQ(count_of("resnet18"), 11689512);  // torchvision.models.resnet18()
-  EXPECT_EQ(count_of("resnet50"), 25557032);  // torchvision.models.resnet50()
+  EXPECT_EQ(count_of("resnet18"), 11689512);                   // torchvision.models.resnet18()
+  EXPECT_EQ(count_of("resnet50"), 25557032);                   // torchvision.models.resnet50()
   EXPECT_EQ(count_of("resnet18", {{"depth", 34}}), 21797672);  // torchvision.models.resnet34()
 }
 
@@ -255,11 +255,13 @@ TEST(NetsForward, SuperResolution) {
   // The network learns a residual over bilinear ×4: at BasicSR's ×0.1 initialisation it is small.
   namespace F = torch::nn::functional;
   const torch::Tensor base = F::interpolate(
-      x, F::InterpolateFuncOptions().scale_factor(std::vector<double>{4, 4}).mode(torch::kBilinear).align_corners(false));
+      x,
+      F::InterpolateFuncOptions().scale_factor(std::vector<double>{4, 4}).mode(torch::kBilinear).align_corners(false));
   EXPECT_LT((y - base).abs().max().item<double>(), 0.1);
   for (int upscale : {2, 3}) {
     MSRResNet other(MSRResNetOptions{1, 1, 8, 1, upscale});
-    EXPECT_EQ(other->forward(torch::rand({1, 1, 5, 5})).sizes(), (std::vector<int64_t>{1, 1, 5 * upscale, 5 * upscale}));
+    EXPECT_EQ(other->forward(torch::rand({1, 1, 5, 5})).sizes(),
+              (std::vector<int64_t>{1, 1, 5 * upscale, 5 * upscale}));
     EXPECT_EQ(other->named_parameters().find("upconv2.weight"), nullptr);
   }
   VGGStyleDiscriminator d(VGGStyleDiscriminatorOptions{3, 4, 128});
@@ -272,8 +274,9 @@ TEST(NetsForward, SuperResolution) {
 // ---- the registry and options
 
 TEST(NetsZoo, EveryEntryBuildsFromItsDefaultsAndRoundTrips) {
-  const std::vector<std::string> names = {"resnet18", "resnet50", "unet256", "patchgan", "pix2pixhd_global",
-                                          "pix2pixhd_local", "pix2pixhd_multiscale_d", "msrresnet", "srgan_d"};
+  const std::vector<std::string> names = {
+      "resnet18",  "resnet50", "unet256", "patchgan", "pix2pixhd_global", "pix2pixhd_local", "pix2pixhd_multiscale_d",
+      "msrresnet", "srgan_d"};
   ASSERT_EQ(model_zoo().size(), names.size());
   for (size_t i = 0; i < names.size(); ++i) {
     const ModelEntry& e = model_zoo()[i];

@@ -48,15 +48,16 @@ nn::Sequential global_layers(int64_t in, int64_t out, int64_t ngf, int n_down, i
 
 void check_multiple(const torch::Tensor& x, int64_t channels, int64_t m, const std::string& what) {
   if (x.dim() != 4 || x.size(1) != channels || x.size(2) % m || x.size(3) % m)
-    throw InvalidInput(what + " input", "shape " + c10::str(x.sizes()) + " does not fit",
-                       "give [N, " + std::to_string(channels) + ", H, W] with H and W multiples of " + std::to_string(m));
+    throw InvalidInput(
+        what + " input", "shape " + c10::str(x.sizes()) + " does not fit",
+        "give [N, " + std::to_string(channels) + ", H, W] with H and W multiples of " + std::to_string(m));
 }
 
 }  // namespace
 
 void to_json(nlohmann::json& j, const GlobalGeneratorOptions& o) {
-  j = {{"in_channels", o.in_channels}, {"out_channels", o.out_channels}, {"ngf", o.ngf},
-       {"n_downsampling", o.n_downsampling}, {"n_blocks", o.n_blocks}, {"norm", o.norm}};
+  j = {{"in_channels", o.in_channels},       {"out_channels", o.out_channels}, {"ngf", o.ngf},
+       {"n_downsampling", o.n_downsampling}, {"n_blocks", o.n_blocks},         {"norm", o.norm}};
 }
 
 void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o) {
@@ -71,15 +72,21 @@ void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o) {
 }
 
 void to_json(nlohmann::json& j, const LocalEnhancerOptions& o) {
-  j = {{"in_channels", o.in_channels}, {"out_channels", o.out_channels}, {"ngf", o.ngf},
-       {"n_downsample_global", o.n_downsample_global}, {"n_blocks_global", o.n_blocks_global},
-       {"n_local_enhancers", o.n_local_enhancers}, {"n_blocks_local", o.n_blocks_local}, {"norm", o.norm}};
+  j = {{"in_channels", o.in_channels},
+       {"out_channels", o.out_channels},
+       {"ngf", o.ngf},
+       {"n_downsample_global", o.n_downsample_global},
+       {"n_blocks_global", o.n_blocks_global},
+       {"n_local_enhancers", o.n_local_enhancers},
+       {"n_blocks_local", o.n_blocks_local},
+       {"norm", o.norm}};
 }
 
 void from_json(const nlohmann::json& j, LocalEnhancerOptions& o) {
   const std::string w = "pix2pixhd_local";
-  check_keys(j, w, {"in_channels", "out_channels", "ngf", "n_downsample_global", "n_blocks_global",
-                    "n_local_enhancers", "n_blocks_local", "norm"});
+  check_keys(j, w,
+             {"in_channels", "out_channels", "ngf", "n_downsample_global", "n_blocks_global", "n_local_enhancers",
+              "n_blocks_local", "norm"});
   read_key(j, w, "in_channels", o.in_channels);
   read_key(j, w, "out_channels", o.out_channels);
   read_key(j, w, "ngf", o.ngf);
@@ -91,8 +98,13 @@ void from_json(const nlohmann::json& j, LocalEnhancerOptions& o) {
 }
 
 void to_json(nlohmann::json& j, const MultiscaleDiscriminatorOptions& o) {
-  j = {{"in_channels", o.in_channels}, {"ndf", o.ndf}, {"n_layers", o.n_layers}, {"norm", o.norm},
-       {"num_D", o.num_D}, {"get_interm_feat", o.get_interm_feat}, {"use_sigmoid", o.use_sigmoid}};
+  j = {{"in_channels", o.in_channels},
+       {"ndf", o.ndf},
+       {"n_layers", o.n_layers},
+       {"norm", o.norm},
+       {"num_D", o.num_D},
+       {"get_interm_feat", o.get_interm_feat},
+       {"use_sigmoid", o.use_sigmoid}};
 }
 
 void from_json(const nlohmann::json& j, MultiscaleDiscriminatorOptions& o) {
@@ -125,8 +137,8 @@ GlobalGeneratorImpl::GlobalGeneratorImpl(const GlobalGeneratorOptions& o) : opti
   require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks >= 0, w,
           "channel counts must be positive and n_blocks not negative", "fix the options");
   require(o.n_downsampling >= 0 && o.n_downsampling <= 8, w, "n_downsampling must be in 0..8", "pix2pixHD uses 4");
-  model_ = register_module("model", global_layers(o.in_channels, o.out_channels, o.ngf, o.n_downsampling, o.n_blocks,
-                                                  o.norm, true));
+  model_ = register_module(
+      "model", global_layers(o.in_channels, o.out_channels, o.ngf, o.n_downsampling, o.n_blocks, o.norm, true));
   init_normal_002(*this);
 }
 
@@ -138,11 +150,11 @@ torch::Tensor GlobalGeneratorImpl::forward(torch::Tensor x) {
 LocalEnhancerImpl::LocalEnhancerImpl(const LocalEnhancerOptions& o) : options_(o) {
   const std::string w = "pix2pixhd_local";
   check_norm(o.norm, w, false);
-  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks_global >= 0 && o.n_blocks_local >= 0,
-          w, "channel counts must be positive and block counts not negative", "fix the options");
-  require(o.n_downsample_global >= 0 && o.n_downsample_global <= 8 && o.n_local_enhancers >= 1 &&
-              o.n_local_enhancers <= 3,
-          w, "n_downsample_global must be in 0..8 and n_local_enhancers in 1..3", "pix2pixHD uses 4 and 1");
+  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks_global >= 0 && o.n_blocks_local >= 0, w,
+          "channel counts must be positive and block counts not negative", "fix the options");
+  require(
+      o.n_downsample_global >= 0 && o.n_downsample_global <= 8 && o.n_local_enhancers >= 1 && o.n_local_enhancers <= 3,
+      w, "n_downsample_global must be in 0..8 and n_local_enhancers in 1..3", "pix2pixHD uses 4 and 1");
   const int64_t ngf_global = int64_t(o.ngf) << o.n_local_enhancers;
   model_ = register_module("model", global_layers(o.in_channels, o.out_channels, ngf_global, o.n_downsample_global,
                                                   o.n_blocks_global, o.norm, false));

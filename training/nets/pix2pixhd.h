@@ -33,7 +33,8 @@ void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o);
 struct LocalEnhancerOptions {
   int in_channels = 3;
   int out_channels = 3;
-  int ngf = 32;  // of the enhancer; the global generator inside has ngf·2^n_local_enhancers (64: the reference's 2K set-up)
+  // Of the enhancer; the global generator inside has ngf·2^n_local_enhancers (64: the reference's 2K set-up).
+  int ngf = 32;
   int n_downsample_global = 4;
   int n_blocks_global = 9;
   int n_local_enhancers = 1;

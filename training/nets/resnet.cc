@@ -82,7 +82,8 @@ ResNetImpl::ResNetImpl(const ResNetOptions& o) : options_(o) {
   require(known_depth, kWhat, "depth " + std::to_string(o.depth) + " is not built", "use 18, 34 or 50");
   require(o.width >= 1 && o.in_channels >= 1 && o.num_classes >= 0, kWhat,
           "width and in_channels must be positive and num_classes not negative", "fix the options");
-  conv1_ = register_module("conv1", nn::Conv2d(nn::Conv2dOptions(o.in_channels, o.width, 7).stride(2).padding(3).bias(false)));
+  conv1_ = register_module("conv1",
+                           nn::Conv2d(nn::Conv2dOptions(o.in_channels, o.width, 7).stride(2).padding(3).bias(false)));
   bn1_ = register_module("bn1", nn::BatchNorm2d(o.width));
   const int blocks[3][4] = {{2, 2, 2, 2}, {3, 4, 6, 3}, {3, 4, 6, 3}};
   const int* n = blocks[o.depth == 18 ? 0 : o.depth == 34 ? 1 : 2];

@@ -19,8 +19,13 @@ nn::AnyModule upsampler(const UNetOptions& o, int64_t in, int64_t out, bool bias
 }  // namespace
 
 void to_json(nlohmann::json& j, const UNetOptions& o) {
-  j = {{"in_channels", o.in_channels}, {"out_channels", o.out_channels}, {"ngf", o.ngf}, {"num_downs", o.num_downs},
-       {"norm", o.norm}, {"dropout", o.dropout}, {"upsample", o.upsample}};
+  j = {{"in_channels", o.in_channels},
+       {"out_channels", o.out_channels},
+       {"ngf", o.ngf},
+       {"num_downs", o.num_downs},
+       {"norm", o.norm},
+       {"dropout", o.dropout},
+       {"upsample", o.upsample}};
 }
 
 void from_json(const nlohmann::json& j, UNetOptions& o) {
@@ -51,8 +56,8 @@ torch::Tensor ResizeConvImpl::forward(torch::Tensor x) {
 //   outermost:    [downconv, submodule, ReLU, upconv(2·inner → outer, bias), Tanh]
 //   intermediate: [LeakyReLU, downconv, downnorm, submodule, ReLU, upconv(2·inner → outer), upnorm, (Dropout)]
 //   innermost:    [LeakyReLU, downconv, ReLU, upconv(inner → outer), upnorm]
-UNetBlockImpl::UNetBlockImpl(Kind kind, int64_t outer, int64_t inner, int64_t input, const UNetOptions& o,
-                             bool dropout, nn::AnyModule submodule)
+UNetBlockImpl::UNetBlockImpl(Kind kind, int64_t outer, int64_t inner, int64_t input, const UNetOptions& o, bool dropout,
+                             nn::AnyModule submodule)
     : outermost_(kind == Kind::outermost) {
   const bool bias = o.norm != "batch";
   auto downconv = nn::Conv2d(nn::Conv2dOptions(input, inner, 4).stride(2).padding(1).bias(bias));
@@ -104,17 +109,17 @@ UNetImpl::UNetImpl(const UNetOptions& o) : options_(o) {
   block = UNetBlock(Kind::intermediate, g * 4, g * 8, g * 4, o, false, nn::AnyModule(block));
   block = UNetBlock(Kind::intermediate, g * 2, g * 4, g * 2, o, false, nn::AnyModule(block));
   block = UNetBlock(Kind::intermediate, g, g * 2, g, o, false, nn::AnyModule(block));
-  model_ = register_module("model", UNetBlock(Kind::outermost, o.out_channels, g, o.in_channels, o, false,
-                                              nn::AnyModule(block)));
+  model_ = register_module(
+      "model", UNetBlock(Kind::outermost, o.out_channels, g, o.in_channels, o, false, nn::AnyModule(block)));
   init_normal_002(*this);
 }
 
 torch::Tensor UNetImpl::forward(torch::Tensor x) {
   const int64_t m = int64_t(1) << options_.num_downs;
   if (x.dim() != 4 || x.size(1) != options_.in_channels || x.size(2) % m || x.size(3) % m)
-    throw InvalidInput("unet input", "shape " + c10::str(x.sizes()) + " does not fit",
-                       "give [N, " + std::to_string(options_.in_channels) + ", H, W] with H and W multiples of " +
-                           std::to_string(m));
+    throw InvalidInput(
+        "unet input", "shape " + c10::str(x.sizes()) + " does not fit",
+        "give [N, " + std::to_string(options_.in_channels) + ", H, W] with H and W multiples of " + std::to_string(m));
   return model_->forward(x);
 }
 

@@ -34,7 +34,8 @@ std::vector<ModelEntry> build_zoo() {
   UNetOptions unet;
   PatchGANOptions patch;
   return {
-      entry<ResNet>("resnet18", "ResNet-18 (torchvision layout): BareSkinNet's student E, 3DMM coefficients from photos",
+      entry<ResNet>("resnet18",
+                    "ResNet-18 (torchvision layout): BareSkinNet's student E, 3DMM coefficients from photos",
                     ResNetOptions{}),
       entry<ResNet>("resnet50", "ResNet-50 (torchvision layout): BareSkinNet's teacher F, 3DMM coefficients", r50),
       entry<UNet>("unet256", "pix2pix U-Net generator (unet_256): BareSkinNet's generator G, photo to bare skin", unet),
@@ -106,15 +107,18 @@ void import_state_dict(torch::nn::Module& module, const std::string& path) {
   for (const auto& p : module.named_parameters(true)) ours[p.key()] = p.value();
   for (const auto& b : module.named_buffers(true)) ours[b.key()] = b.value();
   for (const auto& [name, t] : file)
-    if (!ours.count(name)) throw InvalidInput(path, "tensor '" + name + "' is not a parameter of the network",
-                                              "check that the file belongs to this model and its options");
+    if (!ours.count(name))
+      throw InvalidInput(path, "tensor '" + name + "' is not a parameter of the network",
+                         "check that the file belongs to this model and its options");
   for (const auto& [name, t] : ours) {
     const auto it = file.find(name);
     if (it == file.end())
       throw InvalidInput(path, "parameter '" + name + "' is missing", "check the model's options (depth, widths)");
     if (it->second.sizes() != t.sizes())
-      throw InvalidInput(path, "parameter '" + name + "' has shape " + c10::str(it->second.sizes()) + ", the network " +
-                                   c10::str(t.sizes()), "check the model's options (depth, widths)");
+      throw InvalidInput(
+          path,
+          "parameter '" + name + "' has shape " + c10::str(it->second.sizes()) + ", the network " + c10::str(t.sizes()),
+          "check the model's options (depth, widths)");
   }
   torch::NoGradGuard no_grad;
   for (auto& [name, t] : ours) t.copy_(file.at(name));
