@@ -6,6 +6,9 @@ JOBS       ?= $(shell nproc)
 # ccache must ignore the precompiled-header defines/timestamps, or PCH builds never hit the cache.
 export CCACHE_SLOPPINESS = pch_defines,time_macros,include_file_mtime,include_file_ctime
 export BARESKIN_ASSETS  ?= $(CURDIR)/assets
+# OpenMP threads that spin while waiting make LibTorch 2-25x slower when tests or jobs share the cores (measured with
+# nets_bench on the 2-core machine, where every network also stepped faster with passive waits).
+export OMP_WAIT_POLICY ?= PASSIVE
 
 PREFIX     ?= /usr/local
 
