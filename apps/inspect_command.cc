@@ -17,7 +17,7 @@
 namespace bareskin::cli {
 namespace {
 
-nlohmann::json inspect_file(const std::string& path, bool stats) {
+nlohmann::json inspect_file(const std::string& path, bool stats, bool values) {
   const std::string ext = lower_extension(path);
   nlohmann::json j;
   j["file"] = path;
@@ -53,6 +53,15 @@ nlohmann::json inspect_file(const std::string& path, bool stats) {
         e["min"] = lo;
         e["max"] = hi;
         e["mean"] = sum / double(t.numel());
+      }
+      if (values) {  // every element in row-major order of the shape (integers exact up to 2^53)
+        nlohmann::json v = nlohmann::json::array();
+        const bool integer = t.dtype != DType::F16 && t.dtype != DType::BF16 && t.dtype != DType::F32 && t.dtype != DType::F64;
+        for (int64_t i = 0; i < t.numel(); ++i) {
+          if (integer) v.push_back(int64_t(t.as_double(i)));
+          else v.push_back(t.as_double(i));
+        }
+        e["values"] = v;
       }
       j["tensors"].push_back(e);
     }
@@ -101,15 +110,16 @@ void print_text(const nlohmann::json& j) {
 std::function<void()> setup_inspect_command(CLI::App& app, const Globals&) {
   struct Options {
     std::vector<std::string> files;
-    bool json = false, stats = false;
+    bool json = false, stats = false, values = false;
   };
   auto opt = std::make_shared<Options>();
   app.add_option("files", opt->files, "Meshes (.obj .ply), images, .safetensors, landmarks (.json .pts)")->required();
   app.add_flag("--json", opt->json, "Print one JSON object per file");
   app.add_flag("--stats", opt->stats, "Tensor min/max/mean (safetensors)");
+  app.add_flag("--values", opt->values, "With --json: every tensor element, row-major (safetensors; small files)");
   return [opt] {
     for (const std::string& f : opt->files) {
-      const nlohmann::json j = inspect_file(f, opt->stats);
+      const nlohmann::json j = inspect_file(f, opt->stats, opt->values && opt->json);
       if (opt->json) {
         std::cout << j.dump() << "\n";
       } else {

@@ -268,5 +268,18 @@ TEST(SphericalHarmonics, BasisIsOrthogonalAndAmbientIsConstant) {
   EXPECT_DOUBLE_EQ(e.x(), e.z());
 }
 
+// Pinned to Deep3DFaceRecon's numbers, not to our formula: its band products a_l c_l are 0.886227, 1.772454 and
+// 2.427032, and its basis at the unit normal (0.48, -0.6, 0.64), in its order and signs
+// [a0c0, -a1c1 y, a1c1 z, -a1c1 x, a2c2 xy, -a2c2 yz, a2c2 (3z^2-1)/(2 sqrt 3), -a2c2 xz, a2c2 (x^2-y^2)/2], written out.
+TEST(SphericalHarmonics, MatchesDeep3dFaceReconNumbers) {
+  const ShScales k = sh_scales();
+  EXPECT_NEAR(k.k0, 0.886227, 1e-6);
+  EXPECT_NEAR(k.k1, 1.772454, 1e-6);
+  EXPECT_NEAR(k.k2, 2.427032, 1e-6);
+  const double expected[9] = {0.886227, 1.063472, 1.134370, -0.850778, -0.698985, 0.931980, 0.160303, -0.745584, -0.157272};
+  const std::array<double, 9> Y = sh_basis({0.48, -0.6, 0.64});
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(Y[size_t(i)], expected[i], 1e-6) << "basis function " << i;
+}
+
 }  // namespace
 }  // namespace bareskin

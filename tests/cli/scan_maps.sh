@@ -29,12 +29,17 @@ oiiotool --info -v "$work/exr/subject_0000/diffuse.exr" | grep -qi "colorspace.*
 ok
 
 # kill -9 in the middle, rerun: finished subjects are kept, the rest made again, all bytes as an uninterrupted run.
+# The kill must land mid-run: the process still running when killed (SIGKILL is what ended it), at least one subject
+# finished and at least one not, else the resume would prove nothing.
 synth --count 3 --res 512 -o "$work/ref" || fail "reference run"
 synth --count 3 --res 512 -o "$work/killed" &
 pid=$!
 for _ in $(seq 1 600); do [ -d "$work/killed/subject_0000" ] && break; sleep 0.05; done
-kill -9 $pid 2> /dev/null
+kill -9 $pid 2> /dev/null || fail "the run had ended before kill -9"
 wait $pid 2> /dev/null
+[ $? -eq 137 ] || fail "the run was not ended by kill -9"
+finished=$(find "$work/killed" -maxdepth 1 -name 'subject_*' | wc -l)
+[ "$finished" -ge 1 ] && [ "$finished" -lt 3 ] || fail "kill -9 did not land mid-run: $finished of 3 subjects finished"
 synth --count 3 --res 512 -o "$work/killed" || fail "resumed run"
 for f in $(cd "$work/ref" && find subject_* -type f | sort); do
   cmp -s "$work/ref/$f" "$work/killed/$f" || fail "$f differs after kill -9 and resume"

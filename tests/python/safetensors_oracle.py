@@ -83,7 +83,8 @@ def check_template(folder):
 def write_reference(path):
     rng = np.random.default_rng(7)
     tensors = {"a_f32": rng.standard_normal((3, 4)).astype("<f4"), "b_f64": rng.standard_normal(5).astype("<f8"),
-               "c_i32": np.arange(-3, 3, dtype="<i4").reshape(2, 3), "d_u8": np.array([0, 7, 255], dtype=np.uint8),
+               "c_i32": np.arange(-3, 3, dtype="<i4").reshape(2, 3),
+               "g_f32_3d": rng.standard_normal((2, 3, 4)).astype("<f4"), "d_u8": np.array([0, 7, 255], dtype=np.uint8),
                "e_f16": np.array([1.5, -2.25, 0.1], dtype="<f2"), "f_i64": np.array([2**40, -5], dtype="<i8")}
     order = sorted(tensors, key=lambda k: (-tensors[k].dtype.itemsize, k))
     header, blob = {"__metadata__": {"made_by": "numpy oracle"}}, b""
@@ -97,7 +98,8 @@ def write_reference(path):
     with open(path, "wb") as f:
         f.write(struct.pack("<Q", len(h)) + h + blob)
     stats = {k: {"min": float(v.astype(np.float64).min()), "max": float(v.astype(np.float64).max()),
-                 "mean": float(v.astype(np.float64).mean()), "shape": list(v.shape)} for k, v in tensors.items()}
+                 "mean": float(v.astype(np.float64).mean()), "shape": list(v.shape),
+                 "values": v.ravel().tolist()} for k, v in tensors.items()}
     print(json.dumps(stats))
 
 
