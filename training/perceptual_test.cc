@@ -99,8 +99,11 @@ TEST_P(LpipsTrunks, WeightsFileRoundTripAndMissingTensor) {
   EXPECT_TRUE(value.equal(reloaded->forward(a, b)));
   EXPECT_GT((value - lpips->forward(a, b)).abs().max().item<float>(), 1e-4);  // the file's weights are used
 
-  // A file without one tensor: InvalidInput naming the file and the tensor.
-  for (const std::string& missing : {std::string("lin2.model.1.weight"), tensors.begin()->first}) {
+  // A file without one tensor: InvalidInput naming the file and the tensor. (Files of the VGG trunk are 59 MB: its
+  // missing trunk tensor is checked in memory by losses_test's Vgg16 tests, negative weights with facenet only.)
+  std::vector<std::string> missing_tensors = {"lin2.model.1.weight"};
+  if (GetParam() == "facenet") missing_tensors.push_back(tensors.begin()->first);
+  for (const std::string& missing : missing_tensors) {
     auto partial = tensors;
     partial.erase(missing);
     const std::string broken = dir + "/broken.safetensors";
@@ -113,11 +116,12 @@ TEST_P(LpipsTrunks, WeightsFileRoundTripAndMissingTensor) {
       EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
     }
   }
-  // Negative linear weights are refused.
-  auto negative = tensors;
-  negative["lin0.model.1.weight"] = -negative["lin0.model.1.weight"];
-  save_tensors(dir + "/negative.safetensors", negative, SafeTensors::open(path).metadata());
-  EXPECT_THROW(LpipsImpl::load(dir + "/negative.safetensors"), InvalidInput);
+  if (GetParam() == "facenet") {  // negative linear weights are refused
+    auto negative = tensors;
+    negative["lin0.model.1.weight"] = -negative["lin0.model.1.weight"];
+    save_tensors(dir + "/negative.safetensors", negative, SafeTensors::open(path).metadata());
+    EXPECT_THROW(LpipsImpl::load(dir + "/negative.safetensors"), InvalidInput);
+  }
   std::filesystem::remove_all(dir);
 }
 
