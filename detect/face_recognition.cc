@@ -20,11 +20,11 @@ struct Layer {
   const char* name;
   bool down;
 };
-constexpr Layer kLayers[] = {{"conv32_1", false},     {"conv32_2", false},  {"conv32_3", false},
-                             {"conv64_down", true},   {"conv64_1", false},  {"conv64_2", false},
-                             {"conv64_3", false},     {"conv128_down", true}, {"conv128_1", false},
-                             {"conv128_2", false},    {"conv256_down", true}, {"conv256_1", false},
-                             {"conv256_2", false},    {"conv256_down_out", true}};
+constexpr Layer kLayers[] = {{"conv32_1", false},   {"conv32_2", false},       {"conv32_3", false},
+                             {"conv64_down", true}, {"conv64_1", false},       {"conv64_2", false},
+                             {"conv64_3", false},   {"conv128_down", true},    {"conv128_1", false},
+                             {"conv128_2", false},  {"conv256_down", true},    {"conv256_1", false},
+                             {"conv256_2", false},  {"conv256_down_out", true}};
 // After which residual layers forward_features records a feature map (conv32_down is the first).
 constexpr const char* kFeatureAfter[] = {"conv32_3", "conv64_3", "conv128_2", "conv256_2"};
 
@@ -38,8 +38,9 @@ const torch::Tensor& take(const std::map<std::string, torch::Tensor>& weights, c
   if (it == weights.end())
     throw InvalidInput(source, "tensor '" + name + "' is missing", "it must hold face-api's face recognition model");
   if (it->second.sizes().vec() != shape)
-    throw InvalidInput(source, "tensor '" + name + "' has shape " + c10::str(it->second.sizes()) + ", expected " +
-                                   c10::str(torch::IntArrayRef(shape)),
+    throw InvalidInput(source,
+                       "tensor '" + name + "' has shape " + c10::str(it->second.sizes()) + ", expected " +
+                           c10::str(torch::IntArrayRef(shape)),
                        "it must hold face-api's face recognition model");
   return it->second;
 }
@@ -79,7 +80,8 @@ Axis legacy_axis(int64_t square, int64_t before, int64_t extent, int64_t out, co
 }  // namespace
 
 FaceRecognitionNetImpl::FaceRecognitionNetImpl(const std::string& folder)
-    : FaceRecognitionNetImpl(read_manifest(folder), (std::filesystem::path(folder) / kFaceRecognitionManifest).string()) {}
+    : FaceRecognitionNetImpl(read_manifest(folder),
+                             (std::filesystem::path(folder) / kFaceRecognitionManifest).string()) {}
 
 FaceRecognitionNetImpl::FaceRecognitionNetImpl(const std::map<std::string, torch::Tensor>& weights,
                                                const std::string& source) {

@@ -42,7 +42,7 @@ class FaceRecognitionNetImpl : public torch::nn::Module {
   torch::Tensor forward(const torch::Tensor& images);
 
   struct Output {
-    torch::Tensor embedding;             // [B, 128]
+    torch::Tensor embedding;              // [B, 128]
     std::vector<torch::Tensor> features;  // kFeatureLevels maps, see forward_features
   };
   // The descriptor and the activations at five depths, for perceptual losses: conv32_down (after relu, before the

@@ -1,6 +1,8 @@
 // face-api's face recognition net: descriptors against face-api's own JavaScript (node, tfjs CPU backend) on a
 // 150² image and on a non-square one (centred padding + legacy resize), feature-map shapes, gradients to the input
 // (directional derivatives in double against central differences), weights round trip, and missing tensors.
+#include "detect/face_recognition.h"
+
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -13,7 +15,6 @@
 
 #include "core/error.h"
 #include "core/test_util.h"
-#include "detect/face_recognition.h"
 
 namespace bareskin::detect {
 namespace {
@@ -80,8 +81,8 @@ TEST(FaceRecognition, MatchesFaceApiJavaScript) {
     ASSERT_EQ(expected.size(), 128u);
     const torch::Tensor ours = net->forward(inputs[i])[0];
     const float diff = (ours - torch::tensor(expected)).abs().max().item<float>();
-    std::printf("  %dx%d: max |ours - face-api| = %.2e (descriptor norm %.3f)\n", sizes[i].first, sizes[i].second,
-                diff, ours.norm().item<float>());
+    std::printf("  %dx%d: max |ours - face-api| = %.2e (descriptor norm %.3f)\n", sizes[i].first, sizes[i].second, diff,
+                ours.norm().item<float>());
     EXPECT_LT(diff, 1e-4) << sizes[i].first << "x" << sizes[i].second;
   }
   std::filesystem::remove_all(dir);

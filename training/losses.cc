@@ -23,9 +23,12 @@ GanKind parse_gan_kind(const std::string& name, const std::string& source) {
 
 std::string gan_kind_name(GanKind kind) {
   switch (kind) {
-    case GanKind::Vanilla: return "vanilla";
-    case GanKind::Lsgan: return "lsgan";
-    case GanKind::Hinge: return "hinge";
+    case GanKind::Vanilla:
+      return "vanilla";
+    case GanKind::Lsgan:
+      return "lsgan";
+    case GanKind::Hinge:
+      return "hinge";
   }
   return "?";
 }
@@ -60,15 +63,17 @@ torch::Tensor gan_loss(const MultiscaleOutputs& outputs, bool target_is_real, Ga
 
 torch::Tensor feature_matching(const MultiscaleOutputs& fake, const MultiscaleOutputs& real, double lambda_feat) {
   if (fake.size() != real.size() || fake.empty())
-    throw InvalidInput("feature matching", "fake and real outputs have " + std::to_string(fake.size()) + " and " +
-                                               std::to_string(real.size()) + " discriminator scales",
+    throw InvalidInput("feature matching",
+                       "fake and real outputs have " + std::to_string(fake.size()) + " and " +
+                           std::to_string(real.size()) + " discriminator scales",
                        "pass the outputs of one multiscale discriminator for both");
   const double d_weight = 1.0 / double(fake.size());
   torch::Tensor total = torch::zeros({}, fake[0].back().options());
   for (size_t i = 0; i < fake.size(); ++i) {
     if (fake[i].size() != real[i].size() || fake[i].size() < 2)
-      throw InvalidInput("feature matching", "scale " + std::to_string(i) + " has " + std::to_string(fake[i].size()) +
-                                                 " fake and " + std::to_string(real[i].size()) + " real outputs",
+      throw InvalidInput("feature matching",
+                         "scale " + std::to_string(i) + " has " + std::to_string(fake[i].size()) + " fake and " +
+                             std::to_string(real[i].size()) + " real outputs",
                          "the discriminator must return its intermediate features (getIntermFeat)");
     const size_t layers = fake[i].size() - 1;  // n_layers_D + 1 features, then the prediction
     const double feat_weight = 4.0 / double(layers);

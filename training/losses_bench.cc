@@ -2,6 +2,7 @@
 // 4, per trunk; the identity loss likewise; SSIM for scale. Medians over repeats after one warm-up; CUDA timings
 // synchronise before reading the clock.
 //   losses_bench [REPEATS] [cpu|cuda]     (face-api's weights from $BARESKIN_ASSETS/face_api, else assets/face_api)
+#include <malloc.h>
 #include <torch/torch.h>
 
 #include <algorithm>
@@ -9,7 +10,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
-#include <malloc.h>
 #include <string>
 #include <thread>
 #include <vector>
@@ -62,11 +62,9 @@ int main(int argc, char** argv) {
   }
   detect::FaceRecognitionNet net(detect::default_face_api_folder());
   net->to(device);
-  std::printf("identity (facenet)     %8.1f ms\n", timed([&](const torch::Tensor& x) {
-                return losses::identity_loss(net, x, b);
-              }));
-  std::printf("SSIM                   %8.1f ms\n", timed([&](const torch::Tensor& x) {
-                return 1 - losses::ssim(x, b).mean();
-              }));
+  std::printf("identity (facenet)     %8.1f ms\n",
+              timed([&](const torch::Tensor& x) { return losses::identity_loss(net, x, b); }));
+  std::printf("SSIM                   %8.1f ms\n",
+              timed([&](const torch::Tensor& x) { return 1 - losses::ssim(x, b).mean(); }));
   return 0;
 }

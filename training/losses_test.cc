@@ -1,5 +1,7 @@
 // Pixel, GAN and structural losses against their formulas written out element by element, SSIM/PSNR against
 // scikit-image, and the seeded VGG16 trunk + LPIPS formula against torchvision (tests/python/losses_oracle.py).
+#include "training/losses.h"
+
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -11,7 +13,6 @@
 
 #include "core/error.h"
 #include "core/test_util.h"
-#include "training/losses.h"
 #include "training/ssim.h"
 #include "training/vgg16.h"
 
@@ -47,17 +48,21 @@ TEST(Losses, GanLossesFollowTheirFormulas) {
   };
   auto softplus = [](double x) { return std::log1p(std::exp(x)); };  // −log σ(−x)
   const double tol = 1e-12;
-  EXPECT_NEAR(gan_loss(p, true, GanKind::Vanilla, true).item<double>(), mean([&](double x) { return softplus(-x); }), tol);
-  EXPECT_NEAR(gan_loss(p, false, GanKind::Vanilla, true).item<double>(), mean([&](double x) { return softplus(x); }), tol);
-  EXPECT_NEAR(gan_loss(p, true, GanKind::Lsgan, true).item<double>(), mean([](double x) { return (x - 1) * (x - 1); }), tol);
+  EXPECT_NEAR(gan_loss(p, true, GanKind::Vanilla, true).item<double>(), mean([&](double x) { return softplus(-x); }),
+              tol);
+  EXPECT_NEAR(gan_loss(p, false, GanKind::Vanilla, true).item<double>(), mean([&](double x) { return softplus(x); }),
+              tol);
+  EXPECT_NEAR(gan_loss(p, true, GanKind::Lsgan, true).item<double>(), mean([](double x) { return (x - 1) * (x - 1); }),
+              tol);
   EXPECT_NEAR(gan_loss(p, false, GanKind::Lsgan, false).item<double>(), mean([](double x) { return x * x; }), tol);
-  EXPECT_NEAR(gan_loss(p, true, GanKind::Hinge, true).item<double>(), mean([](double x) { return std::max(0.0, 1 - x); }),
-              tol);
-  EXPECT_NEAR(gan_loss(p, false, GanKind::Hinge, true).item<double>(), mean([](double x) { return std::max(0.0, 1 + x); }),
-              tol);
+  EXPECT_NEAR(gan_loss(p, true, GanKind::Hinge, true).item<double>(),
+              mean([](double x) { return std::max(0.0, 1 - x); }), tol);
+  EXPECT_NEAR(gan_loss(p, false, GanKind::Hinge, true).item<double>(),
+              mean([](double x) { return std::max(0.0, 1 + x); }), tol);
   EXPECT_NEAR(gan_loss(p, true, GanKind::Hinge, false).item<double>(), -mean([](double x) { return x; }), tol);
   // The vanilla and LSGAN losses do not depend on who asks.
-  EXPECT_EQ(gan_loss(p, true, GanKind::Lsgan, false).item<double>(), gan_loss(p, true, GanKind::Lsgan, true).item<double>());
+  EXPECT_EQ(gan_loss(p, true, GanKind::Lsgan, false).item<double>(),
+            gan_loss(p, true, GanKind::Lsgan, true).item<double>());
   EXPECT_THROW(gan_loss(p, false, GanKind::Hinge, false), InternalError);
 
   // Multiscale: the sum over scales of each scale's last output; features are ignored.
@@ -113,8 +118,8 @@ TEST(Losses, FeatureMatchingAsPix2PixHD) {
 // Raw float64 [N, C, H, W] for the Python oracle.
 void write_raw(const std::string& path, const torch::Tensor& t) {
   const torch::Tensor c = t.to(torch::kDouble).contiguous();
-  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(c.data_ptr<double>()),
-                                              std::streamsize(c.numel() * sizeof(double)));
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(c.data_ptr<double>()), std::streamsize(c.numel() * sizeof(double)));
 }
 
 // Runs the oracle on two batches; skips the test when /usr/bin/python3 lacks the module it needs.
@@ -124,9 +129,9 @@ nlohmann::json oracle(const std::string& command, const torch::Tensor& a, const 
   write_raw(dir + "/a.bin", a);
   write_raw(dir + "/b.bin", b);
   std::ostringstream cmd;
-  cmd << "/usr/bin/python3 '" BARESKIN_LOSSES_ORACLE "' " << command << " '" << dir << "/a.bin' '" << dir
-      << "/b.bin' " << a.size(0) << " " << a.size(1) << " " << a.size(2) << " " << a.size(3) << " " << extra << " > '"
-      << dir << "/out.json' 2> '" << dir << "/err.txt'";
+  cmd << "/usr/bin/python3 '" BARESKIN_LOSSES_ORACLE "' " << command << " '" << dir << "/a.bin' '" << dir << "/b.bin' "
+      << a.size(0) << " " << a.size(1) << " " << a.size(2) << " " << a.size(3) << " " << extra << " > '" << dir
+      << "/out.json' 2> '" << dir << "/err.txt'";
   const int rc = std::system(cmd.str().c_str());
   std::ostringstream err;
   err << std::ifstream(dir + "/err.txt").rdbuf();
@@ -143,7 +148,8 @@ std::pair<torch::Tensor, torch::Tensor> image_pair(int64_t n, int64_t c, int64_t
   const torch::Tensor y = torch::linspace(0, 1, h, torch::kDouble).view({1, 1, h, 1});
   const torch::Tensor x = torch::linspace(0, 1, w, torch::kDouble).view({1, 1, 1, w});
   const torch::Tensor phase = torch::arange(n * c, torch::kDouble).view({n, c, 1, 1});
-  const torch::Tensor a = 0.5 + 0.3 * torch::sin(7 * x + 5 * y * y + phase) + 0.1 * torch::rand({n, c, h, w}, torch::kDouble);
+  const torch::Tensor a =
+      0.5 + 0.3 * torch::sin(7 * x + 5 * y * y + phase) + 0.1 * torch::rand({n, c, h, w}, torch::kDouble);
   const torch::Tensor b = 0.9 * a + 0.08 + 0.05 * torch::randn({n, c, h, w}, torch::kDouble);
   return {a * scale, b * scale};
 }
@@ -164,7 +170,8 @@ TEST(Ssim, MatchesScikitImage) {
       EXPECT_NEAR(p[i].item<double>(), ref_psnr, 1e-6);
     }
     // float32 agrees too.
-    EXPECT_NEAR(ssim(a.to(torch::kFloat), b.to(torch::kFloat), options)[0].item<double>(), double(ref["ssim"][0]), 1e-4);
+    EXPECT_NEAR(ssim(a.to(torch::kFloat), b.to(torch::kFloat), options)[0].item<double>(), double(ref["ssim"][0]),
+                1e-4);
   }
 }
 

@@ -19,9 +19,7 @@ const char* const kFormat = "bareskin.lpips";
 std::string linear_name(size_t level) { return "lin" + std::to_string(level) + ".model.1.weight"; }
 
 // f / sqrt(Σ_c f² + ε), per pixel.
-torch::Tensor unit_channels(const torch::Tensor& f) {
-  return f * torch::rsqrt(f.pow(2).sum(1, true) + kEpsilon);
-}
+torch::Tensor unit_channels(const torch::Tensor& f) { return f * torch::rsqrt(f.pow(2).sum(1, true) + kEpsilon); }
 
 }  // namespace
 
@@ -29,7 +27,8 @@ LpipsImpl::LpipsImpl(const std::string& trunk, const std::string& face_api_folde
   if (trunk == "vgg16-random") {
     use_trunk(Vgg16Features());
   } else if (trunk == "facenet") {
-    use_trunk(detect::FaceRecognitionNet(face_api_folder.empty() ? detect::default_face_api_folder() : face_api_folder));
+    use_trunk(
+        detect::FaceRecognitionNet(face_api_folder.empty() ? detect::default_face_api_folder() : face_api_folder));
   } else {
     throw InvalidInput("lpips trunk", "unknown trunk '" + trunk + "'",
                        "use vgg16-random or facenet, or load a weights file");
@@ -68,7 +67,8 @@ std::shared_ptr<LpipsImpl> LpipsImpl::load(const std::string& path) {
   auto meta = [&](const std::string& key) {
     const auto it = file.metadata().find(key);
     if (it == file.metadata().end())
-      throw InvalidInput(path, "has no '" + key + "' metadata", "it is not an LPIPS weights file (docs/file_formats.md)");
+      throw InvalidInput(path, "has no '" + key + "' metadata",
+                         "it is not an LPIPS weights file (docs/file_formats.md)");
     return it->second;
   };
   if (meta("format") != kFormat)

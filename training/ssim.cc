@@ -29,20 +29,22 @@ torch::Tensor ssim_map(const torch::Tensor& a, const torch::Tensor& b, const Ssi
   check_pair(a, b, "ssim");
   const int w = options.window;
   if (w < 1 || w % 2 == 0 || options.sigma <= 0 || options.data_range <= 0)
-    throw InvalidInput("ssim", "window " + std::to_string(w) + ", sigma " + std::to_string(options.sigma) +
-                                   ", data range " + std::to_string(options.data_range),
+    throw InvalidInput("ssim",
+                       "window " + std::to_string(w) + ", sigma " + std::to_string(options.sigma) + ", data range " +
+                           std::to_string(options.data_range),
                        "the window must be odd and positive, sigma and data range positive");
   if (a.size(2) < w || a.size(3) < w)
-    throw InvalidInput("ssim", "images of " + std::to_string(a.size(2)) + "x" + std::to_string(a.size(3)) +
-                                   " pixels are smaller than the " + std::to_string(w) + "-pixel window",
+    throw InvalidInput("ssim",
+                       "images of " + std::to_string(a.size(2)) + "x" + std::to_string(a.size(3)) +
+                           " pixels are smaller than the " + std::to_string(w) + "-pixel window",
                        "use larger images or a smaller window");
   const int64_t c = a.size(1);
   // The five moments filtered at once: a depthwise separable Gaussian over [x, y, x², y², xy].
   const torch::Tensor g = gaussian(w, options.sigma, a.options());
   const torch::Tensor stacked = torch::cat({a, b, a * a, b * b, a * b}, 1);
   const int64_t groups = 5 * c;
-  torch::Tensor m = F::conv2d(stacked, g.view({1, 1, w, 1}).expand({groups, 1, w, 1}),
-                              F::Conv2dFuncOptions().groups(groups));
+  torch::Tensor m =
+      F::conv2d(stacked, g.view({1, 1, w, 1}).expand({groups, 1, w, 1}), F::Conv2dFuncOptions().groups(groups));
   m = F::conv2d(m, g.view({1, 1, 1, w}).expand({groups, 1, 1, w}), F::Conv2dFuncOptions().groups(groups));
   const auto parts = m.split(c, 1);
   const torch::Tensor &mx = parts[0], &my = parts[1];

@@ -6,8 +6,8 @@
 namespace bareskin::losses {
 
 struct SsimOptions {
-  int window = 11;          // Gaussian window side (odd); 11 = 2·round(3.5σ) + 1 for σ = 1.5
-  double sigma = 1.5;       // Gaussian standard deviation, pixels
+  int window = 11;     // Gaussian window side (odd); 11 = 2·round(3.5σ) + 1 for σ = 1.5
+  double sigma = 1.5;  // Gaussian standard deviation, pixels
   double k1 = 0.01, k2 = 0.03;
   double data_range = 1.0;  // L: max − min of the pixel scale (1 for [0, 1], 2 for [−1, 1], 255 for 8-bit)
 };

@@ -82,9 +82,10 @@ void Vgg16FeaturesImpl::load_weights(const std::map<std::string, torch::Tensor>&
       throw InvalidInput(source, "has no tensor '" + name + "' of the VGG16 trunk",
                          "write the file with Lpips::save, or convert torchvision's vgg16 features.* tensors");
     if (it->second.sizes() != p.sizes())
-      throw InvalidInput(source, "tensor '" + name + "' has shape " + c10::str(it->second.sizes()) + ", expected " +
-                                     c10::str(p.sizes()),
-                         "it must hold a VGG16 trunk");
+      throw InvalidInput(
+          source,
+          "tensor '" + name + "' has shape " + c10::str(it->second.sizes()) + ", expected " + c10::str(p.sizes()),
+          "it must hold a VGG16 trunk");
     p.copy_(it->second);
   }
 }
