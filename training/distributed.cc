@@ -8,7 +8,7 @@
 #include <torch/csrc/distributed/c10d/PrefixStore.hpp>
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
-#ifdef BARESKIN_WITH_NCCL
+#ifdef USE_C10D_NCCL  // set by LibTorch's CMake target where it is built with NCCL (pip's CUDA wheels)
 #include <torch/csrc/distributed/c10d/ProcessGroupNCCL.hpp>
 #endif
 
@@ -60,9 +60,22 @@ Environment Environment::from_env() {
 
 struct Group::Impl {
   c10::intrusive_ptr<c10d::Store> store;
-  c10::intrusive_ptr<c10d::ProcessGroup> group;
+  // The process group: a c10d::ProcessGroup in LibTorch 1.x, a c10d::Backend in 2.x; bound through its two
+  // collectives so this file builds against both.
+  c10::intrusive_ptr<c10::intrusive_ptr_target> group;
+  std::function<void(std::vector<torch::Tensor>&, const c10d::AllreduceOptions&)> allreduce;
+  std::function<void(std::vector<torch::Tensor>&)> broadcast;
   int rank = 0, world = 1;
   std::string backend;
+
+  template <class ProcessGroup>
+  void bind(c10::intrusive_ptr<ProcessGroup> pg, std::string name) {
+    ProcessGroup* p = pg.get();
+    allreduce = [p](std::vector<torch::Tensor>& t, const c10d::AllreduceOptions& o) { p->allreduce(t, o)->wait(); };
+    broadcast = [p](std::vector<torch::Tensor>& t) { p->broadcast(t)->wait(); };
+    group = std::move(pg);
+    backend = std::move(name);
+  }
 };
 
 Group::Group(const Environment& env, torch::Device device, int timeout_seconds) : impl_(std::make_unique<Impl>()) {
@@ -83,10 +96,9 @@ Group::Group(const Environment& env, torch::Device device, int timeout_seconds) 
   }
   auto prefixed = c10::make_intrusive<c10d::PrefixStore>("bareskin", impl_->store);
   if (device.is_cuda()) {
-#ifdef BARESKIN_WITH_NCCL
+#ifdef USE_C10D_NCCL  // set by LibTorch's CMake target where it is built with NCCL (pip's CUDA wheels)
     auto options = c10d::ProcessGroupNCCL::Options::create();
-    impl_->group = c10::make_intrusive<c10d::ProcessGroupNCCL>(prefixed, env.rank, env.world, options);
-    impl_->backend = "nccl";
+    impl_->bind(c10::make_intrusive<c10d::ProcessGroupNCCL>(prefixed, env.rank, env.world, options), "nccl");
 #else
     throw InvalidInput("--device cuda", "distributed CUDA training needs NCCL, which this LibTorch lacks",
                        "build against a CUDA LibTorch with NCCL (docs/training.md)");
@@ -95,8 +107,7 @@ Group::Group(const Environment& env, torch::Device device, int timeout_seconds) 
     auto options = c10d::ProcessGroupGloo::Options::create(std::chrono::seconds(timeout_seconds));
     options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForHostname(env.master_addr));
     options->threads = 2;
-    impl_->group = c10::make_intrusive<c10d::ProcessGroupGloo>(prefixed, env.rank, env.world, options);
-    impl_->backend = "gloo";
+    impl_->bind(c10::make_intrusive<c10d::ProcessGroupGloo>(prefixed, env.rank, env.world, options), "gloo");
   }
 }
 
@@ -109,7 +120,7 @@ void Group::broadcast(std::vector<torch::Tensor> tensors) {
   torch::NoGradGuard no_grad;
   for (auto& t : tensors) {
     std::vector<torch::Tensor> one{t.is_contiguous() ? t : t.contiguous()};
-    impl_->group->broadcast(one)->wait();
+    impl_->broadcast(one);
     if (!one[0].is_same(t)) t.copy_(one[0]);
   }
 }
@@ -127,7 +138,7 @@ void Group::average(std::vector<torch::Tensor> tensors, int64_t bucket_bytes) {
     std::vector<torch::Tensor> flat;
     for (size_t i = begin; i < end; ++i) flat.push_back(tensors[i].reshape(-1));
     std::vector<torch::Tensor> buffer{torch::cat(flat)};
-    impl_->group->allreduce(buffer)->wait();
+    impl_->allreduce(buffer, c10d::AllreduceOptions{});
     buffer[0].div_(impl_->world);
     int64_t offset = 0;
     for (size_t i = begin; i < end; ++i) {
@@ -143,7 +154,7 @@ void Group::check_same(int64_t value, const std::string& what) {
   std::vector<torch::Tensor> v{torch::tensor({value, -value}, torch::kInt64)};
   c10d::AllreduceOptions options;
   options.reduceOp = c10d::ReduceOp::MAX;
-  impl_->group->allreduce(v, options)->wait();
+  impl_->allreduce(v, options);
   const auto a = v[0].accessor<int64_t, 1>();
   if (a[0] != value || -a[1] != value)
     throw InvalidInput(what, "differs between ranks (" + std::to_string(-a[1]) + " to " + std::to_string(a[0]) + ")",

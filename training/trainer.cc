@@ -222,6 +222,10 @@ TrainResult Trainer::run() {
   State& s = *state_;
   const TrainerOptions& o = s.options;
   SignalScope signals;
+  // Pin LibTorch's intra-op thread count before the first step. Left to its lazy default, the count OpenMP uses can
+  // change after the first parallel ops of a process, and reductions split over another number of threads round
+  // differently: a resumed (fresh) process would then not repeat an uninterrupted run bit for bit.
+  torch::set_num_threads(torch::get_num_threads());
   const std::string checkpoint = checkpoint_path(o.run_dir);
   if (s.rank0) make_directories(o.run_dir);
   if (o.resume) {
