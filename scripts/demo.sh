@@ -347,6 +347,9 @@ print("<table><tr><th>scan</th><th>median (mm)</th><th>17-67</th><th>jaw 0-16</t
 PY5
 )
 
+# The network zoo the coming trainings build on (each net constructed at the paper's size and counted).
+zoo=$("$bareskin" train --list-models | sed 's/&/\&amp;/g; s/</\&lt;/g')
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -507,6 +510,14 @@ scans without <code>landmarks.json</code>.</p>
 <figure><img src="img/landmarks_subject_0000.png" style="width:300px"><figcaption>subject_0000, front render</figcaption></figure>
 <figure><img src="img/landmarks_subject_0001.png" style="width:300px"><figcaption>subject_0001, front render</figcaption></figure>
 $landmark_summary
+
+<h2>9. Training foundation: the network zoo</h2>
+<p>Every network the trainings of the coming stages use, built from options at the paper's sizes (smaller sizes for CPU
+demos are options): <code>bareskin train --list-models</code>; <code>--print-model NAME</code> shows the options. The
+counts equal the reference implementations' (torchvision, pix2pix, pix2pixHD, BasicSR), and exported weights load into
+torchvision's ResNets with outputs equal to 5e-7 (tests/python/torchvision_oracle.py). They all train on one Trainer
+(docs/training.md): checkpoints that resume bit for bit, NaN stop, loss charts, sample grids, TensorBoard, several GPUs.</p>
+<pre>$zoo</pre>
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>
