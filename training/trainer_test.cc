@@ -94,6 +94,24 @@ struct TwoNetTask : Task {
   }
 };
 
+// Runs one test of this binary in a new process with extra environment variables; returns its pid (-1 on failure).
+pid_t spawn_self(const std::string& test, std::vector<std::string> env) {
+  for (char** e = environ; *e; ++e) env.push_back(*e);
+  std::vector<char*> envp;
+  for (auto& s : env) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  std::string exe = fs::read_symlink("/proc/self/exe").string(), filter = "--gtest_filter=" + test;
+  char* argv[] = {exe.data(), filter.data(), nullptr};
+  pid_t pid = -1;
+  if (posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv, envp.data()) != 0) return -1;
+  return pid;
+}
+
+bool exited_cleanly(pid_t pid) {
+  int status = 0;
+  return pid > 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 TrainerOptions options(const std::string& dir, int64_t steps) {
   TrainerOptions o;
   o.run_dir = dir;
@@ -179,6 +197,34 @@ TEST(Trainer, ResumeIsBitIdentical) {
     // The logs hold each step once, and the same values as the straight run's.
     EXPECT_EQ(read_file(base + "/resumed/metrics.csv"), read_file(base + "/straight/metrics.csv"));
   }
+}
+
+// The resumed half in a new process, as after a real kill: it must repeat the uninterrupted run to the byte too.
+TEST(Trainer, ResumeWorker) {
+  const char* dir = std::getenv("BARESKIN_RESUME_TEST_DIR");
+  if (!dir) GTEST_SKIP() << "run by Trainer.ResumeInAFreshProcessIsBitIdentical";
+  TwoNetTask resumed;
+  StreamSource source(3, 0, 1), validation(3, 0, 1);
+  auto o = options(std::string(dir) + "/resumed", 18);
+  o.resume = true;
+  Trainer(o, resumed, source, &validation).run();
+  save_tensors(std::string(dir) + "/weights.safetensors", weights(resumed));
+}
+
+TEST(Trainer, ResumeInAFreshProcessIsBitIdentical) {
+  const std::string base = testing::temp_dir();
+  seed_everything(7);
+  TwoNetTask straight;
+  StreamSource s1(3, 0, 1), v1(3, 0, 1);
+  Trainer(options(base + "/straight", 18), straight, s1, &v1).run();
+  seed_everything(7);
+  TwoNetTask interrupted;
+  interrupted.signal_at = 2 * 8 + 1;
+  StreamSource s2(3, 0, 1), v2(3, 0, 1);
+  ASSERT_EQ(Trainer(options(base + "/resumed", 18), interrupted, s2, &v2).run().steps, 9);
+  ASSERT_TRUE(exited_cleanly(spawn_self("Trainer.ResumeWorker", {"BARESKIN_RESUME_TEST_DIR=" + base})));
+  expect_identical(weights(straight), load_tensors(base + "/weights.safetensors"));
+  EXPECT_EQ(read_file(base + "/resumed/metrics.csv"), read_file(base + "/straight/metrics.csv"));
 }
 
 // kill -9 between checkpoints: the run resumes from the last periodic checkpoint and redoes the lost steps.
@@ -317,25 +363,12 @@ TEST(Distributed, TwoRanksEqualOneProcess) {
   const std::string dir = testing::temp_dir();
   const int port = 20000 + int(::getpid() % 20000);
   std::vector<pid_t> children;
-  for (int rank = 0; rank < 2; ++rank) {
-    std::vector<std::string> env_strings = {"RANK=" + std::to_string(rank), "WORLD_SIZE=2", "LOCAL_RANK=0",
-                                            "MASTER_ADDR=127.0.0.1", "MASTER_PORT=" + std::to_string(port),
-                                            "BARESKIN_DIST_TEST_OUT=" + dir, "OMP_NUM_THREADS=1"};
-    for (char** e = environ; *e; ++e) env_strings.push_back(*e);
-    std::vector<char*> envp;
-    for (auto& s : env_strings) envp.push_back(s.data());
-    envp.push_back(nullptr);
-    std::string exe = fs::read_symlink("/proc/self/exe").string(), filter = "--gtest_filter=Distributed.Worker";
-    char* argv[] = {exe.data(), filter.data(), nullptr};
-    pid_t pid;
-    ASSERT_EQ(posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv, envp.data()), 0);
-    children.push_back(pid);
-  }
-  for (pid_t pid : children) {
-    int status = 0;
-    waitpid(pid, &status, 0);
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "a rank failed (status " << status << ")";
-  }
+  for (int rank = 0; rank < 2; ++rank)
+    children.push_back(spawn_self("Distributed.Worker",
+                                  {"RANK=" + std::to_string(rank), "WORLD_SIZE=2", "LOCAL_RANK=0", "MASTER_ADDR=127.0.0.1",
+                                   "MASTER_PORT=" + std::to_string(port), "BARESKIN_DIST_TEST_OUT=" + dir,
+                                   "OMP_NUM_THREADS=1"}));
+  for (pid_t pid : children) ASSERT_TRUE(exited_cleanly(pid)) << "a rank failed";
   const auto two = load_tensors(dir + "/weights.safetensors");
   const auto one = train_stream(0, 2, nullptr, dir + "/single");
   ASSERT_EQ(two.size(), one.size());
