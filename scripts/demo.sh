@@ -350,6 +350,16 @@ PY5
 # The network zoo the coming trainings build on (each net constructed at the paper's size and counted).
 zoo=$("$bareskin" train --list-models | sed 's/&/\&amp;/g; s/</\&lt;/g')
 
+# 10+. The training world's sections: each scripts/demo/NN_*.sh runs its stages (skipping what exists), and writes its
+# report fragment to $out/sections/NN_*.html and its timings to $out/timings.txt.
+mkdir -p "$out/sections"
+for section in "$(dirname "$0")"/demo/[0-9][0-9]_*.sh; do
+  [ -f "$section" ] || continue
+  stage "section $(basename "$section" .sh)"
+  bash "$section" "$bin" "$out"
+done
+sections=$(cat "$out"/sections/[0-9][0-9]_*.html 2>/dev/null || true)
+
 info=$("$bareskin" inspect --json "$out/template/face.obj")
 st=$("$bareskin" inspect "$out/template/face.safetensors")
 [ -f "$out/timings.txt" ] && timings=$(cat "$out/timings.txt") || timings=""
@@ -368,8 +378,9 @@ pre{background:#f6f6f6;padding:.8em;white-space:pre-wrap;font-size:.85em}.todo{c
 </style></head><body>
 <h1>BareSkin toolkit — demo report</h1>
 <p>Generated $(date -u '+%Y-%m-%d %H:%M UTC') on $(uname -n) by <code>make demo</code> ($("$bareskin" --version)).
-Pipeline stages run so far are below; the later ones (dataset building, training, inference)
-join this report as they land.</p>
+Sections 1–9 build the geometry half (template, scans, registration, morphable model, maps, renderer,
+landmarks); the sections after them build the training world, train small networks on the CPU and evaluate them on
+held-out subjects. Each section says which sizes it used and why.</p>
 
 <h2>1. Template face</h2>
 <p>The fixed topology every scan is registered to and the 3DMM is built on: the MediaPipe canonical face
@@ -518,6 +529,7 @@ counts equal the reference implementations' (torchvision, pix2pix, pix2pixHD, Ba
 torchvision's ResNets with outputs equal to 5e-7 (tests/python/torchvision_oracle.py). They all train on one Trainer
 (docs/training.md): checkpoints that resume bit for bit, NaN stop, loss charts, sample grids, TensorBoard, several GPUs.</p>
 <pre>$zoo</pre>
+$sections
 
 <h2>Timings (this run; skipped stages not re-timed)</h2>
 <pre>${timings:-all stages reused from an earlier run}</pre>
