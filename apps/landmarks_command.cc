@@ -17,6 +17,7 @@
 #include "core/landmarks.h"
 #include "core/mesh_io.h"
 #include "detect/face_api.h"
+#include "detect/multiview_landmarks.h"
 #include "detect/scan_landmarks.h"
 #include "render/preview.h"
 
@@ -66,6 +67,8 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   struct ScanOptions {
     std::string scan, texture, output, draw, weights;
     detect::ScanLandmarkOptions detect;
+    detect::MultiviewOptions multiview;
+    bool no_jaw = false;
   };
   auto sc = std::make_shared<ScanOptions>();
   CLI::App* s = app.add_subcommand("scan", "3D landmarks of a textured scan: detected in its front render, back-projected");
@@ -77,6 +80,14 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--size", sc->detect.size, "Render size")->capture_default_str()->check(CLI::Range(128, 4096));
   s->add_option("--refinements", sc->detect.refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10));
+  s->add_option("--views", sc->multiview.views, "Virtual cameras around the face, landmarks triangulated (Ceres); 1: "
+                                                "the single front render, back-projected")
+      ->capture_default_str()->check(CLI::Range(1, 100));
+  s->add_option("--view-size", sc->multiview.size, "Render size per view (with --views > 1)")->capture_default_str()
+      ->check(CLI::Range(128, 4096));
+  s->add_option("--pixel-sigma", sc->multiview.triangulate.pixel_sigma, "Detector noise in px (the robust loss's scale)")
+      ->capture_default_str()->check(CLI::Range(0.1, 100.0));
+  s->add_flag("--no-jaw", sc->no_jaw, "Leave the jaw contour (0-16, silhouette-dependent) out: null points");
 
   return [opt, sc, s, &globals] {
     set_torch_threads(globals);
@@ -96,6 +107,20 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       if (!texture.empty()) diffuse = to_linear(read_image(texture));
       if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
       detect::FaceApi net(sc->weights);
+      if (sc->multiview.views > 1) {
+        sc->multiview.triangulate.jaw = !sc->no_jaw;
+        sc->multiview.refinements = sc->detect.refinements;
+        const auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
+                                                          !sc->draw.empty());
+        if (!sc->draw.empty()) write_image(sc->draw, detect::draw_multiview(m));
+        write_file_atomic(sc->output, multiview_landmarks_json(m.result));
+        int valid = 0;
+        for (const auto& p : m.result.points) valid += p.valid;
+        spdlog::info("landmarks scan: {}: {} of {} views with a face, {} of 68 points triangulated; render {:.1f} s, "
+                     "detect {:.1f} s, triangulate {:.2f} s -> {}", mesh_path, m.result.views_detected, m.result.views,
+                     valid, m.seconds_render, m.seconds_detect, m.seconds_triangulate, sc->output);
+        return;
+      }
       const auto r = detect::detect_scan_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->detect);
       if (!sc->draw.empty()) {
         Image canvas = r.picture;

@@ -1,0 +1,97 @@
+#include "detect/multiview_landmarks.h"
+
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "render/preview.h"
+#include "render/shade.h"
+
+namespace bareskin::detect {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// face-api's detector boxes span about 1.22× the landmarks' extent (detect/scan_landmarks.cc): the box the landmark
+// network expects around points it found before.
+Box box_around(const Eigen::Matrix<double, 68, 2>& p) {
+  const Eigen::Vector2d lo = p.colwise().minCoeff(), size = p.colwise().maxCoeff().transpose() - lo;
+  return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
+}
+
+}  // namespace
+
+LandmarkView detect_view(const FaceApi& net, const Image& photo_srgb, const Camera& camera, int refinements,
+                         double min_score) {
+  LandmarkView view;
+  view.camera = camera;
+  view.px.setConstant(std::numeric_limits<double>::quiet_NaN());
+  const torch::Tensor photo = photo_tensor(photo_srgb, "view");
+  DetectOptions detect;
+  detect.min_score = min_score;
+  detect.max_faces = 1;
+  const auto faces = net.detect(photo, detect);
+  if (faces.empty()) return view;
+  view.score = faces[0].score;
+  Box box = faces[0].box;
+  for (int pass = 0; pass <= refinements; ++pass) {
+    view.px = net.landmarks(photo, {box})[0];
+    box = box_around(view.px);
+  }
+  return view;
+}
+
+MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
+                                                  const MultiviewOptions& options, bool keep_pictures) {
+  if (scan.V.rows() == 0 || scan.F.rows() == 0) throw InvalidInput("", "the scan is empty", "check the mesh file");
+  const Eigen::Vector3d centre = (scan.V.colwise().minCoeff() + scan.V.colwise().maxCoeff()).transpose() / 2;
+  const std::vector<Camera> cameras =
+      landmark_view_ring(options.views, options.size, centre, 1000, options.max_yaw_deg, options.max_pitch_deg);
+  ShadeOptions shade;
+  shade.texture = diffuse;
+  shade.gamma = default_lighting();
+  MultiviewScanLandmarks out;
+  for (const Camera& camera : cameras) {
+    auto t0 = std::chrono::steady_clock::now();
+    const Image picture = to_srgb(render_frame(scan, camera, shade).colour);
+    out.seconds_render += seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    out.views.push_back(detect_view(net, picture, camera, options.refinements, options.triangulate.min_score));
+    out.seconds_detect += seconds_since(t0);
+    if (keep_pictures) out.pictures.push_back(picture);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  out.result = triangulate_landmarks(scan, out.views, options.triangulate);
+  out.seconds_triangulate = seconds_since(t0);
+  return out;
+}
+
+Image draw_multiview(const MultiviewScanLandmarks& found) {
+  if (found.pictures.empty()) throw InvalidInput("--draw", "no pictures were kept", "ask for them before detecting");
+  const int n = int(found.pictures.size()), cols = int(std::ceil(std::sqrt(double(n)))), rows = (n + cols - 1) / cols;
+  const int w = found.pictures[0].width, h = found.pictures[0].height;
+  Image sheet(cols * w, rows * h, 3, ColorSpace::sRGB);
+  for (int v = 0; v < n; ++v) {
+    Image canvas = found.pictures[size_t(v)];
+    const LandmarkView& view = found.views[size_t(v)];
+    const int radius = std::max(1, w / 256);
+    if (view.px.allFinite()) draw_landmarks(canvas, view.px, {1.f, 0.2f, 0.2f}, radius);
+    Eigen::MatrixXd back(68, 2);
+    int k = 0;
+    for (const auto& p : found.result.points)
+      if (p.valid) back.row(k++) = view.camera.project(p.point).head<2>().transpose();
+    if (k > 0) draw_landmarks(canvas, back.topRows(k), {0.2f, 1.f, 0.3f}, radius);
+    const int ox = (v % cols) * w, oy = (v / cols) * h;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c) sheet.at(ox + x, oy + y, c) = canvas.at(x, y, std::min(c, canvas.channels - 1));
+  }
+  return sheet;
+}
+
+}  // namespace bareskin::detect

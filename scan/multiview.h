@@ -1,0 +1,79 @@
+// Multi-view landmark triangulation (docs/pipeline.md, "Multi-view scan landmarks"). A scan is seen by N cameras of
+// known intrinsics and extrinsics (virtual cameras around a render of the scan, or a rig's cameras recovered by
+// COLMAP); a 2D detector gives the 68 iBUG points in each view. Each landmark is then the 3D point whose projections
+// best agree with the views that see it:
+//   X* = argmin_X Σ_v ρ(‖π_v(X) − x_v‖² / σ²)        (Cauchy ρ, σ in pixels, solved with Ceres)
+// where a view takes part only if its detector score is high enough, the point is not hidden by the surface there
+// (depth test against the rasterized scan), and the surface is not seen at a grazing angle. The solution is snapped
+// onto the scan (closest point). Its uncertainty is the Gauss–Newton covariance (JᵀJ)⁻¹ at the solution scaled by the
+// residual variance, reported as the RMS of its axes (σ_3D, mm).
+//
+// Jaw contour points (0–16) lie on the face's outline in a 2D detector's training data, and the outline moves over
+// the surface with the view: their rays do not meet in one surface point. They are triangulated only from the views
+// in which the detected point lies on the rendered silhouette of the face, and each such view constrains the point by
+// its silhouette ray (the surface point nearest to it), not by a reprojection.
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/landmarks.h"
+#include "core/mesh.h"
+#include "render/camera.h"
+
+namespace bareskin {
+
+// One view: its camera, the 68 detected points (pixels, origin at the top-left corner) and the detector's score.
+// A view without a detection has score 0 and is not used.
+struct LandmarkView {
+  Camera camera;
+  Eigen::Matrix<double, 68, 2> px = Eigen::Matrix<double, 68, 2>::Zero();
+  double score = 0;
+};
+
+// `count` pinhole cameras looking at `target` from `distance` mm, spread over a cap in front of the face (+z): a
+// sunflower pattern in (yaw, pitch) within ±max_yaw_deg, ±max_pitch_deg, the first view straight in front. Image
+// size² px, focal as render/camera.h's view_camera. InvalidInput for count < 1.
+std::vector<Camera> landmark_view_ring(int count, int size, const Eigen::Vector3d& target, double distance = 1000,
+                                       double max_yaw_deg = 40, double max_pitch_deg = 25);
+
+// A pinhole camera at `eye` looking at `target` (image up ≈ +y): the convention of render/camera.h.
+Camera look_at_camera(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, int width, int height, double focal);
+
+struct TriangulateOptions {
+  double min_score = 0.1;         // views whose detector scored below take no part (renders score 0.2–0.9)
+  double pixel_sigma = 2.0;       // expected detector noise (px at the view's resolution); the Cauchy loss's scale
+  double depth_tolerance_mm = 2;  // a point farther than this behind the rendered surface is occluded in that view
+  double min_cos_view = 0.2;      // surface normal · direction to the camera below this: grazing, not used
+  double silhouette_px = 3;       // jaw points: on the outline when within this of an uncovered pixel
+  int visibility_passes = 2;      // re-solve after the depth test with the new point
+  bool jaw = true;                // triangulate 0–16 from silhouette views (false: leave them out)
+};
+
+struct TriangulatedLandmark {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // on the scan (snapped), mm
+  Eigen::Vector3d solved = Eigen::Vector3d::Zero(); // the least-squares point before snapping
+  double sigma_mm = 0;         // RMS of the covariance's axes (−1: not estimated, e.g. one view)
+  double rms_px = 0;           // RMS reprojection residual over the views used
+  int views_used = 0;
+  int views_rejected_occluded = 0, views_rejected_score = 0, views_rejected_outlier = 0;
+  bool valid = false;
+  std::string reason;          // why a point is not valid, or how it was found ("silhouette", "reprojection")
+};
+
+struct MultiviewLandmarks {
+  std::vector<TriangulatedLandmark> points;  // 68
+  Landmarks landmarks;                       // 68 × 3 mm (invalid ones: NaN rows)
+  int views = 0, views_detected = 0;
+};
+
+// Triangulates the 68 landmarks of `views` on `scan` (mm). InvalidInput when fewer than two views have detections,
+// the scan is empty, or a camera is not a pinhole camera.
+MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<LandmarkView>& views,
+                                         const TriangulateOptions& options = {});
+
+// The JSON that `landmarks scan --views` writes: the landmark file's fields plus per-point "sigma_mm", "views",
+// "rms_px", "method" and the view count (docs/file_formats.md).
+std::string multiview_landmarks_json(const MultiviewLandmarks& result);
+
+}  // namespace bareskin
