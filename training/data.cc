@@ -35,7 +35,9 @@ uint64_t mix(std::initializer_list<uint64_t> values) {
 torch::Tensor image_tensor(const Image& image) {
   auto hwc = torch::from_blob(const_cast<float*>(image.pixels.data()), {image.height, image.width, image.channels},
                               torch::kFloat32);
-  return hwc.permute({2, 0, 1}).contiguous();
+  // clone(): for one channel the permuted view is already contiguous, and contiguous() would return a view of
+  // `image`'s pixels, which the caller frees.
+  return hwc.permute({2, 0, 1}).clone(torch::MemoryFormat::Contiguous);
 }
 
 bool ends_with(const std::string& s, const std::string& tail) {
