@@ -1,0 +1,168 @@
+// BareSkinNet (Yang & Taketomi, PG 2022, §4 and §6): the de-makeup and de-lighting network G (pix2pix's U-Net),
+// trained in two stages on the face-image world's samples (texgen faces: makeup, before, bare, skin, face, json):
+//   stage 1  G alone: L_DD = w1·L1 + w2·L_GAN (PatchGAN D) + w3·L_LPIPS against the target (before or bare);
+//   stage 2  G and the student E jointly, the teacher F frozen: L_DD + L_FR with
+//            L_FR = w_coeff·L_coeff (E vs F) + w_land·L_land + w_diff·L_diff + w_light·L_light + w_reg·L_reg.
+// F reads the before image and gives the reference coefficients C and the light γ; E reads G's output and gives Ĉ.
+// The 3DMM is rendered from Ĉ without light (must equal G's output on the rendered face: L_diff, which is how the
+// de-lighting reaches G) and with F's γ (must equal the before image: L_light). The ablation rows of the paper's
+// Fig. 7 are presets of the same task (ablation_preset). Formulas, weights and rows: docs/training.md, "BareSkinNet".
+#pragma once
+#include <torch/torch.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "training/face_model.h"
+#include "training/losses.h"
+#include "training/trainer.h"
+
+namespace bareskin::bsn {
+
+// The name the checkpoints of this task carry.
+inline constexpr const char* kTaskName = "bareskinnet";
+
+// Coefficient vectors are training/face_model.h's: C = (α, β, δ, R, t) in the layout without γ; γ (27) separate.
+using CoeffLayout = recon::CoefficientLayout;
+
+// A reconstruction network: its module (whose state a checkpoint keeps) and its forward from aligned images
+// ([B, 3, S, S] sRGB in [0, 1], any S) to [B, layout.size()] coefficients, followed by γ [27] where it estimates
+// light (F does; E's extra outputs, if any, are ignored).
+struct ReconNet {
+  std::shared_ptr<torch::nn::Module> module;
+  std::function<torch::Tensor(const torch::Tensor& image)> forward;
+};
+
+// The 3DMM render stage 2 needs (training/face_model.h): for coefficients [B, K] and γ [B, 27] at S×S pixels,
+// the lit and unlit images ([B, 3, S, S], linear light), the rendered face region [B, 1, S, S] and the 68 landmarks
+// [B, 68, 2] in pixels of the S×S image (origin top-left corner).
+struct FaceRender {
+  torch::Tensor lit, unlit, mask, landmarks;
+};
+using FaceRenderer = std::function<FaceRender(const torch::Tensor& coeff, const torch::Tensor& gamma, int64_t size)>;
+
+// The renderer of a morphable model (training/face_model.h) seen by the canonical camera at the training size.
+FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model);
+
+struct Options {
+  int stage = 1;                  // 1: G alone (L_DD); 2: + L_FR through the reconstruction
+  std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth)
+  int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
+  nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
+  nlohmann::json d = nlohmann::json::object();  // patchgan options
+  std::string gan = "vanilla";                  // pix2pix's loss
+  std::string lpips_trunk = "vgg16-random";     // or "facenet" (face-api's recognition net; cheap on the CPU)
+  std::string face_api;                         // folder of face-api's weights (facenet trunk)
+  double w1 = 100, w2 = 1, w3 = 40;             // L1, GAN, LPIPS
+  double w_coeff = 0.1, w_land = 0.08, w_diff = 100, w_light = 100, w_reg = 1e-3;
+  // Stage 2's reconstruction of G's output: "E" (the student, the paper) or "F" (the teacher reads G's output
+  // itself: the ablation rows d and e, without L_coeff).
+  std::string recon = "E";
+  bool tune_f = false;  // F trained along (row e) instead of frozen
+  double lr_g = 2e-5, lr_d = 2e-5, lr_e = 1e-4, lr_f = 1e-5;
+  double beta1 = 0.5, beta2 = 0.999;
+};
+void to_json(nlohmann::json& j, const Options& o);
+void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
+
+// The paper's Fig. 7 rows as option changes: "b" L1 + GAN; "c" + LPIPS; "d" + frozen F; "e" + fine-tuned F;
+// "f" + E (teacher-student) without L_light; "g" the full model. Rows b, c are stage 1 only. InvalidInput otherwise.
+void ablation_preset(const std::string& row, Options& o);
+// Whether the row trains a second stage.
+bool ablation_has_stage2(const std::string& row);
+
+// The loss terms of L_FR, unweighted, on tensors (exposed for tests). Images in linear light.
+// L_diff: Σ m·|unlit − g_out| / Σ m over the rendered region m; L_light: the same for lit against the before image.
+torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask);
+torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_linear, const torch::Tensor& mask);
+// L_land: mean over landmarks and batch of the squared distance in pixels of the 256² canonical frame (`scale` =
+// 256 / S converts S×S pixels); L_coeff: mean squared difference of the coefficients; L_reg: per face Σα² + Σβ² +
+// Σδ² (standard deviations: the mean face is 0), averaged over the batch.
+torch::Tensor landmark_loss(const torch::Tensor& projected, const torch::Tensor& target, double scale);
+torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teacher);
+torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout);
+
+// sRGB-encoded [0, 1] → linear light (the IEC 61966-2-1 curve), differentiable.
+torch::Tensor srgb_to_linear(const torch::Tensor& x);
+
+// Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
+// SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
+torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+
+class BareSkinTask : public train::Task {
+ public:
+  // Stage 1 needs neither F nor E nor the renderer. Stage 2 needs F and the renderer, and E when options.recon is
+  // "E". Modules are built in a fixed order (G, D, E), so seed before constructing.
+  BareSkinTask(Options options, ReconNet teacher = {}, ReconNet student = {}, FaceRenderer renderer = {},
+               CoeffLayout layout = {});
+
+  std::string name() const override { return kTaskName; }
+  std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override;
+  std::vector<train::OptimizerSpec> optimizers() override;  // "D", then "G" (G with E, or a tuned F, as groups)
+  train::Losses loss(size_t phase, const data::Batch& batch) override;
+  std::map<std::string, double> evaluate(const data::Batch& batch) override;
+  std::vector<std::vector<torch::Tensor>> samples(const data::Batch& batch) override;
+
+  // G on aligned images [B, 3, S, S] in [0, 1] → the bare-skin images in [0, 1].
+  torch::Tensor generate(const torch::Tensor& images);
+  // The batch's member at the training size (area resize; landmarks scaled).
+  torch::Tensor member(const data::Batch& batch, const std::string& name) const;
+
+  const Options& options() const { return options_; }
+  std::shared_ptr<torch::nn::Module> generator() const;
+
+ private:
+  struct Nets;
+  Options options_;
+  ReconNet teacher_, student_;
+  FaceRenderer renderer_;
+  CoeffLayout layout_;
+  std::shared_ptr<Nets> nets_;
+  torch::Tensor cached_output_;  // G's output of the D phase, reused by the G phase of the same step
+};
+
+// Stage 2 starts from stage 1's G and D: copies them from a finished stage-1 run's checkpoint into the task
+// (before its Trainer starts). InvalidInput naming the file when it is not a BareSkinNet checkpoint.
+void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint);
+
+// What stage 2 needs besides G and D, made after seeding (the teacher loaded from its run, a fresh student).
+struct Stage2Parts {
+  ReconNet teacher, student;
+  FaceRenderer renderer;
+  CoeffLayout layout;
+};
+
+struct RunOptions {
+  Options task;                    // its `stage` is set per stage
+  std::string train_data;          // a faces split folder (manifest.json) or one shard
+  std::string val_data;            // optional: validation metrics and sample grids
+  std::string run_dir;             // stage1/ and stage2/ are written inside
+  int64_t steps1 = 10000, steps2 = 30000;  // the paper's; steps2 = 0: stage 1 only
+  int64_t batch = 4;
+  uint64_t seed = 0;
+  int decode_threads = 2;
+  train::TrainerOptions trainer;   // intervals, device, progress, resume (run_dir, steps, config are set here)
+};
+void to_json(nlohmann::json& j, const RunOptions& o);
+
+struct RunResult {
+  train::TrainResult stage1, stage2;
+};
+
+// Runs stage 1 into run_dir/stage1, then stage 2 into run_dir/stage2 from stage 1's G and D. With
+// trainer.resume a finished stage is skipped and an unfinished one continues from its checkpoint; a stage-2 run
+// continued at the switch repeats an uninterrupted one to the bit.
+RunResult train_two_stages(const RunOptions& options, const std::function<Stage2Parts()>& make_parts);
+
+// The shard members a task reads.
+std::vector<std::string> required_members(const Options& o);
+
+// The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
+nlohmann::json generator_options(const nlohmann::json& g, int64_t size);
+
+}  // namespace bareskin::bsn
