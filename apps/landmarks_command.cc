@@ -2,6 +2,7 @@
 // (detect/face_api.h). The output is a landmark file every other command reads (the best face's points), plus
 // every face found with its box and score.
 #include <chrono>
+#include <algorithm>
 #include <filesystem>
 #include <optional>
 #include <thread>
@@ -41,6 +42,75 @@ ScanLandmarkDetector scan_landmark_detector(const Globals& globals) {
   };
 }
 
+detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
+  set_torch_threads(globals);
+  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
+  return [net, input_size](const Image& photo) {
+    detect::DetectOptions options;
+    options.input_size = input_size;
+    std::vector<detect::PhotoFace> faces;
+    for (const detect::Face& f : net->detect(detect::photo_tensor(photo, "photo"), options))
+      faces.push_back({f.score, f.points});
+    return faces;
+  };
+}
+
+namespace {
+
+// A scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file with an optional texture.
+Mesh read_textured_scan(const std::string& scan, const std::string& texture_given, std::string& mesh_path,
+                        std::optional<Image>& diffuse) {
+  mesh_path = scan;
+  std::string texture = texture_given;
+  if (std::filesystem::is_directory(scan)) {
+    mesh_path.clear();
+    for (const char* name : {"mesh.obj", "mesh.ply"})
+      if (std::filesystem::exists(scan + "/" + name)) mesh_path = scan + "/" + name;
+    if (mesh_path.empty()) throw InvalidInput(scan, "holds no mesh.obj or mesh.ply", "pass a scan folder");
+    for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
+      if (texture.empty() && std::filesystem::exists(scan + "/" + name)) texture = scan + "/" + name;
+  }
+  Mesh mesh = read_mesh(mesh_path);
+  if (!texture.empty()) diffuse = to_linear(read_image(texture));
+  if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
+  return mesh;
+}
+
+void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
+                             const detect::MultiviewOptions& options, const std::string& weights) {
+  std::vector<std::string> dirs;
+  if (!std::filesystem::is_directory(scans)) throw InvalidInput(scans, "is not a folder", "pass a folder of scan folders");
+  for (const auto& e : std::filesystem::directory_iterator(scans))
+    if (e.is_directory() && std::filesystem::exists(e.path() / "landmarks.json")) dirs.push_back(e.path().string());
+  std::sort(dirs.begin(), dirs.end());
+  if (count > 0 && int(dirs.size()) > count) dirs.resize(size_t(count));
+  if (dirs.size() < 2)
+    throw InvalidInput(scans, "holds " + std::to_string(dirs.size()) + " scan folder(s) with landmarks.json",
+                       "a calibration needs two or more scans with known 3D landmarks");
+  const detect::FaceApi net(weights);
+  std::vector<MultiviewLandmarks> found;
+  std::vector<Landmarks> truth;
+  for (const std::string& dir : dirs) {
+    std::string mesh_path;
+    std::optional<Image> diffuse;
+    const Mesh mesh = read_textured_scan(dir, "", mesh_path, diffuse);
+    truth.push_back(read_landmarks(dir + "/landmarks.json"));
+    if (truth.back().points.rows() != 68 || truth.back().points.cols() != 3)
+      throw InvalidInput(dir + "/landmarks.json", "needs 68 3D points", "give the scan's iBUG-68 landmarks in mm");
+    found.push_back(detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, options).result);
+    spdlog::info("landmarks calibrate: {}: {} of {} views with a face", dir, found.back().views_detected, options.views);
+  }
+  const LandmarkCalibration c = calibrate_landmarks(found, truth);
+  write_file_atomic(output, landmark_calibration_json(c));
+  std::vector<double> best;
+  for (int i = 17; i < 68; ++i) best.push_back(std::min(c.spread_detected_mm[i], c.spread_shape_mm[i]));
+  std::nth_element(best.begin(), best.begin() + 25, best.end());
+  spdlog::info("landmarks calibrate: {} scans, leave-one-out median error over 17-67 {:.2f} mm -> {}", dirs.size(),
+               best[25], output);
+}
+
+}  // namespace
+
 std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {
   struct Options {
     std::string photo, output, draw, weights, device = "cpu";
@@ -69,6 +139,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     detect::ScanLandmarkOptions detect;
     detect::MultiviewOptions multiview;
     bool no_jaw = false;
+    std::string calibration;
   };
   auto sc = std::make_shared<ScanOptions>();
   CLI::App* s = app.add_subcommand("scan", "3D landmarks of a textured scan: detected in its front render, back-projected");
@@ -88,30 +159,46 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--pixel-sigma", sc->multiview.triangulate.pixel_sigma, "Detector noise in px (the robust loss's scale)")
       ->capture_default_str()->check(CLI::Range(0.1, 100.0));
   s->add_flag("--no-jaw", sc->no_jaw, "Leave the jaw contour (0-16, silhouette-dependent) out: null points");
+  s->add_option("--calibration", sc->calibration, "Landmark calibration (`landmarks calibrate`): the detector's "
+                                                  "convention mapped onto the template's landmarks");
 
-  return [opt, sc, s, &globals] {
+  struct CalibrateOptions {
+    std::string scans, output, weights;
+    detect::MultiviewOptions multiview;
+    int count = 0;
+  };
+  auto ca = std::make_shared<CalibrateOptions>();
+  CLI::App* c = app.add_subcommand("calibrate", "Learn the detector's landmark convention against known 3D landmarks "
+                                                "(scan folders with landmarks.json) for `landmarks scan --calibration`");
+  c->add_option("--scans", ca->scans, "Folder of scan folders (mesh, diffuse map, landmarks.json)")->required();
+  c->add_option("-o,--output", ca->output, "Calibration JSON")->required();
+  c->add_option("--count", ca->count, "Use the first N scans (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  c->add_option("--views", ca->multiview.views, "Virtual cameras (as landmarks scan)")->capture_default_str()
+      ->check(CLI::Range(2, 100));
+  c->add_option("--view-size", ca->multiview.size, "Render size per view")->capture_default_str()->check(CLI::Range(128, 4096));
+  c->add_option("--weights", ca->weights, "Folder with face-api's tfjs models (default: face_api/ in the assets)");
+
+  return [opt, sc, s, ca, c, &globals] {
     set_torch_threads(globals);
+    if (c->parsed()) {
+      run_landmarks_calibrate(ca->scans, ca->output, ca->count, ca->multiview,
+                              ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
+      return;
+    }
     if (s->parsed()) {
       if (sc->weights.empty()) sc->weights = detect::default_face_api_folder();
-      std::string mesh_path = sc->scan, texture = sc->texture;
-      if (std::filesystem::is_directory(sc->scan)) {
-        mesh_path.clear();
-        for (const char* name : {"mesh.obj", "mesh.ply"})
-          if (std::filesystem::exists(sc->scan + "/" + name)) mesh_path = sc->scan + "/" + name;
-        if (mesh_path.empty()) throw InvalidInput(sc->scan, "holds no mesh.obj or mesh.ply", "pass a scan folder");
-        for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
-          if (texture.empty() && std::filesystem::exists(sc->scan + "/" + name)) texture = sc->scan + "/" + name;
-      }
-      const Mesh mesh = read_mesh(mesh_path);
+      std::string mesh_path;
       std::optional<Image> diffuse;
-      if (!texture.empty()) diffuse = to_linear(read_image(texture));
-      if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
+      const Mesh mesh = read_textured_scan(sc->scan, sc->texture, mesh_path, diffuse);
       detect::FaceApi net(sc->weights);
       if (sc->multiview.views > 1) {
         sc->multiview.triangulate.jaw = !sc->no_jaw;
         sc->multiview.refinements = sc->detect.refinements;
-        const auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
-                                                          !sc->draw.empty());
+        std::optional<LandmarkCalibration> calibration;
+        if (!sc->calibration.empty()) calibration = read_landmark_calibration(sc->calibration);
+        auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
+                                                    !sc->draw.empty());
+        if (calibration) apply_calibration(mesh, *calibration, m.result);
         if (!sc->draw.empty()) write_image(sc->draw, detect::draw_multiview(m));
         write_file_atomic(sc->output, multiview_landmarks_json(m.result));
         int valid = 0;

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
 #include "template/surface.h"
@@ -328,6 +329,180 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
   return result;
 }
 
+namespace {
+
+// Similarity (s, R, t) taking `from` onto `to` over the rows valid in both (Umeyama); false with fewer than 4.
+bool similarity(const Eigen::Matrix<double, 68, 3>& from, const Eigen::Matrix<double, 68, 3>& to, int first,
+                double& s, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+  std::vector<int> rows;
+  for (int i = first; i < 68; ++i)
+    if (from.row(i).allFinite() && to.row(i).allFinite()) rows.push_back(i);
+  if (rows.size() < 4) return false;
+  Eigen::Matrix3Xd a(3, rows.size()), b(3, rows.size());
+  for (size_t k = 0; k < rows.size(); ++k) a.col(k) = from.row(rows[k]).transpose(), b.col(k) = to.row(rows[k]).transpose();
+  const Eigen::Matrix4d T = Eigen::umeyama(a, b, true);
+  s = T.block<3, 3>(0, 0).determinant() > 0 ? std::cbrt(T.block<3, 3>(0, 0).determinant()) : 1;
+  R = T.block<3, 3>(0, 0) / s;
+  t = T.block<3, 1>(0, 3);
+  return true;
+}
+
+Eigen::Matrix<double, 68, 3> as_matrix(const Landmarks& l) {
+  if (l.points.rows() != 68 || l.points.cols() != 3) throw InvalidInput("", "3D landmarks need 68 × 3 points", "");
+  return l.points;
+}
+
+// Per-point mean of the finite rows of `values` (NaN where none is).
+Eigen::Matrix<double, 68, 3> mean_rows(const std::vector<Eigen::Matrix<double, 68, 3>>& values, int skip = -1) {
+  Eigen::Matrix<double, 68, 3> m;
+  for (int i = 0; i < 68; ++i) {
+    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+    int n = 0;
+    for (size_t j = 0; j < values.size(); ++j)
+      if (int(j) != skip && values[j].row(i).allFinite()) sum += values[j].row(i), ++n;
+    m.row(i) = n ? Eigen::RowVector3d(sum / n) : Eigen::RowVector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  return m;
+}
+
+}  // namespace
+
+LandmarkCalibration calibrate_landmarks(const std::vector<MultiviewLandmarks>& detected,
+                                        const std::vector<Landmarks>& truth) {
+  const size_t n = detected.size();
+  if (n < 2 || truth.size() != n)
+    throw InvalidInput("", "a calibration needs two or more scans with known landmarks", "give more scans");
+  std::vector<Eigen::Matrix<double, 68, 3>> D(n), T(n);
+  for (size_t j = 0; j < n; ++j) {
+    D[j] = as_matrix(detected[j].landmarks), T[j] = as_matrix(truth[j]);
+    int finite = 0;
+    for (int i = 17; i < 68; ++i) finite += D[j].row(i).allFinite();
+    if (finite < 20)
+      throw InvalidInput("", "scan " + std::to_string(j) + " has fewer than 20 triangulated points in 17-67",
+                         "check its texture and detections");
+  }
+  // Generalised Procrustes of the detected points (17–67), three rounds.
+  LandmarkCalibration c;
+  c.scans = int(n), c.views = detected[0].views;
+  std::vector<double> scale(n);
+  std::vector<Eigen::Matrix3d> rot(n);
+  std::vector<Eigen::Vector3d> shift(n);
+  c.reference = D[0];
+  for (int round = 0; round < 3; ++round) {
+    std::vector<Eigen::Matrix<double, 68, 3>> aligned(n);
+    for (size_t j = 0; j < n; ++j) {
+      if (!similarity(D[j], c.reference, 17, scale[j], rot[j], shift[j]))
+        throw InvalidInput("", "scan " + std::to_string(j) + " shares too few points with the others", "");
+      aligned[j] = ((scale[j] * (rot[j] * D[j].transpose())).colwise() + shift[j]).transpose();
+    }
+    c.reference = mean_rows(aligned);
+  }
+  std::vector<Eigen::Matrix<double, 68, 3>> off(n), shape(n);
+  for (size_t j = 0; j < n; ++j) {
+    off[j] = (scale[j] * (rot[j] * (T[j] - D[j]).transpose())).transpose();
+    shape[j] = ((scale[j] * (rot[j] * T[j].transpose())).colwise() + shift[j]).transpose();
+  }
+  c.offset = mean_rows(off), c.shape = mean_rows(shape);
+  // Leave-one-out spread of both predictions.
+  Eigen::Matrix<double, 68, 1> sd = Eigen::Matrix<double, 68, 1>::Zero(), ss = sd, nd = sd, ns = sd;
+  for (size_t k = 0; k < n; ++k) {
+    const auto o = mean_rows(off, int(k)), sh = mean_rows(shape, int(k));
+    for (int i = 0; i < 68; ++i) {
+      const Eigen::Vector3d truth_i = T[k].row(i).transpose();
+      if (D[k].row(i).allFinite() && o.row(i).allFinite()) {
+        const Eigen::Vector3d p = D[k].row(i).transpose() + rot[k].transpose() * o.row(i).transpose() / scale[k];
+        sd[i] += (p - truth_i).squaredNorm(), ++nd[i];
+      }
+      if (sh.row(i).allFinite()) {
+        const Eigen::Vector3d p = rot[k].transpose() * (sh.row(i).transpose() - shift[k]) / scale[k];
+        ss[i] += (p - truth_i).squaredNorm(), ++ns[i];
+      }
+    }
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 68; ++i) {
+    c.spread_detected_mm[i] = nd[i] ? std::sqrt(sd[i] / nd[i]) : inf;
+    c.spread_shape_mm[i] = ns[i] ? std::sqrt(ss[i] / ns[i]) : inf;
+  }
+  return c;
+}
+
+void apply_calibration(const Mesh& scan, const LandmarkCalibration& c, MultiviewLandmarks& result) {
+  Eigen::Matrix<double, 68, 3> D = as_matrix(result.landmarks);
+  double s;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  if (!similarity(c.reference, D, 17, s, R, t))
+    throw InvalidInput("", "too few landmarks were triangulated to apply the calibration", "check the detections");
+  const SurfaceLocator locator(scan.V, scan.F);
+  for (int i = 0; i < 68; ++i) {
+    TriangulatedLandmark& p = result.points[size_t(i)];
+    const bool have = p.valid && std::isfinite(c.spread_detected_mm[i]) && c.offset.row(i).allFinite();
+    const bool by_shape = (!have || c.spread_shape_mm[i] < c.spread_detected_mm[i]) && std::isfinite(c.spread_shape_mm[i]);
+    if (!have && !by_shape) continue;
+    const Eigen::Vector3d X = by_shape ? Eigen::Vector3d(s * R * c.shape.row(i).transpose() + t)
+                                       : Eigen::Vector3d(p.point + s * R * c.offset.row(i).transpose());
+    const double spread = by_shape ? c.spread_shape_mm[i] : c.spread_detected_mm[i];
+    p.sigma_mm = std::sqrt((by_shape || p.sigma_mm < 0 ? 0 : p.sigma_mm * p.sigma_mm) + spread * spread);
+    p.point = locator.locate(X).point;
+    if (by_shape) p.reason = "shape (calibration)", p.views_used = 0;
+    p.valid = p.calibrated = true;
+    result.landmarks.points.row(i) = p.point.transpose();
+  }
+}
+
+std::string landmark_calibration_json(const LandmarkCalibration& c) {
+  auto rows = [](const Eigen::Matrix<double, 68, 3>& m) {
+    auto a = nlohmann::json::array();
+    for (int i = 0; i < 68; ++i)
+      a.push_back(m.row(i).allFinite() ? nlohmann::json{m(i, 0), m(i, 1), m(i, 2)} : nlohmann::json(nullptr));
+    return a;
+  };
+  auto column = [](const Eigen::Matrix<double, 68, 1>& v) {
+    auto a = nlohmann::json::array();
+    for (int i = 0; i < 68; ++i) a.push_back(std::isfinite(v[i]) ? nlohmann::json(v[i]) : nlohmann::json(nullptr));
+    return a;
+  };
+  const nlohmann::json doc = {{"format", "bareskin landmark calibration 1"}, {"scheme", "ibug68"}, {"units", "mm"},
+                              {"scans", c.scans}, {"views", c.views}, {"reference", rows(c.reference)},
+                              {"offset", rows(c.offset)}, {"shape", rows(c.shape)},
+                              {"spread_detected_mm", column(c.spread_detected_mm)},
+                              {"spread_shape_mm", column(c.spread_shape_mm)}};
+  return doc.dump(1) + "\n";
+}
+
+LandmarkCalibration read_landmark_calibration(const std::string& path) {
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(read_file(path));
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidInput(path, std::string("is not JSON (") + e.what() + ")", "write it with `landmarks calibrate`");
+  }
+  if (doc.value("format", "") != "bareskin landmark calibration 1")
+    throw InvalidInput(path, "is not a landmark calibration", "write it with `landmarks calibrate`");
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  LandmarkCalibration c;
+  try {
+    auto rows = [&](const char* key, Eigen::Matrix<double, 68, 3>& m) {
+      const auto& a = doc.at(key);
+      if (!a.is_array() || a.size() != 68) throw InvalidInput(path, std::string("'") + key + "' needs 68 rows", "");
+      for (int i = 0; i < 68; ++i)
+        for (int k = 0; k < 3; ++k) m(i, k) = a[size_t(i)].is_null() ? nan : a[size_t(i)].at(size_t(k)).get<double>();
+    };
+    auto column = [&](const char* key, Eigen::Matrix<double, 68, 1>& v) {
+      const auto& a = doc.at(key);
+      if (!a.is_array() || a.size() != 68) throw InvalidInput(path, std::string("'") + key + "' needs 68 values", "");
+      for (int i = 0; i < 68; ++i) v[i] = a[size_t(i)].is_null() ? inf : a[size_t(i)].get<double>();
+    };
+    rows("reference", c.reference), rows("offset", c.offset), rows("shape", c.shape);
+    column("spread_detected_mm", c.spread_detected_mm), column("spread_shape_mm", c.spread_shape_mm);
+    c.scans = doc.at("scans").get<int>(), c.views = doc.value("views", 0);
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidInput(path, std::string("has a malformed field (") + e.what() + ")", "write it with `landmarks calibrate`");
+  }
+  return c;
+}
+
 std::string multiview_landmarks_json(const MultiviewLandmarks& result) {
   nlohmann::json doc = {{"scheme", "ibug68"}, {"units", "mm"}, {"views", result.views},
                         {"views_detected", result.views_detected}};
@@ -343,6 +518,7 @@ std::string multiview_landmarks_json(const MultiviewLandmarks& result) {
                       {"occluded", p.views_rejected_occluded},
                       {"outliers", p.views_rejected_outlier},
                       {"method", p.valid ? p.reason : "none"},
+                      {"calibrated", p.calibrated},
                       {"reason", p.valid ? "" : p.reason}});
   }
   doc["points"] = points;

@@ -59,6 +59,7 @@ struct TriangulatedLandmark {
   int views_rejected_occluded = 0, views_rejected_score = 0, views_rejected_outlier = 0;
   bool valid = false;
   std::string reason;          // why a point is not valid, or how it was found ("silhouette", "reprojection")
+  bool calibrated = false;     // moved by a LandmarkCalibration (then sigma_mm includes its spread)
 };
 
 struct MultiviewLandmarks {
@@ -71,6 +72,29 @@ struct MultiviewLandmarks {
 // the scan is empty, or a camera is not a pinhole camera.
 MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<LandmarkView>& views,
                                          const TriangulateOptions& options = {});
+
+// A 2D detector's landmarks follow its training annotations (300-W on photos), which differ from a template's own
+// landmark vertices by a few mm per point (brows higher, mouth corners wider, inner lips on the visible lip line). A
+// calibration learns that convention from scans with known landmarks (hand-placed, or `scan synth`'s truth):
+//   reference  mean of the detected points after similarity alignment (generalised Procrustes on 17–67);
+//   offset_i   mean of (truth_i − detected_i) in the reference frame;
+//   shape_i    mean true point in the reference frame (predicts points that were not triangulated);
+//   spread_i   RMS of the corrected point's error over the calibration scans (leave-one-out), per method.
+// Applied to a new scan: (s, R, t) aligns the reference to the scan's detected 17–67, then
+// X_i = detected_i + s R offset_i (or s R shape_i + t where that predicted better in calibration or the point is
+// missing), snapped to the surface; σ_i = sqrt(σ_triangulation² + spread_i²).
+struct LandmarkCalibration {
+  Eigen::Matrix<double, 68, 3> reference, offset, shape;
+  Eigen::Matrix<double, 68, 1> spread_detected_mm, spread_shape_mm;
+  int scans = 0, views = 0;
+};
+
+// InvalidInput when fewer than two scans are given or a scan has fewer than 20 valid points in 17–67.
+LandmarkCalibration calibrate_landmarks(const std::vector<MultiviewLandmarks>& detected,
+                                        const std::vector<Landmarks>& truth);
+void apply_calibration(const Mesh& scan, const LandmarkCalibration& calibration, MultiviewLandmarks& result);
+std::string landmark_calibration_json(const LandmarkCalibration& calibration);
+LandmarkCalibration read_landmark_calibration(const std::string& path);  // InvalidInput/IoError naming the file
 
 // The JSON that `landmarks scan --views` writes: the landmark file's fields plus per-point "sigma_mm", "views",
 // "rms_px", "method" and the view count (docs/file_formats.md).
