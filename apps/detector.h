@@ -3,6 +3,7 @@
 // apps/landmarks_command.cc, or in apps/scan_command.cc as "none" without the Torch side.
 #pragma once
 #include "apps/cli.h"
+#include "detect/align.h"
 #include "scan/register_folder.h"
 
 namespace bareskin::cli {
@@ -10,6 +11,10 @@ namespace bareskin::cli {
 // face-api's networks on a front render of the scan (detect/scan_landmarks.h); sets LibTorch's threads from --threads.
 // Empty without the Torch side: such scans then take the fallback alignment.
 ScanLandmarkDetector scan_landmark_detector(const Globals& globals);
+
+// face-api's networks on a photo (texgen faces, ingest): the faces with their 68 landmarks, best first; the detector
+// looks at `input_size`² (a multiple of 32). Empty without the Torch side.
+detect::PhotoDetector photo_detector(const Globals& globals, int input_size = 416);
 
 // LibTorch's intra-op threads follow --threads (0: every core). A no-op without the Torch side.
 void set_torch_threads(const Globals& globals);

@@ -55,6 +55,19 @@ detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
   };
 }
 
+detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
+  set_torch_threads(globals);
+  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
+  return [net, input_size](const Image& photo) {
+    detect::DetectOptions options;
+    options.input_size = input_size;
+    std::vector<detect::PhotoFace> faces;
+    for (const detect::Face& f : net->detect(detect::photo_tensor(photo, "photo"), options))
+      faces.push_back({f.score, f.points});
+    return faces;
+  };
+}
+
 namespace {
 
 // A scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file with an optional texture.

@@ -11,6 +11,7 @@ std::function<void()> setup_mm_build_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_fit_command(CLI::App&, const Globals&);
 std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
+std::function<void()> setup_texgen_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
@@ -28,6 +29,7 @@ const std::vector<Command>& commands() {
        setup_uvtools_command},
       {"mm-fit", "Model", "Fit the model's pose and identity to 68 image landmarks (coefficients for render, uvtools)",
        setup_mm_fit_command},
+      {"texgen", "Data", "Dataset generators: face images with makeup, light and truth (faces)", setup_texgen_command},
 #ifdef BARESKIN_WITH_DETECT
       {"landmarks", "Images", "Detect faces and their 68 landmarks in a photo (face-api's networks in LibTorch)",
        setup_landmarks_command},

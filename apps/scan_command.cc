@@ -20,6 +20,7 @@ namespace bareskin::cli {
 // Without the Torch side there is no detector: scans without landmarks.json take the fallback alignment.
 ScanLandmarkDetector scan_landmark_detector(const Globals&) { return {}; }
 void set_torch_threads(const Globals&) {}
+detect::PhotoDetector photo_detector(const Globals&, int) { return {}; }
 #endif
 
 namespace {

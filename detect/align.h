@@ -12,6 +12,7 @@
 // top-left pixel (its centre at 0.5, 0.5), as the detector and the rasterizer use.
 #pragma once
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "core/image.h"
@@ -54,6 +55,15 @@ Similarity alignment(const Landmarks68& landmarks);
 // The photo resampled into the size² aligned frame (bilinear; black outside the photo). Any channel count and
 // colour space (kept); resample sRGB images as they are, like Deep3DFaceRecon does.
 Image warp_aligned(const Image& photo, const Similarity& similarity, int size = kAlignedSize);
+
+// A face found in a photo: the detector's score and its 68 landmarks (pixels).
+struct PhotoFace {
+  double score = 0;
+  Landmarks68 points = Landmarks68::Zero();
+};
+// A face detector the command passes in to the geometry side (face-api's networks on the Torch side,
+// apps/detector.h): the faces of an sRGB-encoded RGB image (values in [0, 1]), best first; empty when none is found.
+using PhotoDetector = std::function<std::vector<PhotoFace>(const Image& photo)>;
 
 // Landmarks moved by the similarity (e.g. detected photo landmarks into the aligned frame).
 Landmarks68 transform(const Similarity& similarity, const Landmarks68& landmarks);

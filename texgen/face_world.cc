@@ -1,0 +1,303 @@
+#include "texgen/face_world.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "render/sh.h"
+
+namespace bareskin::texgen {
+namespace fs = std::filesystem;
+
+// ---- random numbers ----
+
+namespace {
+uint64_t splitmix64(uint64_t& x) {
+  uint64_t z = (x += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
+}  // namespace
+
+Rng::Rng(uint64_t seed) {
+  for (auto& s : s_) s = splitmix64(seed);
+}
+
+Rng::Rng(uint64_t seed, uint64_t index) {
+  uint64_t x = seed;
+  const uint64_t a = splitmix64(x);
+  uint64_t y = a ^ (index * 0xD1B54A32D192ED03ull);
+  for (auto& s : s_) s = splitmix64(y);
+}
+
+uint64_t Rng::next() {
+  const uint64_t result = rotl(s_[1] * 5, 7) * 9, t = s_[1] << 17;
+  s_[2] ^= s_[0];
+  s_[3] ^= s_[1];
+  s_[1] ^= s_[2];
+  s_[0] ^= s_[3];
+  s_[2] ^= t;
+  s_[3] = rotl(s_[3], 45);
+  return result;
+}
+
+double Rng::uniform() { return double(next() >> 11) * 0x1.0p-53; }
+
+double Rng::normal() {
+  const double u = 1.0 - uniform(), v = uniform();  // u in (0, 1]
+  return std::sqrt(-2.0 * std::log(u)) * std::cos(2 * M_PI * v);
+}
+
+int Rng::below(int n) { return int(uniform() * n); }
+
+// ---- subjects ----
+
+namespace {
+
+// Area average to size² (integer factors), or bilinear when the factor is not whole.
+Image resample(const Image& in, int size) {
+  if (in.width == size && in.height == size) return in;
+  Image out(size, size, in.channels, in.color_space);
+  if (in.width % size == 0 && in.height % size == 0) {
+    const int fx = in.width / size, fy = in.height / size;
+    const float w = 1.f / float(fx * fy);
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x)
+        for (int c = 0; c < in.channels; ++c) {
+          float s = 0;
+          for (int j = 0; j < fy; ++j)
+            for (int i = 0; i < fx; ++i) s += in.at(x * fx + i, y * fy + j, c);
+          out.at(x, y, c) = s * w;
+        }
+    return out;
+  }
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double sx = std::clamp((x + 0.5) * in.width / size - 0.5, 0.0, in.width - 1.0);
+      const double sy = std::clamp((y + 0.5) * in.height / size - 0.5, 0.0, in.height - 1.0);
+      const int x0 = int(sx), y0 = int(sy), x1 = std::min(x0 + 1, in.width - 1), y1 = std::min(y0 + 1, in.height - 1);
+      const float ax = float(sx - x0), ay = float(sy - y0);
+      for (int c = 0; c < in.channels; ++c)
+        out.at(x, y, c) = (1 - ay) * ((1 - ax) * in.at(x0, y0, c) + ax * in.at(x1, y0, c)) +
+                          ay * ((1 - ax) * in.at(x0, y1, c) + ax * in.at(x1, y1, c));
+    }
+  return out;
+}
+
+std::string find_map(const fs::path& dir, const std::string& name) {
+  for (const char* ext : {".png", ".exr", ".tif", ".tiff"}) {
+    const fs::path p = dir / (name + ext);
+    if (fs::exists(p)) return p.string();
+  }
+  return "";
+}
+
+std::shared_ptr<const Image> read_map(const fs::path& dir, const std::string& name, bool colour, int size) {
+  const std::string path = find_map(dir, name);
+  if (path.empty())
+    throw InvalidInput(dir.string(), "has no " + name + " map (" + name + ".png|exr|tif)",
+                       "give a folder written by 'scan register' from scans with all four maps");
+  Image img = read_image(path);
+  if (colour) {
+    if (img.channels < 3) throw InvalidInput(path, "is not an RGB map", "give the diffuse albedo as RGB");
+    if (img.color_space == ColorSpace::sRGB) img = to_linear(img);
+    if (img.channels > 3) {
+      Image rgb(img.width, img.height, 3, img.color_space);
+      for (size_t i = 0; i < size_t(img.width) * img.height; ++i)
+        for (int c = 0; c < 3; ++c) rgb.pixels[3 * i + c] = img.pixels[i * img.channels + c];
+      img = std::move(rgb);
+    }
+  } else if (img.channels != 1) {
+    Image grey(img.width, img.height, 1, ColorSpace::Data);
+    for (size_t i = 0; i < grey.pixels.size(); ++i) grey.pixels[i] = img.pixels[i * img.channels];
+    img = std::move(grey);
+  }
+  if (!colour) img.color_space = ColorSpace::Data;
+  return std::make_shared<const Image>(resample(img, size));
+}
+
+// Least-squares standardised coefficients of x − mean on an orthonormal basis (rows) with standard deviations.
+Eigen::VectorXd project(const RowMatrixXf& basis, const Eigen::VectorXf& stddev, const Eigen::VectorXd& centred,
+                        double* residual_rms, int group) {
+  const Eigen::VectorXd w = basis.cast<double>() * centred;
+  Eigen::VectorXd coeff(w.size());
+  for (int k = 0; k < w.size(); ++k) coeff[k] = w[k] / double(stddev[k]);
+  const Eigen::VectorXd rest = centred - basis.cast<double>().transpose() * w;
+  // RMS over groups (vertices: 3 numbers each; texels: 3 channels each).
+  *residual_rms = std::sqrt(rest.squaredNorm() / std::max<double>(1, double(centred.size()) / group));
+  return coeff;
+}
+
+std::shared_ptr<const Image> mean_map(const std::vector<FaceSubject>& subjects, bool roughness) {
+  if (subjects.empty()) return nullptr;
+  auto out = std::make_shared<Image>(*(roughness ? subjects[0].roughness : subjects[0].specular));
+  for (size_t s = 1; s < subjects.size(); ++s) {
+    const Image& m = *(roughness ? subjects[s].roughness : subjects[s].specular);
+    for (size_t i = 0; i < out->pixels.size(); ++i) out->pixels[i] += m.pixels[i];
+  }
+  for (float& v : out->pixels) v /= float(subjects.size());
+  return out;
+}
+
+}  // namespace
+
+RegisteredSubjects read_registered_subjects(const std::string& folder, const MorphableModel& model, int map_size) {
+  RegisteredSubjects out;
+  if (folder.empty()) return out;
+  if (!fs::is_directory(folder))
+    throw InvalidInput(folder, "is not a folder", "give the output folder of 'scan register' (--registered)");
+  std::vector<fs::path> dirs;
+  for (const auto& e : fs::directory_iterator(folder))
+    if (e.is_directory() && (fs::exists(e.path() / "mesh.ply") || fs::exists(e.path() / "mesh.obj")))
+      dirs.push_back(e.path());
+  std::sort(dirs.begin(), dirs.end());
+  if (dirs.empty())
+    throw InvalidInput(folder, "holds no registered subject (no */mesh.ply)", "give the output folder of 'scan register'");
+  const Eigen::VectorXd mean_app = model.appearance_mean.cast<double>();
+  for (const fs::path& dir : dirs) {
+    FaceSubject s;
+    const std::string name = dir.filename().string();
+    s.id = "scan/" + name;
+    s.scan = true;
+    s.diffuse = read_map(dir, "diffuse", true, map_size);
+    s.roughness = read_map(dir, "roughness", false, map_size);
+    s.specular = read_map(dir, "specular", false, map_size);
+    s.maps = "registered scan maps (diffuse, roughness, specular) at " + std::to_string(map_size) + "²";
+    const std::string mesh_path = fs::exists(dir / "mesh.ply") ? (dir / "mesh.ply").string() : (dir / "mesh.obj").string();
+    const Mesh mesh = read_mesh(mesh_path);
+    if (mesh.V.rows() != model.vertices())
+      throw InvalidInput(mesh_path, "has " + std::to_string(mesh.V.rows()) + " vertices, the model " +
+                                        std::to_string(model.vertices()),
+                         "register the scans to the template the model was built from");
+    const auto it = std::find(model.subjects.begin(), model.subjects.end(), name);
+    Eigen::Matrix4d T;
+    if (it != model.subjects.end() && size_t(it - model.subjects.begin()) < model.procrustes.size()) {
+      T = model.procrustes[size_t(it - model.subjects.begin())];
+      s.frame = "the model's procrustes entry";
+    } else {  // a subject the model was not built from: a rigid fit to the mean shape
+      T = Eigen::umeyama(mesh.V.transpose(), model.topology.V.transpose(), false);
+      s.frame = "rigid fit to the model's mean shape (not a training subject of the model)";
+    }
+    s.shape = ((mesh.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+    const Eigen::MatrixX3d centred = s.shape - model.topology.V;
+    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = centred;
+    const Eigen::Map<const Eigen::VectorXd> flat(rows.data(), rows.size());
+    s.alpha = project(model.shape_basis, model.shape_stddev, flat, &s.shape_residual_mm, 3);
+    if (model.appearance_resolution > 0) {
+      const Image diffuse_r = resample(*s.diffuse, model.appearance_resolution);
+      Eigen::VectorXd a(mean_app.size());
+      for (int64_t i = 0; i < a.size(); ++i) a[i] = diffuse_r.pixels[size_t(i)] - mean_app[i];
+      for (size_t t = 0; t < model.appearance_mask.size(); ++t)  // texels the model does not model do not count
+        if (!model.appearance_mask[t]) a.segment(3 * int64_t(t), 3).setZero();
+      s.delta = project(model.appearance_basis, model.appearance_stddev, a, &s.appearance_residual, 3);
+    }
+    out.subjects.push_back(std::move(s));
+  }
+  out.mean_roughness = mean_map(out.subjects, true);
+  out.mean_specular = mean_map(out.subjects, false);
+  return out;
+}
+
+FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index) {
+  Rng rng(seed ^ 0x6D6D5375626A6563ull, uint64_t(index));  // "mmSubjec": identities apart from the samples' streams
+  FaceSubject s;
+  char id[32];
+  std::snprintf(id, sizeof(id), "mm/%06d", index);
+  s.id = id;
+  s.alpha.resize(model.shape_basis.rows());
+  // N(0, 1) truncated at ±2: the tails of a model built from few subjects leave the range of skin (black albedo).
+  const auto draw = [&rng] {
+    for (;;) {
+      const double x = rng.normal();
+      if (std::abs(x) <= kSubjectTruncation) return x;
+    }
+  };
+  for (int k = 0; k < s.alpha.size(); ++k) s.alpha[k] = draw();
+  s.delta.resize(model.appearance_basis.rows());
+  for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
+  s.shape = model.shape(s.alpha);
+  s.frame = "model";
+  const int R = model.appearance_resolution;
+  if (R <= 0) throw InvalidInput("", "the model has no appearance part", "build it from subjects with diffuse maps");
+  auto diffuse = std::make_shared<Image>(R, R, 3, ColorSpace::Linear);
+  diffuse->pixels = model.appearance(s.delta);
+  for (float& v : diffuse->pixels) v = std::clamp(v, 0.f, 1.f);
+  s.diffuse = diffuse;
+  if (registered.mean_roughness) {
+    s.roughness = registered.mean_roughness;
+    s.specular = registered.mean_specular;
+    s.maps = "diffuse: the model's appearance at delta; roughness, specular: mean of the registered subjects' maps";
+  } else {
+    s.roughness = std::make_shared<const Image>(1, 1, 1, ColorSpace::Data, kDefaultRoughness);
+    s.specular = std::make_shared<const Image>(1, 1, 1, ColorSpace::Data, kDefaultSpecular);
+    s.maps = "diffuse: the model's appearance at delta; roughness " + std::to_string(kDefaultRoughness) +
+             ", specular " + std::to_string(kDefaultSpecular) + " (constants: no registered subjects)";
+  }
+  return s;
+}
+
+// ---- light and pose ----
+
+std::array<double, 27> directional_gamma(const Eigen::Vector3d& ambient, const Eigen::Vector3d& colour,
+                                         const Eigen::Vector3d& direction, double strength) {
+  // A clamped-cosine-like lobe: bands 1 and 2 of the direction's basis values, weighted like the Lambertian
+  // convolution (band 2 a quarter of band 1), scaled so the lobe adds `strength` to the irradiance at `direction`.
+  const std::array<double, 9> y = sh_basis(direction.normalized());
+  const ShScales k = sh_scales();
+  std::array<double, 9> lobe{};
+  double peak = 0;
+  for (int j = 1; j < 9; ++j) {
+    const double band_weight = j < 4 ? 1.0 / (k.k1 * k.k1) : 0.25 / (k.k2 * k.k2);
+    lobe[size_t(j)] = y[size_t(j)] * band_weight;
+    peak += lobe[size_t(j)] * y[size_t(j)];
+  }
+  std::array<double, 27> g{};
+  for (int c = 0; c < 3; ++c) {
+    g[size_t(9 * c)] = ambient[c];
+    for (int j = 1; j < 9; ++j) g[size_t(9 * c + j)] = strength * colour[c] * lobe[size_t(j)] / peak;
+  }
+  return g;
+}
+
+nlohmann::json Light::to_json() const {
+  return {{"model", "SH order 2 (Deep3DFaceRecon) + Blinn-Phong key light"},
+          {"ambient", ambient},
+          {"direction", {direction.x(), direction.y(), direction.z()}},
+          {"colour", {colour.x(), colour.y(), colour.z()}},
+          {"strength", strength},
+          {"specular", specular}};
+}
+
+SampleParams draw_params(const MorphableModel& model, const SampleRanges& r, Rng& rng) {
+  SampleParams p;
+  const double deg = M_PI / 180;
+  p.rotation = {rng.uniform(-r.pitch_max, r.pitch_max) * deg, rng.uniform(-r.yaw_max, r.yaw_max) * deg,
+                rng.uniform(-r.roll_max, r.roll_max) * deg};
+  p.beta = Eigen::VectorXd::Zero(model.expression_basis.rows());
+  if (rng.chance(r.expression_prob)) {
+    // A few expressions at once, each bounded by expression_max.
+    const int n = 1 + rng.below(3);
+    for (int i = 0; i < n && p.beta.size() > 0; ++i) p.beta[rng.below(int(p.beta.size()))] = rng.uniform(-1, 1) * r.expression_max;
+  }
+  // The light: Deep3DFaceRecon's ambient, varied, tinted; a dominant direction in the front hemisphere.
+  Light& L = p.light;
+  L.ambient = kDeep3dAmbient * rng.uniform(0.75, 1.15);
+  const double warmth = rng.uniform(-1, 1);  // −1 cool (blue) ... +1 warm (tungsten)
+  L.colour = Eigen::Vector3d(1 + 0.12 * warmth, 1, 1 - 0.15 * warmth);
+  const double az = rng.uniform(-M_PI, M_PI), el = std::acos(rng.uniform(0.2, 1.0));  // angle from the view axis
+  L.direction = Eigen::Vector3d(std::sin(el) * std::sin(az), std::sin(el) * std::cos(az), std::cos(el)).normalized();
+  L.strength = rng.uniform(0, r.light_max);
+  L.specular = rng.uniform(0.15, 1.0) * r.specular_max;
+  const Eigen::Vector3d tint(1 + rng.uniform(-0.05, 0.05), 1, 1 + rng.uniform(-0.05, 0.05));
+  L.gamma = directional_gamma(L.ambient * tint.cwiseProduct(L.colour), L.colour, L.direction, L.strength);
+  p.jitter = {rng.uniform(-15, 15), rng.uniform(-15, 15), rng.uniform(-120, 150)};
+  return p;
+}
+
+}  // namespace bareskin::texgen

@@ -1,0 +1,485 @@
+#include "texgen/faces.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/png.h"
+#include "morphable/fit.h"
+#include "texgen/face_render.h"
+
+namespace bareskin::texgen {
+namespace fs = std::filesystem;
+
+const char* const kSplitNames[3] = {"train", "val", "test"};
+constexpr int kSize = detect::kAlignedSize;
+// The pre-alignment render ("the photo") has the canonical camera's focal length on a larger canvas, so the detector
+// sees the face with some surroundings, as in a photo, not a tight crop.
+constexpr int kPhotoSize = 384;
+
+// ---- options and plan ----
+
+void FacesOptions::check() const {
+  if (model.empty()) throw InvalidInput("--model", "is required", "give the model.safetensors mm-build wrote");
+  if (count <= 0) throw InvalidInput("--count", "must be at least 1 (got " + std::to_string(count) + ")", "e.g. --count 1000");
+  if (mm_subjects < 0) throw InvalidInput("--mm-subjects", "must not be negative", "e.g. --mm-subjects 90");
+  if (!(val >= 0) || !(test >= 0)) throw InvalidInput("--val/--test", "must not be negative", "a count or a fraction");
+  if (shard_size <= 0) throw InvalidInput("--shard-size", "must be positive", "e.g. --shard-size 100");
+  if (shards < 1 || shard < 0 || shard >= shards)
+    throw InvalidInput("--shard", std::to_string(shard) + " of " + std::to_string(shards) + " is not a worker",
+                       "give 0 <= --shard < --shards");
+  if (align != "detector" && align != "truth")
+    throw InvalidInput("--align", "'" + align + "' is neither detector nor truth", "use --align detector|truth");
+  if (!(occluder_prob >= 0 && occluder_prob <= 1)) throw InvalidInput("--occluders", "is not a probability", "0..1");
+  if (map_size < 16) throw InvalidInput("--map-size", "is too small", "e.g. --map-size 512");
+  const SampleRanges& r = ranges;
+  for (double v : {r.yaw_max, r.pitch_max, r.roll_max})
+    if (!(v >= 0 && v <= 90)) throw InvalidInput("--yaw-max/--pitch-max/--roll-max", "must be in [0, 90] degrees", "");
+  if (!(r.expression_max >= 0 && r.expression_max <= 5))
+    throw InvalidInput("--expression-max", "must be in [0, 5] standard deviations", "e.g. --expression-max 0.5");
+  if (!(r.light_max >= 0 && r.light_max <= 2)) throw InvalidInput("--light-max", "must be in [0, 2]", "e.g. 0.6");
+}
+
+nlohmann::json FacesOptions::to_json() const {
+  return {{"registered", registered},   {"model", model},
+          {"count", count},             {"seed", seed},
+          {"mm_subjects", mm_subjects}, {"val", val},
+          {"test", test},               {"shard_size", shard_size},
+          {"align", align},             {"yaw_max", ranges.yaw_max},
+          {"pitch_max", ranges.pitch_max}, {"roll_max", ranges.roll_max},
+          {"expression_max", ranges.expression_max}, {"expression_prob", ranges.expression_prob},
+          {"light_max", ranges.light_max}, {"specular_max", ranges.specular_max},
+          {"occluders", occluder_prob}, {"styles", styles},
+          {"exclude_styles", exclude_styles}, {"map_size", map_size},
+          {"size", kSize}};
+}
+
+int64_t FacesPlan::shards_in(int split, int64_t shard_size) const {
+  return (int64_t(split_samples[size_t(split)].size()) + shard_size - 1) / shard_size;
+}
+
+namespace {
+int subjects_for(double given, int total) {
+  const int n = given < 1 ? int(std::lround(given * total)) : int(given);
+  return std::min(n, total);
+}
+}  // namespace
+
+FacesPlan plan_faces(const FacesOptions& o, const std::vector<std::string>& registered_ids) {
+  FacesPlan p;
+  p.subjects = registered_ids;
+  for (int i = 0; i < o.mm_subjects; ++i) {
+    char id[32];
+    std::snprintf(id, sizeof(id), "mm/%06d", i);
+    p.subjects.push_back(id);
+  }
+  const int S = int(p.subjects.size());
+  if (S == 0) throw InvalidInput("--mm-subjects", "no subjects: no registered folder and no 3DMM subjects", "give --registered or --mm-subjects N");
+  const int n_test = subjects_for(o.test, S), n_val = subjects_for(o.val, S);
+  if (n_test + n_val >= S)
+    throw InvalidInput("--val/--test", std::to_string(n_val) + " + " + std::to_string(n_test) + " of " +
+                                           std::to_string(S) + " subjects leave none for training",
+                       "give fewer validation/test subjects or more subjects (--mm-subjects)");
+  // A seeded shuffle decides each subject's split; samples visit the subjects in another seeded order.
+  std::vector<int> order(static_cast<size_t>(S));
+  for (int i = 0; i < S; ++i) order[size_t(i)] = i;
+  Rng rng(o.seed ^ 0x53706C6974ull);  // "Split"
+  for (int i = S - 1; i > 0; --i) std::swap(order[size_t(i)], order[size_t(rng.below(i + 1))]);
+  p.subject_split.assign(size_t(S), 0);
+  for (int i = 0; i < n_test; ++i) p.subject_split[size_t(order[size_t(i)])] = 2;
+  for (int i = n_test; i < n_test + n_val; ++i) p.subject_split[size_t(order[size_t(i)])] = 1;
+  std::vector<int> visit(order.rbegin(), order.rend());
+  p.split_samples.assign(3, {});
+  p.sample_subject.resize(size_t(o.count));
+  for (int64_t i = 0; i < o.count; ++i) {
+    const int s = visit[size_t(i % S)];
+    p.sample_subject[size_t(i)] = s;
+    p.split_samples[size_t(p.subject_split[size_t(s)])].push_back(i);
+  }
+  return p;
+}
+
+nlohmann::json FacesReport::to_json() const {
+  nlohmann::json j = {{"samples_written", samples_written}, {"shards_written", shards_written},
+                      {"shards_skipped", shards_skipped},   {"complete_splits", complete_splits},
+                      {"seconds", seconds},
+                      {"samples_per_second", seconds > 0 ? double(samples_written) / seconds : 0.0}};
+  if (detector_runs) j["detector"] = {{"runs", detector_runs}, {"detected", detected}};
+  return j;
+}
+
+// ---- the world ----
+
+struct FaceGenerator::World {
+  FacesOptions opt;
+  MorphableModel model;
+  RegisteredSubjects registered;
+  std::vector<BackgroundPhoto> photos;
+  FacesPlan plan;
+  Camera camera = view_camera("front", kSize, Eigen::Vector3d::Zero(), 1000);
+  Camera photo_camera = [] {
+    Camera c = view_camera("front", kSize, Eigen::Vector3d::Zero(), 1000);
+    c.width = c.height = kPhotoSize;
+    c.cx = c.cy = kPhotoSize / 2.0;
+    return c;
+  }();
+  std::vector<uint8_t> skin_vertex;  // per vertex: 1 where the skin mask may be 1 (not eyes, brows, lips)
+
+  // One sample between the pre-alignment render ("the photo") and the aligned render.
+  struct Stage {
+    int64_t index = 0;
+    int split = 0;
+    std::shared_ptr<const FaceSubject> subject;
+    SampleParams params;
+    std::string style = "none";
+    Eigen::Vector3d photo_translation;
+    Eigen::MatrixX3d shape;  // neutral + expression, model frame
+    detect::Landmarks68 photo_truth;
+    Occluders photo_occluders;
+    Image photo_background;
+    std::string background_kind;
+    Image photo_srgb;  // --align detector
+    std::vector<detect::PhotoFace> detected;
+  };
+
+  Mesh posed(const Stage& s, const Eigen::Vector3d& translation) const {
+    Mesh m = model.topology;
+    m.V = ((s.shape * euler_rotation(s.params.rotation).transpose()).rowwise() + translation.transpose()).eval();
+    m.N.resize(0, 3);
+    return m;
+  }
+
+  detect::Landmarks68 project_landmarks(const Mesh& m, const Camera& cam) const {
+    detect::Landmarks68 lm;
+    for (int i = 0; i < 68; ++i)
+      lm.row(i) = cam.project(m.V.row(model.landmark_vertices[size_t(i)]).transpose()).head<2>().transpose();
+    return lm;
+  }
+
+  std::shared_ptr<const FaceSubject> subject(int s) const {
+    const int n_scans = int(registered.subjects.size());
+    if (s < n_scans) return std::shared_ptr<const FaceSubject>(&registered.subjects[size_t(s)], [](const FaceSubject*) {});
+    return std::make_shared<const FaceSubject>(model_subject(model, registered, opt.seed, s - n_scans));
+  }
+
+  // The lit picture: background, face, occluders (linear).
+  Image picture(const Surface& surface, const SurfaceMaps& maps, const Light& light, const Image& background,
+                const Occluders& occluders) const {
+    Image out = background;
+    shade(surface, maps, light, out);
+    paint_occluders(occluders, out);
+    return out;
+  }
+
+  Stage prepare(int64_t index) const;
+  shards::Sample finish(Stage& stage) const;
+};
+
+namespace {
+
+Image encode_srgb(const Image& linear) {
+  Image out(linear.width, linear.height, linear.channels, ColorSpace::sRGB);
+  for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = linear_to_srgb(std::clamp(linear.pixels[i], 0.f, 1.f));
+  return out;
+}
+
+nlohmann::json vec_json(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+// The detected face that is ours: the best-scoring one whose eyes, nose and mouth lie within a third of the eye
+// distance of the truth's (a detection elsewhere, e.g. in a background photo, is not our face: not detected).
+const detect::PhotoFace* ours(const std::vector<detect::PhotoFace>& faces, const detect::Landmarks68& truth) {
+  const detect::FivePoints t = detect::five_points(truth);
+  const double eyes = (t.row(1) - t.row(0)).norm();
+  for (const detect::PhotoFace& f : faces) {
+    if (!f.points.allFinite()) continue;
+    const detect::FivePoints p = detect::five_points(f.points);
+    if ((p - t).rowwise().norm().maxCoeff() < eyes / 3) return &f;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
+  Stage s;
+  s.index = index;
+  const int subject_index = plan.sample_subject[size_t(index)];
+  s.split = plan.subject_split[size_t(subject_index)];
+  s.subject = subject(subject_index);
+  Rng rng(opt.seed, uint64_t(index));
+  s.params = draw_params(model, opt.ranges, rng);
+  s.shape = s.subject->shape;
+  if (s.params.beta.size() && s.params.beta.cwiseAbs().maxCoeff() > 0)
+    s.shape += model.shape(Eigen::VectorXd(), s.params.beta) - model.topology.V;
+  s.photo_translation = s.params.jitter;
+  s.photo_background = make_background(kPhotoSize, photos, rng, &s.background_kind);
+  const Mesh photo_mesh = posed(s, s.photo_translation);
+  s.photo_truth = project_landmarks(photo_mesh, photo_camera);
+  std::vector<Eigen::Vector2d> lm(68);
+  for (int i = 0; i < 68; ++i) lm[size_t(i)] = s.photo_truth.row(i).transpose();
+  s.photo_occluders = draw_occluders(kPhotoSize, lm, opt.occluder_prob, rng);
+  if (opt.align == "detector") {
+    const Surface surface = rasterize_face(photo_mesh, photo_camera);
+    const SurfaceMaps maps{s.subject->diffuse.get(), s.subject->roughness.get(), s.subject->specular.get()};
+    s.photo_srgb = encode_srgb(picture(surface, maps, s.params.light, s.photo_background, s.photo_occluders));
+  }
+  return s;
+}
+
+shards::Sample FaceGenerator::World::finish(Stage& s) const {
+  // Alignment as a real photo gets it: the detector's landmarks (or the truth), 5 points, scale + translation.
+  std::string source = "truth";
+  double score = 0, detector_error = -1;
+  detect::Similarity sim;
+  const detect::PhotoFace* found = ours(s.detected, s.photo_truth);
+  if (found) {
+    sim = detect::alignment(found->points);
+    source = "detector";
+    score = found->score;
+    std::vector<double> err(68);
+    for (int i = 0; i < 68; ++i) err[size_t(i)] = (found->points.row(i) - s.photo_truth.row(i)).norm() * sim.scale;
+    std::nth_element(err.begin(), err.begin() + 34, err.end());
+    detector_error = err[34];
+  } else {
+    sim = detect::alignment(s.photo_truth);
+    if (opt.align == "detector") source = "truth (the detector found no face)";
+  }
+  // Move the head so the canonical camera sees the aligned view: scale → depth, shift → x/y.
+  const double f = camera.focal, c = camera.cx;
+  const Eigen::Vector3d& T0 = s.photo_translation;
+  const double D0 = 1000 - T0.z(), D1 = D0 / sim.scale;
+  const Eigen::Vector2d centre0(photo_camera.cx + f * T0.x() / D0, photo_camera.cy - f * T0.y() / D0);
+  const Eigen::Vector2d centre1 = sim.apply(centre0);
+  const Eigen::Vector3d T1((centre1.x() - c) * D1 / f, -(centre1.y() - camera.cy) * D1 / f, 1000 - D1);
+
+  const Mesh mesh = posed(s, T1);
+  const Surface surface = rasterize_face(mesh, camera);
+  const Occluders occluders = warp_occluders(s.photo_occluders, sim, kSize);
+  const Image background = detect::warp_aligned(s.photo_background, sim, kSize);
+  const FaceSubject& subj = *s.subject;
+  const SurfaceMaps bare_maps{subj.diffuse.get(), subj.roughness.get(), subj.specular.get()};
+  const Image before = picture(surface, bare_maps, s.params.light, background, occluders);
+  const Image makeup = before;  // style none: the makeup layer is empty
+  const Image bare = sample_map(surface, *subj.diffuse);
+
+  // Masks and landmarks.
+  const size_t n = size_t(kSize) * kSize;
+  Image face(kSize, kSize, 1, ColorSpace::Data), skin(kSize, kSize, 1, ColorSpace::Data);
+  for (size_t i = 0; i < n; ++i) {
+    if (!surface.covered(i) || occluders.labels.label[i]) continue;
+    face.pixels[i] = 1;
+    const int t = surface.raster.triangle[i];
+    const float b1 = surface.raster.bary[2 * i], b2 = surface.raster.bary[2 * i + 1], b0 = 1 - b1 - b2;
+    const int corner = b0 >= b1 && b0 >= b2 ? 0 : (b1 >= b2 ? 1 : 2);
+    skin.pixels[i] = skin_vertex[size_t(mesh.F(t, corner))] ? 1.f : 0.f;
+  }
+  const detect::Landmarks68 landmarks = project_landmarks(mesh, camera);
+  nlohmann::json lm_json = nlohmann::json::array(), visible = nlohmann::json::array();
+  for (int i = 0; i < 68; ++i) {
+    const Eigen::Vector3d p = camera.project(mesh.V.row(model.landmark_vertices[size_t(i)]).transpose());
+    const int x = int(std::floor(p.x())), y = int(std::floor(p.y()));
+    bool seen = x >= 0 && y >= 0 && x < kSize && y < kSize;
+    if (seen) {
+      const size_t k = size_t(y) * kSize + size_t(x);
+      seen = surface.covered(k) && p.z() <= surface.raster.depth[k] + 2.0 && !occluders.labels.label[k];
+    }
+    lm_json.push_back({landmarks(i, 0), landmarks(i, 1)});
+    visible.push_back(seen);
+  }
+
+  nlohmann::json align = {{"similarity", {{sim.scale, 0.0, sim.translation.x()}, {0.0, sim.scale, sim.translation.y()}}},
+                          {"source", source}};
+  if (opt.align == "detector") {
+    align["detected"] = found != nullptr;
+    align["detector_faces"] = s.detected.size();
+    if (found) {
+      align["detector_score"] = score;
+      align["detector_landmark_error_px"] = detector_error;  // median over 68, aligned pixels
+    }
+  }
+  nlohmann::json truth = {{"frame", subj.frame}, {"maps", subj.maps}};
+  if (subj.scan)
+    truth.update({{"alpha_delta", "least-squares projections of the scan onto the model"},
+                  {"shape_residual_mm", subj.shape_residual_mm},
+                  {"appearance_residual", subj.appearance_residual}});
+  nlohmann::json meta = {
+      {"subject", subj.id},
+      {"split", kSplitNames[s.split]},
+      {"style", s.style},
+      {"landmarks", lm_json},
+      {"landmarks_visible", visible},
+      {"coefficients",
+       {{"alpha", vec_json(subj.alpha)},
+        {"beta", vec_json(s.params.beta)},
+        {"delta", vec_json(subj.delta)},
+        {"rotation", vec_json(s.params.rotation)},
+        {"translation", vec_json(T1)},
+        {"gamma", s.params.light.gamma}}},
+      {"camera", {{"focal", camera.focal}, {"cx", camera.cx}, {"cy", camera.cy}, {"width", kSize}, {"height", kSize}}},
+      {"align", align},
+      {"light", s.params.light.to_json()},
+      {"background", s.background_kind},
+      {"occluders", s.photo_occluders.kinds},
+      {"subject_truth", truth},
+      {"has_truth", true},
+  };
+  shards::Sample out;
+  char key[16];
+  std::snprintf(key, sizeof(key), "%08lld", static_cast<long long>(s.index));
+  out.key = key;
+  out.members["makeup.png"] = encode_png(encode_srgb(makeup));
+  out.members["before.png"] = encode_png(encode_srgb(before));
+  out.members["bare.png"] = encode_png(encode_srgb(bare));
+  out.members["skin.png"] = encode_png(skin);
+  out.members["face.png"] = encode_png(face);
+  out.members["json"] = meta.dump(1);
+  return out;
+}
+
+// ---- the generator ----
+
+FaceGenerator::FaceGenerator(FacesOptions options) : world_(std::make_unique<World>()) {
+  World& w = *world_;
+  options.check();
+  w.opt = std::move(options);
+  w.model = read_model(w.opt.model);
+  if (w.model.landmark_vertices.size() != 68)
+    throw InvalidInput(w.opt.model, "has no 68 landmark vertices", "rebuild it with mm-build");
+  w.registered = read_registered_subjects(w.opt.registered, w.model, w.opt.map_size);
+  w.photos = read_background_photos(w.opt.backgrounds);
+  std::vector<std::string> ids;
+  for (const FaceSubject& s : w.registered.subjects) ids.push_back(s.id);
+  w.plan = plan_faces(w.opt, ids);
+  w.skin_vertex.assign(size_t(w.model.vertices()), 1);
+  for (int v = 0; v < w.model.vertices(); ++v) {
+    if (size_t(v) >= w.model.vertex_region.size()) break;
+    const size_t r = w.model.vertex_region[size_t(v)];
+    const std::string name = r < w.model.region_names.size() ? w.model.region_names[r] : "";
+    if (name == "eyes" || name == "brows" || name == "mouth") w.skin_vertex[size_t(v)] = 0;
+  }
+}
+
+FaceGenerator::~FaceGenerator() = default;
+
+const FacesPlan& FaceGenerator::plan() const { return world_->plan; }
+
+shards::Sample FaceGenerator::render(int64_t index, const detect::PhotoDetector& detector) const {
+  if (index < 0 || index >= world_->opt.count) throw InvalidInput("", "sample index out of range", "");
+  World::Stage s = world_->prepare(index);
+  if (!s.photo_srgb.empty() && detector) s.detected = detector(s.photo_srgb);
+  return world_->finish(s);
+}
+
+namespace {
+std::string shard_name(int64_t k) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "faces-%06lld.tar", static_cast<long long>(k));
+  return name;
+}
+}  // namespace
+
+FacesReport FaceGenerator::run(const detect::PhotoDetector& detector, const ProgressCallback& progress) {
+  const World& w = *world_;
+  const auto t0 = std::chrono::steady_clock::now();
+  FacesReport out;
+  const int64_t size = w.opt.shard_size;
+  struct Job {
+    int split;
+    int64_t shard;
+  };
+  std::vector<Job> jobs, mine;
+  for (int split = 0; split < 3; ++split)
+    for (int64_t k = 0; k < w.plan.shards_in(split, size); ++k) jobs.push_back({split, k});
+  int64_t total = 0;
+  for (size_t j = 0; j < jobs.size(); ++j)
+    if (int(j % size_t(w.opt.shards)) == w.opt.shard) {
+      mine.push_back(jobs[j]);
+      const auto& list = w.plan.split_samples[size_t(jobs[j].split)];
+      total += std::min<int64_t>(size, int64_t(list.size()) - jobs[j].shard * size);
+    }
+  for (int split = 0; split < 3; ++split) make_directories(w.opt.output + "/" + kSplitNames[split]);
+  int64_t done = 0;
+  report(progress, 0, total, "faces");
+  for (const Job& job : mine) {
+    const fs::path dir = fs::path(w.opt.output) / kSplitNames[job.split];
+    const std::string name = shard_name(job.shard);
+    const auto& list = w.plan.split_samples[size_t(job.split)];
+    const int64_t begin = job.shard * size, end = std::min<int64_t>(begin + size, int64_t(list.size()));
+    if (fs::exists(dir / name)) {  // written whole (renamed into place when complete): a resumed run keeps it
+      ++out.shards_skipped;
+      done += end - begin;
+      report(progress, done, total, "faces");
+      continue;
+    }
+    std::vector<shards::Sample> samples(size_t(end - begin));
+    constexpr int64_t kBatch = 16;
+    for (int64_t b = begin; b < end; b += kBatch) {
+      const int64_t e = std::min(b + kBatch, end);
+      std::vector<World::Stage> stages(size_t(e - b));
+      parallel_for(b, e, [&](int64_t lo, int64_t hi) {
+        for (int64_t i = lo; i < hi; ++i) stages[size_t(i - b)] = w.prepare(list[size_t(i)]);
+      });
+      for (auto& s : stages) {  // the detector runs on the Torch side's own threads, one photo at a time
+        if (s.photo_srgb.empty() || !detector) continue;
+        s.detected = detector(s.photo_srgb);
+        ++out.detector_runs;
+        out.detected += ours(s.detected, s.photo_truth) != nullptr;
+      }
+      parallel_for(b, e, [&](int64_t lo, int64_t hi) {
+        for (int64_t i = lo; i < hi; ++i) samples[size_t(i - begin)] = w.finish(stages[size_t(i - b)]);
+      });
+      done += e - b;
+      report(progress, done, total, "faces");
+    }
+    // Written into a hidden folder beside the split, then renamed into place: a kill leaves no partial shard.
+    const fs::path partial = dir / ("." + name + ".partial");
+    fs::remove_all(partial);
+    {
+      shards::ShardWriter writer(partial.string(), "faces", int64_t(samples.size()) + 1);
+      for (const auto& s : samples) writer.write(s);
+      writer.finish();
+    }
+    fs::rename(partial / "faces-000000.tar", dir / name);
+    fs::remove_all(partial);
+    ++out.shards_written;
+    out.samples_written += int64_t(samples.size());
+  }
+  // Manifests of the splits whose shards are all there (the last worker to finish a split writes it).
+  for (int split = 0; split < 3; ++split) {
+    const fs::path dir = fs::path(w.opt.output) / kSplitNames[split];
+    shards::Manifest m;
+    bool complete = true;
+    const auto& list = w.plan.split_samples[size_t(split)];
+    for (int64_t k = 0; k < w.plan.shards_in(split, size) && complete; ++k) {
+      const fs::path p = dir / shard_name(k);
+      if (!fs::exists(p)) {
+        complete = false;
+        break;
+      }
+      shards::ShardInfo info;
+      info.name = shard_name(k);
+      info.samples = std::min<int64_t>(size, int64_t(list.size()) - k * size);
+      info.crc32 = shards::file_crc32(p.string());
+      info.bytes = int64_t(fs::file_size(p));
+      m.shards.push_back(info);
+    }
+    if (!complete) continue;
+    std::vector<std::string> subjects;
+    for (size_t s = 0; s < w.plan.subjects.size(); ++s)
+      if (w.plan.subject_split[s] == split) subjects.push_back(w.plan.subjects[s]);
+    m.metadata = {{"generator", w.opt.generator}, {"kind", "faces"},          {"split", kSplitNames[split]},
+                  {"samples", int64_t(list.size())}, {"subjects", subjects}, {"config", w.opt.to_json()},
+                  {"members", {"makeup.png", "before.png", "bare.png", "skin.png", "face.png", "json"}}};
+    shards::write_manifest(dir.string(), m);
+    out.complete_splits.push_back(kSplitNames[split]);
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace bareskin::texgen
