@@ -1,0 +1,171 @@
+// bareskin texgen make-dataset: the texture-inference training data (texgen/make_dataset.h; docs/datasets.md) from
+// registered subjects and the morphable model, with face-api's detector (apps/detector.h) finding the landmarks the
+// fits start from.
+#include <algorithm>
+#include <cstdlib>
+#include <memory>
+
+#include "apps/cli.h"
+#include "apps/detector.h"  // set_torch_threads
+#include "core/error.h"
+#include "texgen/make_dataset.h"
+#ifdef BARESKIN_WITH_DETECT
+#include "detect/face_api.h"
+#endif
+
+namespace bareskin::cli {
+
+namespace {
+
+#ifdef BARESKIN_WITH_DETECT
+// face-api's boxes span about 1.22x the landmarks' extent, starting 0.14 (x) and 0.12 (y) of it before their minimum
+// (the proportions detect/scan_landmarks.cc measured): each refinement feeds the landmark network such a box.
+detect::Box box_around(const texgen::Landmarks68& p) {
+  const Eigen::Vector2d lo = p.colwise().minCoeff(), size = p.colwise().maxCoeff().transpose() - lo;
+  return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
+}
+
+// The detectors make-dataset uses. Photos: face-api's detector box, then the landmark network; nothing when no face
+// scores above min_score. Renders (a face on black): the same, but when the detector's classifier rejects the
+// render (unlit albedo renders lack the shading it learned faces by) the box is the bounding box of the non-black
+// pixels; then `refinements` landmark passes on the box the previous points imply. No truth is used.
+std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
+                                                                                         int input_size, int refinements) {
+  set_torch_threads(globals);
+  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
+  auto find = [net, input_size, refinements](const Image& image, bool coverage_fallback) -> std::optional<texgen::Landmarks68> {
+    const torch::Tensor photo = detect::photo_tensor(image, "image");
+    detect::DetectOptions options;
+    options.input_size = input_size;
+    options.max_faces = 1;
+    options.min_score = 0.3;
+    const auto faces = net->detect(photo, options);
+    detect::Box box;
+    if (!faces.empty()) {
+      box = faces[0].box;
+    } else {
+      if (!coverage_fallback) return std::nullopt;
+      int x0 = image.width, y0 = image.height, x1 = -1, y1 = -1;
+      for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x)
+          if (image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2) > 0)
+            x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+      if (x1 < 0) return std::nullopt;
+      box = {double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
+    }
+    texgen::Landmarks68 points = net->landmarks(photo, {box})[0];
+    for (int pass = 0; pass < refinements; ++pass) points = net->landmarks(photo, {box_around(points)})[0];
+    return points;
+  };
+  return {[find](const Image& image) { return find(image, true); }, [find](const Image& image) { return find(image, false); }};
+}
+#else
+std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int) {
+  throw InvalidInput("texgen make-dataset", "needs face-api's detector, which this build lacks (no Torch side)",
+                     "build bareskin with LibTorch");
+}
+#endif
+
+}  // namespace
+
+std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals& globals) {
+  struct Options {
+    texgen::TextureDatasetOptions o;
+    double yaw_left = 30, yaw_right = 30;
+    std::string occluders = "hair,glasses,hand,hat";
+    std::vector<double> split = {0.8, 0.1, 0.1};
+    int detector_size = 416, refinements = 2;
+  };
+  auto opt = std::make_shared<Options>();
+  texgen::TextureDatasetOptions& o = opt->o;
+  CLI::App* app = texgen.add_subcommand("make-dataset", "Texture-inference samples in the template UV: three renders "
+                                                        "per subject, 3DMM fits, merged unwrap, 3DMM maps, baked "
+                                                        "targets, occlusion masks, as shards");
+  app->add_option("registered", o.registered, "Registered subjects (scan register's output, the model's template)")
+      ->required();
+  app->add_option("--model", o.model, "The morphable model (mm-build's model.safetensors)")->required();
+  app->add_option("-o,--output", o.output, "Dataset folder: train/, val/, test/, masks/ with shards and manifest.json")
+      ->required();
+  app->add_option("--yaw-left", opt->yaw_left, "Head turn of the left view (degrees; its left side toward the camera)")
+      ->capture_default_str()->check(CLI::Range(0.0, 80.0))->group("Views");
+  app->add_option("--yaw-right", opt->yaw_right, "Head turn of the right view (degrees)")->capture_default_str()
+      ->check(CLI::Range(0.0, 80.0))->group("Views");
+  app->add_option("--lights", o.lights, "Samples per subject: the light of the render the fits see; 1: the default "
+                                        "light, each further one a random SH light")
+      ->capture_default_str()->group("Views");
+  app->add_option("--render-size", o.sample.render_size, "Render size of each view (a multiple of --fit-size)")
+      ->capture_default_str()->group("Views");
+  app->add_option("--detector-size", opt->detector_size, "Face detector input (multiple of 32)")->capture_default_str()
+      ->group("Fit");
+  app->add_option("--refinements", opt->refinements, "Landmark passes on the box the previous points imply")
+      ->capture_default_str()->check(CLI::Range(0, 10))->group("Fit");
+  app->add_option("--fitter", o.fitter, "mm-fit (detected landmarks, then the photometric fit); recon (the network F) "
+                                        "once it exists")
+      ->capture_default_str()->check(CLI::IsMember({"mm-fit", "recon"}))->group("Fit");
+  app->add_option("--fit-size", o.sample.fit_size, "Image size of the photometric fit")->capture_default_str()->group("Fit");
+  app->add_option("--shape-components", o.sample.landmark_fit.shape_components, "Identity components fitted")
+      ->capture_default_str()->group("Fit");
+  app->add_option("--appearance-components", o.sample.photometric.appearance_components, "Appearance components fitted")
+      ->capture_default_str()->group("Fit");
+  app->add_option("--input-res", o.sample.input_res, "UV size of the inputs (unwrap, confidence, 3DMM maps, masks)")
+      ->capture_default_str()->group("Sizes");
+  app->add_option("--target-res", o.target_res, "UV size of the targets (divides the registered maps' size)")
+      ->capture_default_str()->group("Sizes");
+  app->add_option("--hr-res", o.hr_res, "UV size of the high-res targets (*_hr.png; 0: none)")->capture_default_str()
+      ->group("Sizes");
+  app->add_option("--merge-sharpness", o.sample.merge_sharpness, "Views are weighted by confidence^this")
+      ->capture_default_str()->group("Sizes");
+  app->add_option("--masks", o.masks_per_subject, "Synthetic occluder masks per subject")->capture_default_str()
+      ->group("Masks");
+  app->add_option("--occluders", opt->occluders, "Synthetic occluders to draw from")->capture_default_str()->group("Masks");
+  app->add_option("--celebamask", o.celebamask, "CelebAMask-HQ folder (CelebA-HQ-img/, CelebAMask-HQ-mask-anno/): "
+                                                "its skin labels as UV masks")
+      ->group("Masks");
+  app->add_option("--celebamask-count", o.celebamask_count, "CelebAMask photos used (lowest ids first)")
+      ->capture_default_str()->group("Masks");
+  app->add_option("--split", opt->split, "Train, val, test fractions of the subjects")->delimiter(',')->expected(3)
+      ->capture_default_str()->group("Shards");
+  app->add_option("--subjects-per-shard", o.subjects_per_shard, "Subjects per shard (the unit of resume and of work "
+                                                                "sharing)")
+      ->capture_default_str()->group("Shards");
+  CLI::Option* shard = app->add_option("--shard", o.shard, "This worker (default: SLURM_ARRAY_TASK_ID)")->group("Shards");
+  CLI::Option* shards = app->add_option("--shards", o.shards, "Workers sharing the run (default: SLURM_ARRAY_TASK_COUNT)")
+                            ->group("Shards");
+  app->add_option("--seed", o.seed, "Random seed: the same seed gives the same bytes")->capture_default_str()
+      ->group("Shards");
+  app->add_flag("--keep-going", o.keep_going, "Skip subjects or photos with bad input and list them at the end");
+  app->add_flag("--unwrap-lit", o.sample.unwrap_lit, "Unwrap the lit render instead of the diffuse-only one");
+  app->add_flag("--with-renders", o.with_renders, "Also store each view's renders (render_<view>.png lit, bare_<view>.png diffuse only)");
+
+  return [opt, app, shard, shards, &globals] {
+    if (!app->parsed()) return;
+    texgen::TextureDatasetOptions& o = opt->o;
+    o.sample.views = {{"front", 0}, {"left", opt->yaw_left}, {"right", -opt->yaw_right}};
+    o.occluders = parse_occluders(opt->occluders);
+    o.split = {opt->split[0], opt->split[1], opt->split[2]};
+    const char* id = std::getenv("SLURM_ARRAY_TASK_ID");
+    if (shard->count() == 0 && id && *id) {
+      const char* min = std::getenv("SLURM_ARRAY_TASK_MIN");
+      const char* count = std::getenv("SLURM_ARRAY_TASK_COUNT");
+      o.shard = std::atoi(id) - (min && *min ? std::atoi(min) : 0);
+      if (shards->count() == 0 && count && *count) o.shards = std::atoi(count);
+    }
+    o.check();
+    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements);
+    ProgressBar bar = globals.progress("make-dataset");
+    const texgen::TextureDatasetReport r =
+        texgen::make_texture_dataset(o, render_detect, photo_detect, bar.callback());
+    bar.finish();
+    globals.write_resolved_config(o.output + "/config.json");
+    spdlog::info("make-dataset: {} subjects (train {}, val {}, test {}); worker {}/{}: {} of {} units done now, {} "
+                 "already done; {} samples and {} masks written in {:.1f} s -> {}",
+                 r.subjects, r.split_subjects[0], r.split_subjects[1], r.split_subjects[2], o.shard, o.shards,
+                 r.units_done, r.units_mine, r.units_resumed, r.samples, r.masks, r.seconds, o.output);
+    for (const auto& s : r.skipped) spdlog::warn("make-dataset: skipped {}: {}", s.item, s.reason);
+    if (!r.skipped.empty()) spdlog::warn("make-dataset: {} item(s) skipped (listed above and in the manifests)", r.skipped.size());
+    if (!r.complete) spdlog::info("make-dataset: other workers' units are still missing; the last worker to finish "
+                                  "writes the final manifests");
+  };
+}
+
+}  // namespace bareskin::cli

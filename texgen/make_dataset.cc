@@ -1,0 +1,480 @@
+#include "texgen/make_dataset.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <random>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "core/png.h"
+#include "texgen/occlusion_masks.h"
+#include "texgen/shards.h"
+#include "uvtools/bake.h"
+
+namespace bareskin::texgen {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const char* const kSplits[3] = {"train", "val", "test"};
+const char* const kMaps[4] = {"diffuse", "normal", "roughness", "specular"};
+
+// One unit of work: a few subjects of one split, or a batch of CelebAMask photos.
+struct Unit {
+  int id = 0;
+  int split = -1;  // -1: CelebAMask photos
+  int local = 0;   // shard number inside its split
+  std::vector<int> subjects;  // indices into the sorted subject list
+  std::vector<int> photos;    // CelebAMask ids
+};
+
+std::string numbered(const std::string& prefix, int n) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "-%06d", n);
+  return prefix + buf;
+}
+
+uint64_t fnv1a(const std::string& s) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+std::string png8(const Image& img) { return encode_png(img, 8); }
+
+json vec(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
+
+json coefficients_json(const Coefficients& c) {
+  json j = {{"alpha", vec(c.alpha)}, {"beta", vec(c.beta)}, {"delta", vec(c.delta)},
+            {"rotation", vec(c.rotation)}, {"translation", vec(c.translation)}};
+  if (c.gamma) j["gamma"] = *c.gamma;
+  return j;
+}
+
+std::vector<std::string> list_subjects(const std::string& registered) {
+  if (!fs::is_directory(registered))
+    throw InvalidInput(registered, "is not a folder", "give the folder `bareskin scan register` wrote");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(registered))
+    if (e.is_directory() && e.path().filename().string()[0] != '.') names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  if (names.empty()) throw InvalidInput(registered, "holds no subject folders", "give the folder `bareskin scan register` wrote");
+  return names;
+}
+
+std::string map_path(const std::string& dir, const char* map) {
+  for (const char* ext : {".png", ".exr", ".tif", ".tiff"})
+    if (fs::exists(dir + "/" + map + ext)) return dir + "/" + map + ext;
+  return "";
+}
+
+// What can be seen without reading a subject's data: its maps exist and are large enough for the targets.
+void check_subject_files(const std::string& dir, const TextureDatasetOptions& o) {
+  std::string missing;
+  for (const char* m : kMaps)
+    if (map_path(dir, m).empty()) missing += std::string(missing.empty() ? "" : ", ") + m;
+  if (!missing.empty())
+    throw InvalidInput(dir, "has no " + missing + " map", "register the scan with its four maps, or pass --keep-going");
+  const ImageFileInfo info = probe_image(map_path(dir, "diffuse"));
+  for (int size : {o.target_res, o.hr_res}) {
+    if (size <= 0) continue;
+    if (size > info.width || info.width % size != 0)
+      throw InvalidInput(map_path(dir, "diffuse"),
+                         "is " + std::to_string(info.width) + "², which " + std::to_string(size) + " does not divide",
+                         "pass --target-res/--hr-res that divide the maps' size (--hr-res 0: no high-res targets)");
+  }
+}
+
+// Splits the sorted subjects by identity: a seeded permutation, then test, val and the rest train.
+std::array<std::vector<int>, 3> split_subjects(int n, const std::array<double, 3>& fractions, uint64_t seed) {
+  std::vector<int> order(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) order[size_t(i)] = i;
+  std::mt19937_64 rng(seed ^ 0x5EEDull);
+  for (int i = n - 1; i > 0; --i) std::swap(order[size_t(i)], order[size_t(rng() % uint64_t(i + 1))]);
+  const double total = fractions[0] + fractions[1] + fractions[2];
+  auto count = [&](double f) { return f > 0 ? std::max(1, int(std::lround(n * f / total))) : 0; };
+  int n_test = count(fractions[2]), n_val = count(fractions[1]);
+  while (n_test + n_val >= n && (n_test > 0 || n_val > 0)) (n_val >= n_test ? n_val : n_test)--;
+  std::array<std::vector<int>, 3> out;
+  for (int i = 0; i < n; ++i) out[size_t(i < n_test ? 2 : i < n_test + n_val ? 1 : 0)].push_back(order[size_t(i)]);
+  for (auto& s : out) std::sort(s.begin(), s.end());
+  return out;
+}
+
+// The subject's four maps baked to the target sizes, as 8-bit PNG members.
+std::map<std::string, std::string> target_members(const Subject& s, const MorphableModel& model,
+                                                  const TextureDatasetOptions& o, const std::string& scratch) {
+  MapResizeOptions bake;
+  bake.sizes = {o.target_res};
+  if (o.hr_res > 0 && o.hr_res != o.target_res) bake.sizes.push_back(o.hr_res);
+  bake.format = "png";
+  const std::string out = scratch + "/bake-" + s.name;
+  fs::remove_all(out);
+  resize_maps(s.dir, &model.topology, bake, out);
+  std::map<std::string, std::string> members;
+  const auto baked = [&](int size, const char* map) {
+    return png8(read_image(out + "/" + std::to_string(size) + "/" + map + ".png"));
+  };
+  for (const char* m : kMaps) {
+    const std::string name(m);
+    members[name + ".png"] = baked(o.target_res, m);
+    if (o.hr_res > 0) members[name + "_hr.png"] = o.hr_res == o.target_res ? members[name + ".png"] : baked(o.hr_res, m);
+  }
+  fs::remove_all(out);
+  return members;
+}
+
+struct SubjectOutput {
+  std::vector<shards::Sample> samples, masks;
+  json report;
+};
+
+SubjectOutput process_subject(const MorphableModel& model, const std::string& dir, int index, const std::string& split,
+                              const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
+                              const std::string& scratch) {
+  using clock = std::chrono::steady_clock;
+  const auto t0 = clock::now();
+  auto since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+  const Subject subject = load_subject(dir, model);
+  const uint64_t subject_seed = o.seed * 0x9E3779B97F4A7C15ull ^ fnv1a(subject.name);
+  SubjectOutput out;
+  out.report = {{"subject", subject.name}, {"split", split}, {"lights", json::array()}};
+  json& timing = out.report["seconds"];
+  timing["load"] = since(t0);
+  auto t = clock::now();
+  const std::map<std::string, std::string> targets = target_members(subject, model, o, scratch);
+  timing["targets"] = since(t);
+  const Image truth = resize_square(subject.diffuse, o.sample.input_res);
+  double fit_s = 0, encode_s = 0;
+  std::vector<ViewFit> unlit_fits;
+  for (int l = 0; l < o.lights; ++l) {
+    t = clock::now();
+    const auto light = sample_light(l, subject_seed);
+    std::vector<ViewFit> views;
+    for (const ViewSpec& v : o.sample.views) views.push_back(fit_view(model, subject, v, light, detect, o.sample));
+    std::vector<const UnwarpResult*> unwraps;
+    for (const ViewFit& v : views) unwraps.push_back(&v.unwrap);
+    const MergedUnwrap merged = merge_by_confidence(unwraps, o.sample.merge_sharpness);
+    const ModelUvMaps mm = model_uv_maps(model, views[0].fit, o.sample.input_res);
+    fit_s += since(t);
+    t = clock::now();
+    shards::Sample sample;
+    char key[16];
+    std::snprintf(key, sizeof(key), "%08d", index * o.lights + l);
+    sample.key = key;
+    sample.members = targets;
+    sample.members["unwrap.png"] = png8(to_srgb(merged.colour));
+    sample.members["confidence.png"] = png8(merged.confidence);
+    if (!mm.albedo.empty()) sample.members["mm_albedo.png"] = png8(to_srgb(mm.albedo));
+    sample.members["mm_normal.png"] = png8(mm.normal);
+    sample.members["mm_position.png"] = encode_png(mm.position, 16);
+    if (o.with_renders)
+      for (const ViewFit& v : views) {
+        sample.members["render_" + v.name + ".png"] = png8(v.render);
+        sample.members["bare_" + v.name + ".png"] = png8(v.bare);
+      }
+    int64_t layout = 0, seen = 0;
+    for (size_t i = 0; i < merged.confidence.pixels.size(); ++i) seen += merged.confidence.pixels[i] > 0;
+    json view_meta = json::array();
+    for (const ViewFit& v : views) {
+      layout = v.unwrap.in_layout;
+      view_meta.push_back({{"name", v.name},
+                           {"yaw_deg", v.yaw_deg},
+                           {"coverage", double(v.unwrap.seen) / double(std::max<int64_t>(1, v.unwrap.in_layout))},
+                           {"detector_error_px", v.detector_error_px},
+                           {"landmark_rms_px", v.landmark_rms_px},
+                           {"photometric_psnr_db", v.photometric_psnr_db},
+                           {"shape_error_mm", v.shape_error_mm},
+                           {"coefficients", coefficients_json(v.fit)}});
+    }
+    const double psnr = masked_psnr_srgb(merged.colour, truth, merged.confidence);
+    json meta = {{"subject", subject.name},
+                 {"split", split},
+                 {"light", l},
+                 {"lighting", light},
+                 {"unwrapped", o.sample.unwrap_lit ? "the lit render" : "the diffuse-only render"},
+                 {"fitter", o.fitter},
+                 {"views", view_meta},
+                 {"unwrap", {{"coverage", double(seen) / double(std::max<int64_t>(1, layout))},
+                             {"psnr_db_vs_truth", psnr},
+                             {"merge", "confidence^" + std::to_string(o.sample.merge_sharpness) + " weighted mean"}}},
+                 {"sizes", {{"render", o.sample.render_size}, {"fit", o.sample.fit_size}, {"input", o.sample.input_res},
+                            {"target", o.target_res}, {"hr", o.hr_res}}},
+                 {"mm_position", {{"offset_mm", mm.position_offset}, {"scale_mm", mm.position_scale},
+                                  {"frame", "model (object) frame, unposed"}, {"decode", "mm = offset + scale * value"}}},
+                 {"mm_fit_view", views[0].name}};
+    sample.members["json"] = meta.dump();
+    out.samples.push_back(std::move(sample));
+    encode_s += since(t);
+    json light_report = meta;
+    for (auto& v : light_report["views"]) v.erase("coefficients");
+    out.report["lights"].push_back(light_report);
+    if (l == 0) unlit_fits = std::move(views);
+  }
+  t = clock::now();
+  for (int k = 0; k < o.masks_per_subject; ++k) {
+    const ViewFit& v = unlit_fits[size_t(k) % unlit_fits.size()];
+    UvMask m = synthetic_mask(model, v.fit, o.sample.fit_size, o.occluders, subject_seed + 1000 + uint64_t(k),
+                              o.sample.input_res);
+    m.meta["subject"] = subject.name;
+    m.meta["view"] = v.name;
+    char key[16];
+    std::snprintf(key, sizeof(key), "%08d", index * 1000 + k);
+    out.masks.push_back({key, {{"mask.png", png8(m.mask)}, {"json", m.meta.dump()}}});
+  }
+  timing["masks"] = since(t);
+  timing["fit_unwrap"] = fit_s;
+  timing["encode"] = encode_s;
+  timing["total"] = since(t0);
+  return out;
+}
+
+// Runs one unit into a scratch folder and renames its shards into place; then its index entry.
+void run_unit(const Unit& unit, const std::vector<std::string>& subjects, const MorphableModel& model,
+              const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
+              const FaceLandmarkDetector& detect_photo, TextureDatasetReport& report,
+              const std::function<void(const std::string&)>& step) {
+  const std::string scratch = o.output + "/.tmp/" + numbered("unit", unit.id);
+  fs::remove_all(scratch);
+  struct Cleanup {
+    std::string dir;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+    }
+  } cleanup{scratch};
+  json index = {{"unit", unit.id}, {"skipped", json::array()}, {"items", json::array()}};
+  int64_t samples = 0, masks = 0;
+  {
+    shards::ShardWriter textures(scratch, "texture", 1 << 30), mask_writer(scratch, "mask", 1 << 30);
+    auto skip = [&](const std::string& item, const Error& e) {
+      if (!o.keep_going) throw;
+      spdlog::warn("make-dataset: skipping {}: {}", item, e.what());
+      index["skipped"].push_back({{"item", item}, {"reason", e.what()}});
+    };
+    for (int s : unit.subjects) {
+      const std::string dir = o.registered + "/" + subjects[size_t(s)];
+      step(subjects[size_t(s)]);
+      try {
+        check_subject_files(dir, o);
+        SubjectOutput r = process_subject(model, dir, s, kSplits[unit.split], o, detect, scratch);
+        for (const auto& x : r.samples) textures.write(x);
+        for (const auto& x : r.masks) mask_writer.write(x);
+        samples += int64_t(r.samples.size());
+        masks += int64_t(r.masks.size());
+        make_directories(o.output + "/reports");
+        write_file_atomic(o.output + "/reports/" + subjects[size_t(s)] + ".json", r.report.dump(1) + "\n");
+        index["items"].push_back(subjects[size_t(s)]);
+      } catch (const InvalidInput& e) {
+        skip(dir, e);
+      } catch (const IoError& e) {
+        skip(dir, e);
+      }
+    }
+    for (int id : unit.photos) {
+      step("CelebAMask photo " + std::to_string(id));
+      try {
+        const UvMask m = celebamask_mask(model, o.celebamask, id, detect_photo, o.sample.landmark_fit, o.sample.input_res);
+        char key[16];
+        std::snprintf(key, sizeof(key), "9%07d", id);
+        mask_writer.write({key, {{"mask.png", png8(m.mask)}, {"json", m.meta.dump()}}});
+        ++masks;
+        index["items"].push_back(id);
+      } catch (const InvalidInput& e) {
+        skip(o.celebamask + "/CelebA-HQ-img/" + std::to_string(id), e);
+      } catch (const IoError& e) {
+        skip(o.celebamask + "/CelebA-HQ-img/" + std::to_string(id), e);
+      }
+    }
+    const auto moved = [&](std::vector<shards::ShardInfo> written, const std::string& dir, const std::string& name) {
+      if (written.empty()) return json(nullptr);
+      BS_CHECK(written.size() == 1, "a unit writes one shard per set");
+      make_directories(dir);
+      fs::rename(scratch + "/" + written[0].name, dir + "/" + name);
+      return json{{"name", name}, {"samples", written[0].samples}, {"crc32", written[0].crc32}, {"bytes", written[0].bytes}};
+    };
+    // Masks first: the texture shard's arrival (then the index) marks the unit done.
+    index["mask"] = moved(mask_writer.finish(), o.output + "/masks", numbered("mask", unit.id) + ".tar");
+    index["texture"] = unit.split < 0 ? json(nullptr)
+                                      : moved(textures.finish(), o.output + "/" + kSplits[unit.split],
+                                              numbered("texture", unit.local) + ".tar");
+  }
+  make_directories(o.output + "/.index");
+  write_file_atomic(o.output + "/.index/" + numbered("unit", unit.id) + ".json", index.dump(1) + "\n");
+  report.samples += samples;
+  report.masks += masks;
+}
+
+// manifest.json of every split and of masks/, from the finished units' index entries.
+void write_manifests(const std::vector<Unit>& units, const std::vector<std::string>& subjects,
+                     const TextureDatasetOptions& o, const json& options_json, TextureDatasetReport& report) {
+  std::array<shards::Manifest, 3> split_manifests;
+  shards::Manifest masks;
+  std::array<int, 3> expected{}, done{};
+  int mask_units = 0, mask_done = 0;
+  report.skipped.clear();
+  for (const Unit& u : units) {
+    const std::string path = o.output + "/.index/" + numbered("unit", u.id) + ".json";
+    if (u.split >= 0) ++expected[size_t(u.split)];
+    ++mask_units;
+    if (!fs::exists(path)) continue;
+    const json index = json::parse(read_file(path));
+    if (u.split >= 0) ++done[size_t(u.split)];
+    ++mask_done;
+    for (const auto& s : index["skipped"]) report.skipped.push_back({s["item"], s["reason"]});
+    auto info = [](const json& j) {
+      return shards::ShardInfo{j["name"], j["samples"].get<int64_t>(), j["crc32"].get<uint32_t>(), j["bytes"].get<int64_t>()};
+    };
+    if (!index["texture"].is_null()) split_manifests[size_t(u.split)].shards.push_back(info(index["texture"]));
+    if (!index["mask"].is_null()) masks.shards.push_back(info(index["mask"]));
+  }
+  json skipped = json::array();
+  for (const auto& s : report.skipped) skipped.push_back({{"item", s.item}, {"reason", s.reason}});
+  report.complete = mask_done == mask_units;
+  for (int k = 0; k < 3; ++k) {
+    json names = json::array();
+    for (const Unit& u : units)
+      if (u.split == k)
+        for (int s : u.subjects) names.push_back(subjects[size_t(s)]);
+    split_manifests[size_t(k)].metadata = {{"generator", "bareskin texgen make-dataset"}, {"kind", "texture"},
+                                           {"split", kSplits[k]}, {"subjects", names},
+                                           {"complete", done[size_t(k)] == expected[size_t(k)]},
+                                           {"units", expected[size_t(k)]}, {"units_done", done[size_t(k)]},
+                                           {"skipped", skipped}, {"options", options_json}};
+    make_directories(o.output + "/" + kSplits[k]);
+    shards::write_manifest(o.output + "/" + kSplits[k], split_manifests[size_t(k)]);
+  }
+  masks.metadata = {{"generator", "bareskin texgen make-dataset"}, {"kind", "mask"}, {"complete", report.complete},
+                    {"units", mask_units}, {"units_done", mask_done}, {"options", options_json}};
+  make_directories(o.output + "/masks");
+  shards::write_manifest(o.output + "/masks", masks);
+}
+
+json options_to_json(const TextureDatasetOptions& o) {
+  json views = json::array();
+  for (const ViewSpec& v : o.sample.views) views.push_back({{"name", v.name}, {"yaw_deg", v.yaw_deg}});
+  json occluders = json::array();
+  for (Occluder x : o.occluders) occluders.push_back(to_string(x));
+  return {{"views", views}, {"lights", o.lights}, {"fitter", o.fitter}, {"render_size", o.sample.render_size},
+          {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},
+          {"hr_res", o.hr_res}, {"merge_sharpness", o.sample.merge_sharpness}, {"masks_per_subject", o.masks_per_subject},
+          {"occluders", occluders}, {"celebamask_count", o.celebamask.empty() ? 0 : o.celebamask_count},
+          {"split", o.split}, {"subjects_per_shard", o.subjects_per_shard}, {"shards", o.shards}, {"seed", o.seed}};
+}
+
+}  // namespace
+
+void TextureDatasetOptions::check() const {
+  sample.check();
+  if (lights < 1 || lights > 64) throw InvalidInput("--lights", "must lie in [1, 64]", "");
+  if (fitter == "recon")
+    throw InvalidInput("--fitter", "recon needs the teacher network F, which this build does not provide yet",
+                       "use --fitter mm-fit");
+  if (fitter != "mm-fit") throw InvalidInput("--fitter", "unknown fitter '" + fitter + "'", "use mm-fit");
+  if (target_res < 16 || target_res > 16384) throw InvalidInput("--target-res", "must lie in [16, 16384]", "");
+  if (hr_res != 0 && (hr_res < target_res || hr_res > 16384))
+    throw InvalidInput("--hr-res", "must be 0 or lie in [--target-res, 16384]", "");
+  if (masks_per_subject < 0 || masks_per_subject > 999) throw InvalidInput("--masks", "must lie in [0, 999]", "");
+  if (masks_per_subject > 0 && occluders.empty()) throw InvalidInput("--occluders", "none given", "e.g. hair,glasses");
+  if (celebamask_count < 0 || celebamask_per_shard < 1) throw InvalidInput("--celebamask-count", "must be >= 0", "");
+  for (double f : split)
+    if (!(f >= 0 && f <= 1)) throw InvalidInput("--split", "fractions must lie in [0, 1]", "e.g. 0.8,0.1,0.1");
+  if (!(split[0] > 0)) throw InvalidInput("--split", "the train fraction must be positive", "e.g. 0.8,0.1,0.1");
+  if (subjects_per_shard < 1) throw InvalidInput("--subjects-per-shard", "must be >= 1", "");
+  if (shards < 1 || shard < 0 || shard >= shards)
+    throw InvalidInput("--shard", "must lie in [0, --shards)", "e.g. --shard $SLURM_ARRAY_TASK_ID --shards 8");
+  if (output.empty()) throw InvalidInput("-o", "no output folder", "give -o texture_shards/");
+}
+
+TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
+                                          const FaceLandmarkDetector& detect_photo, const ProgressCallback& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  o.check();
+  TextureDatasetReport report;
+  const std::vector<std::string> subjects = list_subjects(o.registered);
+  report.subjects = int(subjects.size());
+  const MorphableModel model = read_model(o.model);
+  if (model.landmark_vertices.size() != 68)
+    throw InvalidInput(o.model, "has no 68 landmark vertices", "build the model with `bareskin mm-build`");
+  // A whole folder from another template shows at its first subject; missing maps show for every subject up front.
+  for (const std::string& s : subjects) {
+    try {
+      check_subject_files(o.registered + "/" + s, o);
+    } catch (const InvalidInput&) {
+      if (!o.keep_going) throw;
+    }
+  }
+  for (const std::string& s : subjects) {
+    std::string mesh;
+    for (const char* name : {"mesh.ply", "mesh.obj"})
+      if (mesh.empty() && fs::exists(o.registered + "/" + s + "/" + name)) mesh = o.registered + "/" + s + "/" + name;
+    if (mesh.empty()) continue;
+    if (map_path(o.registered + "/" + s, "diffuse").empty()) continue;
+    try {
+      load_subject(o.registered + "/" + s, model);
+    } catch (const InvalidInput&) {
+      if (!o.keep_going) throw;
+    }
+    break;
+  }
+  std::vector<int> photos;
+  if (!o.celebamask.empty()) {
+    photos = celebamask_ids(o.celebamask);
+    if (int(photos.size()) > o.celebamask_count) photos.resize(size_t(o.celebamask_count));
+  }
+
+  std::vector<Unit> units;
+  const auto splits = split_subjects(int(subjects.size()), o.split, o.seed);
+  for (int k = 0; k < 3; ++k) {
+    report.split_subjects[size_t(k)] = int(splits[size_t(k)].size());
+    for (size_t i = 0; i < splits[size_t(k)].size(); i += size_t(o.subjects_per_shard)) {
+      Unit u;
+      u.id = int(units.size());
+      u.split = k;
+      u.local = int(i) / o.subjects_per_shard;
+      for (size_t j = i; j < std::min(splits[size_t(k)].size(), i + size_t(o.subjects_per_shard)); ++j)
+        u.subjects.push_back(splits[size_t(k)][j]);
+      units.push_back(u);
+    }
+  }
+  for (size_t i = 0; i < photos.size(); i += size_t(o.celebamask_per_shard)) {
+    Unit u;
+    u.id = int(units.size());
+    u.photos.assign(photos.begin() + long(i), photos.begin() + long(std::min(photos.size(), i + size_t(o.celebamask_per_shard))));
+    units.push_back(u);
+  }
+  report.units = int(units.size());
+  make_directories(o.output);
+  const json options_json = options_to_json(o);
+
+  int64_t total = 0, done = 0;
+  std::vector<const Unit*> todo;
+  for (const Unit& u : units) {
+    if (u.id % o.shards != o.shard) continue;
+    ++report.units_mine;
+    if (fs::exists(o.output + "/.index/" + numbered("unit", u.id) + ".json")) {
+      ++report.units_resumed;
+      continue;
+    }
+    todo.push_back(&u);
+    total += int64_t(u.subjects.size() + u.photos.size());
+  }
+  for (const Unit* u : todo) {
+    run_unit(*u, subjects, model, o, detect, detect_photo, report, [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
+    ++report.units_done;
+  }
+  bareskin::report(progress, done, total, "manifests");
+  write_manifests(units, subjects, o, options_json, report);
+  std::error_code ec;
+  fs::remove(o.output + "/.tmp", ec);  // when empty (other workers may still use it)
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace bareskin::texgen

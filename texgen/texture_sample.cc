@@ -1,0 +1,276 @@
+#include "texgen/texture_sample.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <random>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "core/parallel.h"
+#include "render/rasterize.h"
+#include "render/shade.h"
+#include "render/sh.h"
+
+namespace bareskin::texgen {
+
+namespace fs = std::filesystem;
+
+void TextureSampleOptions::check() const {
+  if (views.empty()) throw InvalidInput("--yaw", "no views", "give at least the front view");
+  for (const ViewSpec& v : views)
+    if (!(std::abs(v.yaw_deg) <= 80)) throw InvalidInput("--yaw", "yaw must lie in [-80, 80] degrees", "");
+  if (fit_size < 64 || fit_size > 2048) throw InvalidInput("--fit-size", "must lie in [64, 2048]", "");
+  if (render_size < fit_size || render_size % fit_size != 0 || render_size > 8192)
+    throw InvalidInput("--render-size", "must be a multiple of the fit size (" + std::to_string(fit_size) + ") up to 8192",
+                       "e.g. 1024");
+  if (input_res < 16 || input_res > 16384) throw InvalidInput("--input-res", "must lie in [16, 16384]", "");
+  if (!(merge_sharpness >= 0 && merge_sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
+  landmark_fit.check();
+}
+
+Subject load_subject(const std::string& dir, const MorphableModel& model) {
+  Subject s;
+  s.dir = dir;
+  s.name = fs::path(dir).filename().string();
+  std::string mesh_path;
+  for (const char* name : {"mesh.ply", "mesh.obj"})
+    if (fs::exists(dir + "/" + name)) mesh_path = dir + "/" + name;
+  if (mesh_path.empty())
+    throw InvalidInput(dir, "holds no mesh.ply or mesh.obj", "give the folders `bareskin scan register` writes");
+  std::string diffuse_path;
+  for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
+    if (diffuse_path.empty() && fs::exists(dir + "/" + name)) diffuse_path = dir + "/" + name;
+  if (diffuse_path.empty())
+    throw InvalidInput(dir, "has no diffuse map", "register the scan with its maps, or remove the subject");
+  const Mesh registered = read_mesh(mesh_path);
+  if (registered.V.rows() != model.vertices() || registered.F.rows() != model.topology.F.rows() ||
+      registered.F != model.topology.F) {
+    throw InvalidInput(mesh_path,
+                       std::to_string(registered.V.rows()) + " vertices and " + std::to_string(registered.F.rows()) +
+                           " triangles, the model " + std::to_string(model.vertices()) + " and " +
+                           std::to_string(model.topology.F.rows()) + ": registered to another template than the model's",
+                       "register the scans with the model's template, or build the model from this folder");
+  }
+  // Rigid alignment onto the mean shape: the subject keeps its size (shape errors stay in mm).
+  const Eigen::Matrix3Xd src = registered.V.transpose(), dst = model.topology.V.transpose();
+  const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+  s.mesh = model.topology;
+  s.mesh.V = ((registered.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+  s.mesh.N.resize(0, 3);
+  Image diffuse = read_image(diffuse_path);
+  if (diffuse.width != diffuse.height || diffuse.channels < 3)
+    throw InvalidInput(diffuse_path, "is not a square RGB map", "give the registered diffuse map");
+  s.diffuse = diffuse.color_space == ColorSpace::sRGB ? to_linear(diffuse) : diffuse;
+  return s;
+}
+
+Eigen::Matrix3d view_rotation(const ViewSpec& view) {
+  return Eigen::AngleAxisd(-view.yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+
+MergedUnwrap merge_by_confidence(const std::vector<const UnwarpResult*>& views, double sharpness) {
+  if (views.empty()) throw InvalidInput("", "no views to merge", "");
+  const int S = views[0]->colour.width;
+  for (const UnwarpResult* v : views)
+    if (v->colour.width != S || v->colour.height != S || v->confidence.width != S || v->confidence.height != S)
+      throw InvalidInput("", "the unwrapped views differ in size", "unwrap every view at the same size");
+  MergedUnwrap m{Image(S, S, 3, ColorSpace::Linear), Image(S, S, 1, ColorSpace::Data)};
+  parallel_for(0, int64_t(S) * S, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      double sum[3] = {0, 0, 0}, weights = 0;
+      float best = 0;
+      for (const UnwarpResult* v : views) {
+        const float c = v->confidence.pixels[size_t(i)];
+        if (c <= 0) continue;
+        const double w = std::pow(double(c), sharpness);
+        for (int k = 0; k < 3; ++k) sum[k] += w * v->colour.pixels[3 * size_t(i) + size_t(k)];
+        weights += w;
+        best = std::max(best, c);
+      }
+      if (weights <= 0) continue;
+      for (int k = 0; k < 3; ++k) m.colour.pixels[3 * size_t(i) + size_t(k)] = float(sum[k] / weights);
+      m.confidence.pixels[size_t(i)] = best;
+    }
+  }, 4096);
+  return m;
+}
+
+Image resize_square(const Image& image, int size) {
+  if (image.width == size && image.height == size) return image;
+  Image out(size, size, image.channels, image.color_space);
+  const int C = image.channels;
+  if (image.width == image.height && image.width > size && image.width % size == 0) {
+    const int f = image.width / size;
+    parallel_for(0, size, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y)
+        for (int x = 0; x < size; ++x)
+          for (int c = 0; c < C; ++c) {
+            double s = 0;
+            for (int dy = 0; dy < f; ++dy)
+              for (int dx = 0; dx < f; ++dx) s += image.at(x * f + dx, int(y) * f + dy, c);
+            out.at(x, int(y), c) = float(s / (f * f));
+          }
+    });
+    return out;
+  }
+  parallel_for(0, size, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double sx = std::clamp((x + 0.5) * image.width / size - 0.5, 0.0, image.width - 1.0);
+        const double sy = std::clamp((y + 0.5) * image.height / size - 0.5, 0.0, image.height - 1.0);
+        const int x0 = int(sx), y0 = int(sy), x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
+        const double fx = sx - x0, fy = sy - y0;
+        for (int c = 0; c < C; ++c)
+          out.at(x, int(y), c) = float((1 - fy) * ((1 - fx) * image.at(x0, y0, c) + fx * image.at(x1, y0, c)) +
+                                       fy * ((1 - fx) * image.at(x0, y1, c) + fx * image.at(x1, y1, c)));
+      }
+  });
+  return out;
+}
+
+ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size) {
+  ModelUvMaps maps;
+  Mesh shape = model.topology;
+  shape.V = model.shape(fit.alpha, fit.beta);
+  const Eigen::MatrixX3d N = vertex_normals(shape.V, shape.F);
+  const RasterOutput uv = rasterize_uv(shape, size);
+  maps.normal = Image(size, size, 3, ColorSpace::Data);
+  maps.position = Image(size, size, 3, ColorSpace::Data);
+  parallel_for(0, int64_t(size) * size, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const int32_t f = uv.triangle[size_t(i)];
+      if (f < 0) continue;
+      const double w[3] = {1.0 - uv.bary[2 * size_t(i)] - uv.bary[2 * size_t(i) + 1], uv.bary[2 * size_t(i)],
+                           uv.bary[2 * size_t(i) + 1]};
+      Eigen::Vector3d p = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) {
+        p += w[k] * shape.V.row(shape.F(f, k)).transpose();
+        n += w[k] * N.row(shape.F(f, k)).transpose();
+      }
+      n.normalize();
+      for (int k = 0; k < 3; ++k) {
+        maps.normal.pixels[3 * size_t(i) + size_t(k)] = float((n[k] + 1) / 2);
+        maps.position.pixels[3 * size_t(i) + size_t(k)] =
+            float(std::clamp((p[k] - maps.position_offset) / maps.position_scale, 0.0, 1.0));
+      }
+    }
+  }, 4096);
+  const Image appearance = appearance_image(model, fit);
+  if (!appearance.empty()) {
+    maps.albedo = resize_square(appearance, size);
+    for (int64_t i = 0; i < int64_t(size) * size; ++i)
+      if (uv.triangle[size_t(i)] < 0)
+        for (int k = 0; k < 3; ++k) maps.albedo.pixels[3 * size_t(i) + size_t(k)] = 0;
+  }
+  return maps;
+}
+
+namespace {
+
+double uniform(std::mt19937_64& rng, double lo, double hi) {  // portable: not std::uniform_real_distribution
+  return lo + (hi - lo) * double(rng() >> 11) * 0x1.0p-53;
+}
+
+// Mean distance between two vertex sets of the same topology after the rigid alignment of `a` onto `b`.
+double aligned_distance(const Eigen::MatrixX3d& a, const Eigen::MatrixX3d& b) {
+  const Eigen::Matrix4d T = Eigen::umeyama(Eigen::Matrix3Xd(a.transpose()), Eigen::Matrix3Xd(b.transpose()), false);
+  const Eigen::MatrixX3d moved = ((a * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose());
+  return (moved - b).rowwise().norm().mean();
+}
+
+}  // namespace
+
+std::array<double, 27> sample_light(int l, uint64_t seed) {
+  if (l == 0) return default_lighting();
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + uint64_t(l));
+  std::array<double, 27> g{};
+  const Eigen::Vector3d dir = Eigen::Vector3d(uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, 0.2, 1)).normalized();
+  const double strength = uniform(rng, 0.1, 0.4);
+  for (int c = 0; c < 3; ++c) {
+    const double tint = uniform(rng, 0.9, 1.1);
+    g[size_t(9 * c)] = kDeep3dAmbient * tint;
+    // Basis 1..3 are −y, z, −x (render/sh.h): a light from `dir`.
+    g[size_t(9 * c + 1)] = -strength * dir.y();
+    g[size_t(9 * c + 2)] = strength * dir.z();
+    g[size_t(9 * c + 3)] = -strength * dir.x();
+  }
+  for (int k = 4; k < 9; ++k) {
+    const double v = uniform(rng, -0.05, 0.05);
+    for (int c = 0; c < 3; ++c) g[size_t(9 * c + k)] = v;
+  }
+  return g;
+}
+
+double masked_psnr_srgb(const Image& a, const Image& b, const Image& mask) {
+  BS_CHECK(a.width == b.width && a.height == b.height && a.width == mask.width && a.height == mask.height,
+           "psnr: sizes differ");
+  double se = 0;
+  int64_t n = 0;
+  for (int64_t i = 0; i < int64_t(a.width) * a.height; ++i) {
+    if (mask.pixels[size_t(i) * size_t(mask.channels)] <= 0) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double d = linear_to_srgb(std::clamp(a.pixels[size_t(i) * size_t(a.channels) + size_t(k)], 0.f, 1.f)) -
+                       linear_to_srgb(std::clamp(b.pixels[size_t(i) * size_t(b.channels) + size_t(k)], 0.f, 1.f));
+      se += d * d;
+    }
+    ++n;
+  }
+  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  return se == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(1.0 / (se / (3.0 * double(n))));
+}
+
+ViewFit fit_view(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
+                 const std::array<double, 27>& light, const FaceLandmarkDetector& detect,
+                 const TextureSampleOptions& options) {
+  ViewFit out;
+  out.name = view.name;
+  out.yaw_deg = view.yaw_deg;
+  const std::string where = subject.dir + " (" + view.name + " view, yaw " + std::to_string(int(view.yaw_deg)) + ")";
+  // The subject turned by the view's yaw, seen by the canonical camera.
+  Mesh turned = subject.mesh;
+  turned.V = (subject.mesh.V * view_rotation(view).transpose()).eval();
+  const Camera camera = view_camera("front", options.render_size, Eigen::Vector3d::Zero(), 1000);
+  ShadeOptions shade;
+  shade.texture = &subject.diffuse;
+  shade.gamma = light;
+  const Frame frame = render_frame(turned, camera, shade);
+  const Image& photo = frame.colour;  // what the detector and the fits see (inference: the photo)
+  const Image& unwrapped = options.unwrap_lit ? frame.colour : frame.albedo;  // inference: BareSkinNet's bare skin
+  out.render = to_srgb(photo);
+  out.bare = to_srgb(frame.albedo);
+
+  const std::optional<Landmarks68> found = detect(out.render);
+  if (!found) throw InvalidInput(where, "no face found in the render", "use smaller yaw angles, or check the subject's maps");
+  out.landmarks = *found;
+  double detector_error = 0;
+  for (int k = 0; k < 68; ++k) {
+    const Eigen::Vector3d p = camera.project(turned.V.row(model.landmark_vertices[size_t(k)]).transpose());
+    detector_error += (Eigen::Vector2d(p.x(), p.y()) - out.landmarks.row(k).transpose()).norm();
+  }
+  out.detector_error_px = detector_error / 68;
+
+  const LandmarkFit lm = fit_landmarks(model, out.landmarks, camera, options.landmark_fit);
+  out.fit.alpha = lm.alpha;
+  out.fit.beta = lm.beta;
+  out.fit.rotation = lm.rotation;
+  out.fit.translation = lm.translation;
+  out.landmark_rms_px = lm.rms_px;
+  const Mesh posed = posed_mesh(model, out.fit);
+  const Camera small = view_camera("front", options.fit_size, Eigen::Vector3d::Zero(), 1000);
+  const PhotometricFit photometric =
+      fit_photometric(model, posed, small, resize_square(photo, options.fit_size), options.photometric);
+  out.fit.delta = photometric.delta;
+  out.fit.gamma = photometric.gamma;
+  out.photometric_psnr_db = photometric.psnr_db;
+  out.shape_error_mm = aligned_distance(model.shape(lm.alpha, lm.beta), subject.mesh.V);
+
+  UnwarpOptions unwarp_options;
+  unwarp_options.size = options.input_res;
+  out.unwrap = unwarp(unwrapped, posed, camera, unwarp_options);
+  return out;
+}
+
+}  // namespace bareskin::texgen
