@@ -45,7 +45,7 @@ enum class Region {
   Cheekbones,  // contour: bands under the cheekbones, ear towards the mouth corner
   Jaw,         // contour: a band along the jaw line
   NoseSides,   // contour: two lines down the sides of the nose bridge
-  Lips,        // lipstick: the outer lip contour (iBUG 48-59) less the mouth opening
+  Lips,        // lipstick: inside the outer lip contour (iBUG 48-59), smoothed
   LipCentre,   // gloss: the middle of the lower and upper lip
   Lids,        // eyeshadow: the mobile lid, lash line to about 45% of the way to the brow
   Crease,      // eyeshadow: a band in the socket between lid and brow bone

@@ -82,9 +82,10 @@ LayerSpec skin_layer(std::mt19937_64& rng, const std::string& product, Region re
   l.mode = ColourMode::SkinRelative;
   l.seed = rng();
   if (product == "foundation") {
-    const float light = range(rng, -0.08, 0.12), warm = range(rng, -0.05, 0.05);
+    // Shade steps of real ranges: 6-18% lighter (more often) or darker than the skin, warmer or cooler.
+    const float step = range(rng, 0.06, 0.18), light = chance(rng, 0.65) ? step : -step, warm = range(rng, -0.06, 0.06);
     l.colour = Eigen::Vector3f(1 + warm, 1, 1 - warm) * (1 + light);
-    l.shade = light > 0.02 ? "lighter" : light < -0.02 ? "deeper" : "matched";
+    l.shade = light > 0 ? "lighter" : "deeper";
   } else if (product == "concealer") {
     const float light = range(rng, 1.15, 1.35);
     l.colour = Eigen::Vector3f(1.02f, 1.0f, 0.9f) * light;
@@ -125,7 +126,7 @@ void add_lips(MakeupLook& look, std::mt19937_64& rng, const std::string& palette
 
 MakeupLook sample_light(std::mt19937_64& rng) {
   MakeupLook look;
-  add_base(look, rng, 0.3, 0.5);
+  add_base(look, rng, 0.45, 0.6);
   if (chance(rng, 0.5)) {
     LayerSpec b = from_palette(rng, "blush", "blush", Region::Cheeks);
     look.layers.push_back(tune(b, range(rng, 0.15, 0.3), range(rng, 10, 16), Finish::Satin));
@@ -140,7 +141,7 @@ MakeupLook sample_light(std::mt19937_64& rng) {
 
 MakeupLook sample_natural(std::mt19937_64& rng) {
   MakeupLook look;
-  add_base(look, rng, 0.45, 0.65);
+  add_base(look, rng, 0.5, 0.7);
   if (chance(rng, 0.6)) {
     LayerSpec c = skin_layer(rng, "concealer", Region::UnderEye);
     look.layers.push_back(tune(c, range(rng, 0.3, 0.5), range(rng, 4, 7), Finish::Satin));
@@ -163,8 +164,9 @@ MakeupLook sample_natural(std::mt19937_64& rng) {
 void add_contour(MakeupLook& look, std::mt19937_64& rng, double lo, double hi) {
   for (Region r : {Region::Cheekbones, Region::Jaw, Region::NoseSides}) {
     LayerSpec c = skin_layer(rng, "contour", r);
-    look.layers.push_back(tune(c, range(rng, lo, hi), r == Region::NoseSides ? range(rng, 3, 5) : range(rng, 7, 11),
-                               Finish::Matte));
+    const bool nose = r == Region::NoseSides;  // a thin soft shade along the bridge, fainter than the cheek contour
+    look.layers.push_back(tune(c, nose ? 0.6f * range(rng, lo, hi) : range(rng, lo, hi),
+                               nose ? range(rng, 4, 6) : range(rng, 10, 14), Finish::Matte));
   }
 }
 
@@ -196,7 +198,7 @@ MakeupLook sample_heavy(std::mt19937_64& rng) {
 
 MakeupLook sample_dramatic(std::mt19937_64& rng) {
   MakeupLook look;
-  add_base(look, rng, 0.7, 0.9);
+  add_base(look, rng, 0.75, 0.95);
   add_contour(look, rng, 0.4, 0.65);
   LayerSpec b = from_palette(rng, "blush", chance(rng, 0.4) ? "dramatic_eyeshadow" : "blush", Region::Cheeks);
   look.layers.push_back(tune(b, range(rng, 0.4, 0.65), range(rng, 8, 12), any_finish(rng)));

@@ -256,9 +256,10 @@ void draw_eyes(const Face& f, Mask& m) {
   for (int s = 0; s < 2; ++s) fill_polygon(m, f.eye(s));
 }
 
+// The outer lip contour; the mouth opening (60-67) stays in: the template's mouth is closed, and lipstick carries
+// onto the inner lip.
 void draw_lips(const Face& f, Mask& m) {
   fill_polygon(m, smooth(f.pts({48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59}), true));
-  fill_polygon(m, smooth(f.pts({60, 61, 62, 63, 64, 65, 66, 67}), true), false);
 }
 
 void draw_brows(const Face& f, Mask& m) {
@@ -334,7 +335,7 @@ void draw_region(Region r, const Face& f, const Mask& coverage, Mask& m) {
       for (int s = 0; s < 2; ++s) {
         const Vec2 top = f.P(27) + 0.45 * ((s ? f.P(22) : f.P(21)) - f.P(27));
         const Vec2 wing = (s ? f.P(35) : f.P(31)) - f.down * 3.5 * mm;
-        fill_capsule(m, top, wing, 1.6 * mm, 2.2 * mm);
+        fill_capsule(m, top, wing, 1.2 * mm, 1.8 * mm);
       }
       break;
     case Region::Lips:
