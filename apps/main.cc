@@ -15,6 +15,7 @@ std::function<void()> setup_texgen_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
+std::function<void()> setup_demakeup_command(CLI::App&, const Globals&);
 #endif
 
 const std::vector<Command>& commands() {
@@ -35,6 +36,8 @@ const std::vector<Command>& commands() {
        setup_landmarks_command},
       {"train", "Training", "The network zoo (--list-models, --print-model) and run weights for Python (export)",
        setup_train_command},
+      {"demakeup", "Images", "BareSkinNet on photos: bare-skin image, 3DMM coefficients, unlit render, bare skin in UV",
+       setup_demakeup_command},
 #endif
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},

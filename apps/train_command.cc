@@ -62,6 +62,8 @@ void print_model(const std::string& name, const std::string& options_text, bool 
 
 }  // namespace
 
+std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals);  // train_bareskin_command.cc
+
 std::function<void()> setup_train_command(CLI::App& app, const Globals& globals) {
   struct Options {
     bool list = false, structure = false;
@@ -79,9 +81,12 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
   app.footer("Examples:\n  bareskin train --list-models\n  bareskin train --print-model unet256 --options "
              "'{\"ngf\": 32, \"num_downs\": 7}'\n  bareskin train export runs/bsn --module G -o G.safetensors\n"
              "docs/training.md describes the trainer, the run folder, multi-GPU and SLURM.");
-  return [opt, &app, &globals] {
+  auto bareskin = setup_train_bareskin(app, globals);
+  return [opt, &app, &globals, bareskin] {
     set_torch_threads(globals);
-    if (app.got_subcommand("export")) {
+    if (app.got_subcommand("bareskin")) {
+      bareskin();
+    } else if (app.got_subcommand("export")) {
       std::string path = opt->checkpoint;
       if (std::filesystem::is_directory(path)) path = train::checkpoint_path(path);
       train::export_module(path, opt->module, opt->output);

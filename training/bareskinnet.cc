@@ -5,7 +5,11 @@
 
 #include "core/error.h"
 #include "training/checkpoint.h"
+#include "core/safetensors.h"
 #include "training/lpips.h"
+#include "training/recon.h"
+#include "training/tensor_io.h"
+#include "render/torch/ops.h"
 #include "training/nets/patchgan.h"
 #include "training/nets/unet.h"
 #include "training/nets/zoo.h"
@@ -48,6 +52,7 @@ void from_json(const nlohmann::json& j, Options& o) {
   o.lr_f = j.value("lr_f", d.lr_f);
   o.beta1 = j.value("beta1", d.beta1);
   o.beta2 = j.value("beta2", d.beta2);
+  o.face_api = j.value("face_api", d.face_api);
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
     throw InvalidInput("target '" + o.target + "'", "is not a target", "use before (the paper) or bare");
@@ -275,6 +280,76 @@ void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint)
   train::load_module_weights(stage1_checkpoint, "D", *modules.at("D"));
 }
 
+namespace {
+
+// The first object in a run's configuration that holds `key` (the recon run's net options sit somewhere inside).
+const nlohmann::json* find_object_with(const nlohmann::json& j, const std::string& key) {
+  if (!j.is_object()) return nullptr;
+  if (j.contains(key)) return &j;
+  for (auto& [k, v] : j.items())
+    if (const nlohmann::json* found = find_object_with(v, key)) return found;
+  return nullptr;
+}
+
+ReconNet wrap(recon::ReconNet net, int64_t input_size) {
+  ReconNet r;
+  r.module = net.ptr();
+  r.forward = [net, input_size](const torch::Tensor& image) mutable {
+    torch::Tensor x = image;
+    if (input_size > 0 && image.size(-1) != input_size)
+      x = F::interpolate(image, F::InterpolateFuncOptions()
+                                    .size(std::vector<int64_t>{input_size, input_size})
+                                    .mode(torch::kBilinear)
+                                    .align_corners(false));
+    return net->forward(x);
+  };
+  return r;
+}
+
+}  // namespace
+
+ReconNet load_teacher(const std::string& run, const recon::FaceModel& model) {
+  namespace fs = std::filesystem;
+  const std::string path = fs::is_directory(run) ? train::checkpoint_path(run) : run;
+  const std::string hint = "give --teacher the run folder of 'bareskin train recon' (the teacher F)";
+  if (!fs::exists(path)) throw IoError(path, "does not exist", hint);
+  nlohmann::json meta;
+  {
+    SafeTensors file = SafeTensors::open(path);
+    auto it = file.metadata().find("bareskin.checkpoint");
+    if (it == file.metadata().end()) throw InvalidInput(path, "is not a training checkpoint", hint);
+    meta = nlohmann::json::parse(it->second, nullptr, false);
+    if (!meta.is_object()) throw InvalidInput(path, "has unreadable checkpoint metadata", hint);
+    const std::string task = meta.value("task", "");
+    if (task != "recon")
+      throw InvalidInput(path, "is a checkpoint of '" + task + "', not of the teacher F (recon)", hint);
+    bool has_f = false;
+    for (const auto& name : file.names()) has_f = has_f || name.rfind("module.F.", 0) == 0;
+    if (!has_f) throw InvalidInput(path, "holds no teacher F (a student E run?)", hint);
+  }
+  const nlohmann::json config = meta.value("config", nlohmann::json::object());
+  recon::ReconNetOptions net_options;
+  if (const nlohmann::json* o = find_object_with(config, "arch")) recon::from_json(*o, net_options);
+  net_options.gamma = true;
+  int64_t image_size = 256;
+  if (const nlohmann::json* o = find_object_with(config, "image_size")) image_size = o->at("image_size").get<int64_t>();
+  recon::ReconNet net(net_options, model.layout(true));
+  train::load_module_weights(path, "F", *net);
+  net->eval();
+  return wrap(net, image_size);
+}
+
+ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& options) {
+  recon::ReconNetOptions o;
+  o.arch = "resnet18";
+  o.gamma = false;
+  nlohmann::json j = o;
+  j.update(options);
+  recon::from_json(j, o);
+  o.gamma = false;
+  return wrap(recon::ReconNet(o, model.layout(false)), 0);
+}
+
 std::vector<std::string> required_members(const Options& o) {
   std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
   if (o.target != "before") r.push_back("before.png");
@@ -283,8 +358,9 @@ std::vector<std::string> required_members(const Options& o) {
 }
 
 void to_json(nlohmann::json& j, const RunOptions& o) {
-  j = {{"task", o.task},   {"train_data", o.train_data}, {"val_data", o.val_data}, {"steps1", o.steps1},
-       {"steps2", o.steps2}, {"batch", o.batch},         {"seed", o.seed}};
+  j = {{"task", o.task},     {"train_data", o.train_data}, {"val_data", o.val_data}, {"steps1", o.steps1},
+       {"steps2", o.steps2}, {"batch", o.batch},           {"seed", o.seed},           {"teacher", o.teacher},
+       {"model", o.model}};
 }
 
 namespace {
@@ -343,6 +419,148 @@ RunResult train_two_stages(const RunOptions& ro, const std::function<Stage2Parts
   if (!r2.trainer.resume) start_from_stage1(task, ck1);
   result.stage2 = run_stage(r2, task, dir2, ro.steps2);
   return result;
+}
+
+
+// ---- Inference ----
+
+namespace {
+
+nlohmann::json checkpoint_config(const std::string& path) {
+  SafeTensors file = SafeTensors::open(path);
+  auto it = file.metadata().find("bareskin.checkpoint");
+  nlohmann::json meta = it == file.metadata().end() ? nlohmann::json() : nlohmann::json::parse(it->second, nullptr, false);
+  if (!meta.is_object() || meta.value("task", "") != kTaskName)
+    throw InvalidInput(path, "is not a BareSkinNet checkpoint" + (meta.is_object() ? " (task '" + meta.value("task", "") + "')" : std::string()),
+                       "give the run folder of 'bareskin train bareskin'");
+  return meta.value("config", nlohmann::json::object());
+}
+
+torch::Tensor resized(const torch::Tensor& x, int64_t size, bool area) {
+  if (x.size(-1) == size && x.size(-2) == size) return x;
+  auto o = F::InterpolateFuncOptions().size(std::vector<int64_t>{size, size});
+  if (area) return F::interpolate(x, o.mode(torch::kArea));
+  return F::interpolate(x, o.mode(torch::kBilinear).align_corners(false));
+}
+
+torch::Tensor image_to_tensor(const Image& im) {
+  return torch::from_blob(const_cast<float*>(im.pixels.data()), {im.height, im.width, im.channels}, torch::kFloat)
+      .permute({2, 0, 1})
+      .clone();
+}
+
+}  // namespace
+
+Demakeup Demakeup::load(const std::string& run, const std::string& teacher, const std::string& model,
+                        torch::Device device) {
+  namespace fs = std::filesystem;
+  std::string path = run;
+  if (fs::is_directory(run)) {
+    path = train::checkpoint_path(run + "/stage2");
+    if (!fs::exists(path)) path = train::checkpoint_path(run + "/stage1");
+    if (!fs::exists(path)) path = train::checkpoint_path(run);
+  }
+  if (!fs::exists(path))
+    throw IoError(run, "holds no BareSkinNet checkpoint (stage2/ or stage1/)", "give the run folder of 'bareskin train bareskin'");
+  const nlohmann::json config = checkpoint_config(path);
+  Options o;
+  from_json(config.value("task", nlohmann::json::object()), o);
+  Demakeup d;
+  d.device = device;
+  d.size = o.size;
+  d.G = nets::find_model("unet256").make(generator_options(o.g, o.size));
+  train::load_module_weights(path, "G", *d.G);
+  d.G->to(device);
+  d.G->eval();
+  const std::string teacher_run = teacher.empty() ? config.value("teacher", "") : teacher;
+  const std::string model_path = model.empty() ? config.value("model", "") : model;
+  if (teacher_run.empty() || model_path.empty())
+    throw InvalidInput(run, "does not name its teacher F and model", "give --teacher and --model");
+  Demakeup m = with_model(model_path, device);
+  d.model = m.model;
+  d.uvs = m.uvs;
+  d.uv_triangles = m.uv_triangles;
+  d.uv_vertex = m.uv_vertex;
+  d.F = load_teacher(teacher_run, *d.model);
+  d.F.module->to(device);
+  d.F.module->eval();
+  return d;
+}
+
+Demakeup Demakeup::with_model(const std::string& model_path, torch::Device device) {
+  Demakeup d;
+  d.device = device;
+  d.model = std::make_shared<recon::FaceModel>(recon::FaceModel::load(model_path).to(device));
+  SafeTensors file = SafeTensors::open(model_path);
+  d.uvs = to_tensor(file.tensor("uvs"), model_path).to(torch::kFloat).to(device);
+  d.uv_triangles = to_tensor(file.tensor("uv_triangles"), model_path).to(torch::kLong).to(device);
+  const torch::Tensor tri = to_tensor(file.tensor("triangles"), model_path).to(torch::kLong).to(device);
+  d.uv_vertex = torch::zeros({d.uvs.size(0)}, torch::TensorOptions().dtype(torch::kLong).device(device));
+  d.uv_vertex.index_put_({d.uv_triangles.flatten()}, tri.flatten());
+  return d;
+}
+
+torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
+  torch::NoGradGuard no_grad;
+  auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
+  BS_CHECK(G, "Demakeup::G is not a U-Net");
+  auto x = resized(aligned.to(d.device), d.size, true);
+  auto out = (G->forward(x * 2 - 1) + 1) * 0.5;
+  return resized(out, aligned.size(-1), false).clamp(0, 1);
+}
+
+std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
+                                                     const torch::Tensor& coefficients, int64_t uv_size,
+                                                     double depth_tolerance) {
+  torch::NoGradGuard no_grad;
+  const int64_t B = images.size(0), S = images.size(-1), R = uv_size;
+  const recon::FaceModel& model = *d.model;
+  auto posed = model.posed(model.split(coefficients));
+  auto proj = recon::FaceModel::project(posed, recon::canonical_camera(int(S)));  // [B, V, 3]
+  // The depth buffer of the face in the image.
+  auto raster = render_torch::rasterize(proj, model.triangles(), S, S);
+  auto depth = render_torch::interpolate(proj.narrow(2, 2, 1).contiguous(), proj, model.triangles(), raster);
+  depth = torch::where(raster.triangle.unsqueeze(-1) >= 0, depth, torch::full_like(depth, 1e30)).permute({0, 3, 1, 2});
+  // The surface point of every texel: the UV layout rasterized, the projected vertex positions interpolated.
+  auto pos_uv = torch::stack({d.uvs.select(1, 0) * R, (1 - d.uvs.select(1, 1)) * R, torch::ones_like(d.uvs.select(1, 0))}, 1)
+                    .unsqueeze(0).expand({B, -1, -1}).contiguous();
+  auto uv_raster = render_torch::rasterize(pos_uv, d.uv_triangles, R, R);
+  auto at = render_torch::interpolate(proj.index_select(1, d.uv_vertex), pos_uv, d.uv_triangles, uv_raster);  // [B,R,R,3]
+  auto grid = torch::stack({at.select(3, 0) / double(S) * 2 - 1, at.select(3, 1) / double(S) * 2 - 1}, 3);
+  auto sample = [&](const torch::Tensor& x, bool nearest) {
+    auto o = F::GridSampleFuncOptions().padding_mode(torch::kBorder).align_corners(false);
+    if (nearest) return F::grid_sample(x, grid, o.mode(torch::kNearest));
+    return F::grid_sample(x, grid, o.mode(torch::kBilinear));
+  };
+  auto front = sample(depth, true);  // [B, 1, R, R]
+  auto inside = (grid.abs() <= 1).all(3).unsqueeze(1);
+  auto seen = ((uv_raster.triangle >= 0).unsqueeze(1) & inside &
+               ((at.select(3, 2).unsqueeze(1) - front).abs() <= depth_tolerance)).to(images.dtype());
+  return {sample(images.to(d.device), false) * seen, seen};
+}
+
+DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::PhotoDetector& detector,
+                        int64_t uv_size, const std::string& source) {
+  auto faces = detector(photo);
+  if (faces.empty()) throw InvalidInput(source, "no face was found", "give a photo with a face of at least ~80 px");
+  DemakeupResult r;
+  r.score = faces[0].score;
+  r.landmarks = faces[0].points;
+  const detect::Similarity sim = detect::alignment(faces[0].points);
+  r.similarity = sim.matrix();
+  Image aligned = detect::warp_aligned(photo, sim, detect::kAlignedSize);
+  r.aligned = image_to_tensor(aligned).narrow(0, 0, 3).to(d.device);
+  torch::NoGradGuard no_grad;
+  r.bare = run_generator(d, r.aligned.unsqueeze(0))[0];
+  auto c = d.F.forward(r.bare.unsqueeze(0));
+  r.coefficients = c[0];
+  auto render = d.model->render(c, recon::canonical_camera(detect::kAlignedSize));
+  r.unlit = recon::linear_to_srgb(render.albedo)[0];
+  r.mask = render.mask[0];
+  auto [uv, seen] = unwarp_to_uv(d, r.bare.unsqueeze(0), c, uv_size);
+  r.uv = uv[0];
+  r.uv_mask = seen[0];
+  return r;
 }
 
 }  // namespace bareskin::bsn

@@ -13,10 +13,13 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "core/image.h"
+#include "detect/align.h"
 #include "training/face_model.h"
 #include "training/losses.h"
 #include "training/trainer.h"
@@ -147,6 +150,7 @@ struct RunOptions {
   uint64_t seed = 0;
   int decode_threads = 2;
   train::TrainerOptions trainer;   // intervals, device, progress, resume (run_dir, steps, config are set here)
+  std::string teacher, model;      // recorded in the run's configuration (demakeup's defaults)
 };
 void to_json(nlohmann::json& j, const RunOptions& o);
 
@@ -159,8 +163,60 @@ struct RunResult {
 // continued at the switch repeats an uninterrupted one to the bit.
 RunResult train_two_stages(const RunOptions& options, const std::function<Stage2Parts()>& make_parts);
 
+// The teacher F of a recon run (`bareskin train recon`; a run folder or its checkpoint) for this model, its input
+// resized to the size F was trained at. InvalidInput naming the file when the checkpoint belongs to another task
+// or holds no F, or when F's head does not fit the model.
+ReconNet load_teacher(const std::string& run, const recon::FaceModel& model);
+// A fresh student E (ResNet-18 by default, no light) for this model; `options` over recon::ReconNetOptions.
+ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& options = nlohmann::json::object());
+
 // The shard members a task reads.
 std::vector<std::string> required_members(const Options& o);
+
+// ---- Inference: `bareskin demakeup` and texture inference call this. ----
+
+// A trained BareSkinNet ready for photos: G of a run, the teacher F and the morphable model.
+struct Demakeup {
+  std::shared_ptr<torch::nn::Module> G;  // nets::UNetImpl
+  int64_t size = 256;                    // G's training resolution
+  ReconNet F;
+  std::shared_ptr<recon::FaceModel> model;
+  torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex
+  torch::Device device = torch::kCPU;
+  // G from run/stage2 (else run/stage1); F and the model from `teacher` / `model`, or from the run's configuration
+  // when empty. InvalidInput naming the file for a checkpoint of another task; IoError for missing files.
+  static Demakeup load(const std::string& run, const std::string& teacher = "", const std::string& model = "",
+                       torch::Device device = torch::kCPU);
+  // The model and its UV layout alone (no G, no F): what unwarp_to_uv needs.
+  static Demakeup with_model(const std::string& model, torch::Device device = torch::kCPU);
+};
+
+struct DemakeupResult {
+  double score = 0;                         // the detector's
+  Eigen::Matrix<double, 68, 2> landmarks;   // photo pixels
+  Eigen::Matrix<double, 2, 3> similarity;   // photo → aligned
+  torch::Tensor aligned;                    // [3, 256, 256] sRGB: the input G saw
+  torch::Tensor bare;                       // [3, 256, 256] sRGB: G's bare-skin image
+  torch::Tensor coefficients;               // [K + 27]: F's fit of the bare-skin image (α, β, δ, R, t, γ)
+  torch::Tensor unlit, mask;                // [3, 256, 256] sRGB albedo render of the fit, [1, 256, 256] its coverage
+  torch::Tensor uv, uv_mask;                // [3, R, R] sRGB bare skin in the template UV (row 0 = v 1), [1, R, R] seen
+};
+
+// G on aligned faces [B, 3, 256, 256] sRGB → bare-skin images (G runs at its training size, the output is resized
+// back).
+torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned);
+
+// Photo (an sRGB-encoded RGB image, values in [0, 1]) → detect (the best face) → align (detect/align.h) → G → F →
+// unlit render → unwarp. InvalidInput naming `source` when no face is found.
+DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::PhotoDetector& detector,
+                        int64_t uv_size = 1024, const std::string& source = "photo");
+
+// An image [B, 3, S, S] into the model's UV through the coefficients (canonical camera at S): per texel the image at
+// the projected surface point where that point is the nearest surface along its ray (depth within
+// `depth_tolerance` mm) and faces the camera. Returns the UV image [B, 3, R, R] and the seen mask [B, 1, R, R].
+std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
+                                                     const torch::Tensor& coefficients, int64_t uv_size,
+                                                     double depth_tolerance = 2.0);
 
 // The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
 nlohmann::json generator_options(const nlohmann::json& g, int64_t size);

@@ -302,6 +302,33 @@ TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   EXPECT_NEAR(landmark_loss(torch::ones({1, 68, 2}), torch::zeros({1, 68, 2}), 4.0).item<double>(), 32.0, 1e-6);
 }
 
+TEST(BareSkinNet, UnwarpRecoversTheAlbedoTextureOfARenderedFace) {
+  // Oracle: the face model's own albedo texture. Render the unlit face at known coefficients, unwarp the render into
+  // the UV through the same coefficients: every seen texel must hold the texture's colour there.
+  Demakeup d = Demakeup::with_model(toy_model());
+  const auto layout = d.model->layout(true);
+  torch::manual_seed(5);
+  auto c = torch::zeros({1, layout.size()});
+  c.narrow(1, 0, layout.rotation_offset()).normal_(0, 0.5);
+  c[0][layout.rotation_offset() + 1] = 0.3;  // yaw: one side turns away
+  const int64_t S = 256, R = 32;
+  auto render = d.model->render(c, recon::canonical_camera(int(S)));
+  auto [uv, seen] = unwarp_to_uv(d, render.albedo, c, R);
+  auto truth = d.model->albedo_texture(d.model->split(c).delta);  // [1, 3, 32, 32], row 0 = v 1
+  auto in_layout = (truth.abs().sum(1, true) > 0).to(torch::kFloat);
+  const double seen_fraction = seen.sum().item<double>() / in_layout.sum().item<double>();
+  EXPECT_GT(seen_fraction, 0.3);
+  EXPECT_LT(seen_fraction, 0.999) << "a turned face hides part of its texture";
+  // Away from the layout's edges (where a texel mixes in the background) the colours agree.
+  auto inner = seen * (1 - torch::max_pool2d(1 - seen, 3, 1, 1));
+  auto err = ((uv - truth).abs() * inner).sum() / (3 * inner.sum());
+  EXPECT_GT(inner.sum().item<double>(), 50);
+  EXPECT_LT(err.item<double>(), 0.02) << "mean |unwarped - texture| over " << inner.sum().item<double>() << " texels";
+  // A texture with nothing in common: far larger error (the check can fail).
+  auto err_flipped = ((uv - truth.flip(3)).abs() * inner).sum() / (3 * inner.sum());
+  EXPECT_GT(err_flipped.item<double>(), 3 * err.item<double>());
+}
+
 TEST(BareSkinNet, BadOptionsAndAblationRows) {
   Options o;
   EXPECT_THROW(from_json({{"target", "after"}}, o), InvalidInput);

@@ -1,0 +1,139 @@
+// bareskin train bareskin: BareSkinNet's two stages (training/bareskinnet.h) on `texgen faces` samples, with the
+// teacher F of `bareskin train recon`. docs/training.md, "BareSkinNet"; docs/cli.md.
+#include <filesystem>
+#include <iostream>
+
+#include "apps/cli.h"
+#include "apps/detector.h"
+#include "core/error.h"
+#include "detect/face_api.h"
+#include "training/bareskinnet.h"
+#include "training/face_model.h"
+
+namespace bareskin::cli {
+namespace fs = std::filesystem;
+
+namespace {
+
+nlohmann::json json_option(const std::string& text, const std::string& flag) {
+  if (text.empty()) return nlohmann::json::object();
+  auto j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) throw InvalidInput(flag, "is not a JSON object", "e.g. " + flag + " '{\"ngf\": 32}'");
+  return j;
+}
+
+// faces/ holds train/, val/ (and test/); a folder with its own manifest.json is taken as the training split.
+std::pair<std::string, std::string> splits(const std::string& data) {
+  if (fs::exists(fs::path(data) / "manifest.json")) return {data, ""};
+  const fs::path train = fs::path(data) / "train", val = fs::path(data) / "val";
+  if (!fs::exists(train / "manifest.json"))
+    throw InvalidInput(data, "has no train/manifest.json (nor manifest.json)", "give the folder 'bareskin texgen faces' wrote");
+  return {train.string(), fs::exists(val / "manifest.json") ? val.string() : ""};
+}
+
+}  // namespace
+
+std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals) {
+  struct Options {
+    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, device = "cpu";
+    bsn::Options task;
+    int64_t steps1 = 10000, steps2 = 30000, batch = 4, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
+            sample_every = 1000;
+    uint64_t seed = 0;
+    bool resume = false;
+  };
+  auto o = std::make_shared<Options>();
+  CLI::App* app = train.add_subcommand("bareskin", "Train BareSkinNet: stage 1 (G alone), stage 2 (G + E with the frozen teacher F)");
+  app->add_option("--data", o->data, "Face samples of 'texgen faces' (train/ and val/ inside)")->required();
+  app->add_option("--teacher", o->teacher, "The teacher F: a 'bareskin train recon' run folder (needed by stage 2)");
+  app->add_option("--model", o->model, "The morphable model F was trained with (model.safetensors; needed by stage 2)");
+  app->add_option("-o,--output", o->output, "Run folder (stage1/ and stage2/ inside)")->capture_default_str();
+  app->add_option("--steps1", o->steps1, "Stage-1 iterations (the paper: 10000)")->capture_default_str();
+  app->add_option("--steps2", o->steps2, "Stage-2 iterations (the paper: 30000; 0: stage 1 only)")->capture_default_str();
+  app->add_option("--batch", o->batch, "Batch size (the paper: 4)")->capture_default_str();
+  app->add_option("--size", o->task.size, "Training resolution (a power of two; the samples are area-resized)")->capture_default_str();
+  app->add_option("--target", o->task.target, "G's supervision: before (the paper) or bare (the albedo truth)")
+      ->check(CLI::IsMember({"before", "bare"}))->capture_default_str();
+  app->add_option("--ablation", o->ablation, "A row of the paper's Fig. 7: b (L1+GAN), c (+LPIPS), d (+frozen F), "
+                  "e (+fine-tuned F), f (+E without L_light), g (full)")->check(CLI::IsMember({"b", "c", "d", "e", "f", "g"}));
+  app->add_option("--lpips", o->task.lpips_trunk, "LPIPS trunk: vgg16-random or facenet (cheap on the CPU)")
+      ->check(CLI::IsMember({"vgg16-random", "facenet"}))->capture_default_str();
+  app->add_option("--g-options", o->g, "G (unet256) options over the defaults, JSON, e.g. '{\"ngf\": 16}'");
+  app->add_option("--d-options", o->d, "D (patchgan) options, JSON");
+  app->add_option("--student-options", o->student, "E options (recon net), JSON, e.g. '{\"width\": 16}'");
+  app->add_option("--lr-g", o->task.lr_g, "G's learning rate (the paper: 2e-5)")->capture_default_str();
+  app->add_option("--lr-e", o->task.lr_e, "E's learning rate (the paper: 1e-4)")->capture_default_str();
+  app->add_option("--lr-d", o->task.lr_d, "D's learning rate")->capture_default_str();
+  app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
+  app->add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
+  app->add_option("--checkpoint-every", o->checkpoint_every, "Steps between checkpoints")->capture_default_str();
+  app->add_option("--eval-every", o->eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
+  app->add_option("--sample-every", o->sample_every, "Steps between sample grids (0: never)")->capture_default_str();
+  app->add_flag("--resume", o->resume, "Continue the run in the output folder (finished stages are kept)");
+  app->footer("Example:\n  bareskin train bareskin --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
+              "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
+  return [o, app, &globals] {
+    set_torch_threads(globals);
+    bsn::Options task = o->task;
+    task.g = json_option(o->g, "--g-options");
+    task.d = json_option(o->d, "--d-options");
+    if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);
+    nlohmann::json check = task;
+    bsn::from_json(check, task);  // validates size, target, ...
+    if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
+    if (!o->ablation.empty() && !bsn::ablation_has_stage2(o->ablation)) o->steps2 = 0;
+    const nlohmann::json student_options = json_option(o->student, "--student-options");
+    if (o->steps2 > 0) {
+      if (o->teacher.empty())
+        throw InvalidInput("--teacher", "is needed by stage 2", "give a 'bareskin train recon' run, or --steps2 0");
+      if (o->model.empty())
+        throw InvalidInput("--model", "is needed by stage 2", "give the model.safetensors the teacher was trained with");
+      if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file");
+    }
+    if (o->device == "cuda" && !torch::cuda::is_available())
+      throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
+    const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+    bsn::RunOptions ro;
+    ro.task = task;
+    std::tie(ro.train_data, ro.val_data) = splits(o->data);
+    ro.run_dir = o->output;
+    ro.steps1 = o->steps1;
+    ro.steps2 = o->steps2;
+    ro.batch = o->batch;
+    ro.seed = o->seed;
+    if (!o->teacher.empty()) ro.teacher = fs::absolute(o->teacher).string();
+    if (!o->model.empty()) ro.model = fs::absolute(o->model).string();
+    ro.trainer.resume = o->resume;
+    ro.trainer.device = device;
+    ro.trainer.log_every = o->log_every;
+    ro.trainer.checkpoint_every = o->checkpoint_every;
+    ro.trainer.eval_every = ro.val_data.empty() ? 0 : o->eval_every;
+    ro.trainer.sample_every = o->sample_every;
+    ro.trainer.progress = !globals.quiet();
+    // Check the teacher before stage 1 spends its time: a wrong checkpoint fails at once.
+    std::shared_ptr<recon::FaceModel> model;
+    if (o->steps2 > 0) {
+      model = std::make_shared<recon::FaceModel>(recon::FaceModel::load(o->model).to(device));
+      bsn::load_teacher(o->teacher, *model);
+    }
+    auto parts = [&] {
+      bsn::Stage2Parts p;
+      p.teacher = bsn::load_teacher(o->teacher, *model);
+      p.student = bsn::make_student(*model, student_options);
+      p.teacher.module->to(device);
+      p.student.module->to(device);
+      p.renderer = bsn::model_renderer(model);
+      p.layout = model->layout(false);
+      return p;
+    };
+    auto result = bsn::train_two_stages(ro, parts);
+    if (!globals.quiet()) {
+      for (const auto* r : {&result.stage1, &result.stage2})
+        for (auto& [k, v] : r->last_eval) std::cerr << (r == &result.stage1 ? "stage 1 " : "stage 2 ") << k << " " << v << "\n";
+      std::cerr << "wrote " << o->output << "/stage1" << (o->steps2 > 0 ? " and stage2" : "") << "\n";
+    }
+  };
+}
+
+}  // namespace bareskin::cli
