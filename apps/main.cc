@@ -17,6 +17,10 @@ std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
 std::function<void()> setup_demakeup_command(CLI::App&, const Globals&);
 #endif
+#ifdef BARESKIN_WITH_AVATAR
+std::function<void()> setup_run_command(CLI::App&, const Globals&);
+std::function<void()> setup_evaluate_command(CLI::App&, const Globals&);
+#endif
 
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
@@ -38,6 +42,12 @@ const std::vector<Command>& commands() {
        setup_train_command},
       {"demakeup", "Images", "BareSkinNet on photos: bare-skin image, 3DMM coefficients, unlit render, bare skin in UV",
        setup_demakeup_command},
+#endif
+#ifdef BARESKIN_WITH_AVATAR
+      {"run", "Avatar", "Photo -> relightable avatar: bare skin, 3DMM, four UV maps at 1K and 4K, OBJ + GLB, previews",
+       setup_run_command},
+      {"evaluate", "Avatar", "The paper's Table 1: texture maps with and without BareSkinNet (RMSE, PSNR, SSIM)",
+       setup_evaluate_command},
 #endif
       {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},

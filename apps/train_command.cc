@@ -63,6 +63,7 @@ void print_model(const std::string& name, const std::string& options_text, bool 
 }  // namespace
 
 std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals);  // train_bareskin_command.cc
+std::function<bool()> setup_train_texture(CLI::App& train, const Globals& globals);  // train_texture_command.cc
 
 std::function<void()> setup_train_command(CLI::App& app, const Globals& globals) {
   struct Options {
@@ -82,10 +83,12 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
              "'{\"ngf\": 32, \"num_downs\": 7}'\n  bareskin train export runs/bsn --module G -o G.safetensors\n"
              "docs/training.md describes the trainer, the run folder, multi-GPU and SLURM.");
   auto bareskin = setup_train_bareskin(app, globals);
-  return [opt, &app, &globals, bareskin] {
+  auto texture = setup_train_texture(app, globals);  // texture, upscale
+  return [opt, &app, &globals, bareskin, texture] {
     set_torch_threads(globals);
     if (app.got_subcommand("bareskin")) {
       bareskin();
+    } else if (texture()) {
     } else if (app.got_subcommand("export")) {
       std::string path = opt->checkpoint;
       if (std::filesystem::is_directory(path)) path = train::checkpoint_path(path);

@@ -1,0 +1,48 @@
+// bareskin evaluate: the paper's Table 1 protocol on held-out faces (texture_infer/avatar.h; docs/texture.md).
+#include <iostream>
+#include <memory>
+
+#include "apps/cli.h"
+#include "apps/detector.h"
+#include "core/error.h"
+#include "texture_infer/avatar.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string model, texture, bareskin, device = "cpu";
+    std::vector<std::string> upscale;
+    texture::EvaluateOptions evaluate;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("--faces", opt->evaluate.faces, "Held-out faces split (texgen faces: makeup, before, json)")
+      ->required();
+  app.add_option("--textures", opt->evaluate.textures,
+                 "Texture split of the same subjects: the true maps (column b) and the true 4K diffuse");
+  app.add_option("-o,--output", opt->evaluate.output, "Report folder: table.md, table.csv, per_sample.csv, charts")
+      ->required();
+  app.add_option("--model", opt->model, "Morphable model (model.safetensors)")->required();
+  app.add_option("--texture", opt->texture, "pix2pixHD run (bareskin train texture)")->required();
+  app.add_option("--upscale", opt->upscale, "SRGAN runs; the diffuse one is compared with bicubic")->expected(0, -1);
+  app.add_option("--bareskin", opt->bareskin, "BareSkinNet run: the 'with' column")->required();
+  app.add_option("--max-samples", opt->evaluate.max_samples, "At most this many samples (0: all)")
+      ->capture_default_str();
+  app.add_option("--input-res", opt->evaluate.avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
+      ->capture_default_str();
+  app.add_option("--device", opt->device, "cpu or cuda[:N]")->capture_default_str();
+  app.footer("Example: bareskin evaluate --faces faces/test --textures textures/test --model model.safetensors "
+             "--texture runs/tex --upscale runs/up --bareskin runs/bsn -o report/table1");
+  return [opt, &globals] {
+    set_torch_threads(globals);
+    const MorphableModel model = read_model(opt->model);
+    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device);
+    const auto G = texture::load_demakeup(opt->bareskin, opt->device);
+    const auto summary = texture::evaluate_table1(opt->evaluate, model, nets, G);
+    if (!globals.quiet())
+      std::cerr << "wrote " << opt->evaluate.output << ": " << summary.value("improved_of_12", 0)
+                << " of 12 reference figures improve with BareSkinNet\n";
+  };
+}
+
+}  // namespace bareskin::cli

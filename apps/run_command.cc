@@ -1,0 +1,73 @@
+// bareskin run: a face photo -> a relightable avatar folder (texture_infer/avatar.h; docs/texture.md).
+#include <chrono>
+#include <iostream>
+#include <memory>
+
+#include "apps/cli.h"
+#include "apps/detector.h"
+#include "core/error.h"
+#include "core/image_io.h"
+#include "detect/face_api.h"
+#include "texture_infer/avatar.h"
+
+namespace bareskin::cli {
+
+std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
+  struct Options {
+    std::string photo, output, model, texture, bareskin, device = "cpu", weights;
+    std::vector<std::string> upscale;
+    bool no_bareskin = false, no_upscale = false;
+    texture::AvatarOptions avatar;
+  };
+  auto opt = std::make_shared<Options>();
+  app.add_option("photo", opt->photo, "Face photo (PNG/JPEG); the best face found is used")->required();
+  app.add_option("-o,--output", opt->output, "Avatar folder (written atomically: all or nothing)")->required();
+  app.add_option("--model", opt->model, "Morphable model (model.safetensors)")->required();
+  app.add_option("--texture", opt->texture, "pix2pixHD run (bareskin train texture)")->required();
+  app.add_option("--upscale", opt->upscale, "SRGAN runs (bareskin train upscale), one per map; maps without one are "
+                                            "upscaled bicubically")
+      ->expected(0, -1);
+  app.add_option("--bareskin", opt->bareskin, "BareSkinNet run (bareskin train bareskin): G before reconstruction");
+  app.add_flag("--no-bareskin", opt->no_bareskin, "Skip G: the photo itself is reconstructed and unwrapped");
+  app.add_flag("--no-upscale", opt->no_upscale, "Maps at the texture net's size only");
+  app.add_option("--input-res", opt->avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
+      ->capture_default_str();
+  app.add_option("--preview-size", opt->avatar.preview_size, "Relit previews' size")->capture_default_str();
+  app.add_option("--device", opt->device, "cpu or cuda[:N] for the networks")->capture_default_str();
+  app.add_option("--weights", opt->weights, "face-api's tfjs models (default: face_api/ in the assets)");
+  app.footer("Example: bareskin run photo.png -o avatar/ --model model.safetensors --texture runs/tex "
+             "--upscale runs/up_diffuse --bareskin runs/bsn\nExit 3 (nothing written) for a photo without a face "
+             "or runs that do not fit each other or the model.");
+  return [opt, &globals] {
+    set_torch_threads(globals);
+    if (opt->no_bareskin == !opt->bareskin.empty())
+      throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
+    const auto t0 = std::chrono::steady_clock::now();
+    const MorphableModel model = read_model(opt->model);
+    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device);
+    const texture::Demakeup G = opt->no_bareskin ? texture::Demakeup{} : texture::load_demakeup(opt->bareskin, opt->device);
+    const Image photo = read_image(opt->photo);
+    auto face_api = std::make_shared<detect::FaceApi>(opt->weights.empty() ? detect::default_face_api_folder()
+                                                                             : opt->weights);
+    const texture::FaceFinder detector = [face_api](const Image& srgb) {
+      std::vector<detect::Landmarks68> faces;
+      for (const detect::Face& f : face_api->detect(detect::photo_tensor(srgb, "photo"), {})) faces.push_back(f.points);
+      return faces;
+    };
+    const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    opt->avatar.upscale = !opt->no_upscale;
+    const auto t1 = std::chrono::steady_clock::now();
+    const texture::Avatar avatar = texture::avatar_from_photo(photo, opt->photo, detector, model, nets.texture,
+                                                              nets.upscalers, G, opt->avatar);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    texture::write_avatar(opt->output, avatar,
+                          {{"photo", opt->photo}, {"model", opt->model}, {"texture", opt->texture},
+                           {"upscale", opt->upscale}, {"bareskin", opt->no_bareskin ? "" : opt->bareskin},
+                           {"device", opt->device}, {"load_seconds", load_seconds}, {"pipeline_seconds", seconds}});
+    if (!globals.quiet())
+      std::cerr << "wrote " << opt->output << " (" << fmt::format("{:.1f}", seconds) << " s; upscaled with "
+                << (avatar.upscaled_with.empty() ? "none" : avatar.upscaled_with) << ")\n";
+  };
+}
+
+}  // namespace bareskin::cli

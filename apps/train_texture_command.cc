@@ -1,0 +1,116 @@
+// bareskin train texture / upscale: pix2pixHD from the UV inputs to the four maps, and SRGAN ×4 per map type
+// (texture_infer/tasks.h; docs/texture.md).
+#include <memory>
+
+#include "apps/cli.h"
+#include "core/error.h"
+#include "texgen/shards.h"
+#include "texture_infer/tasks.h"
+
+namespace bareskin::cli {
+namespace {
+
+nlohmann::json json_option(const std::string& text, const std::string& flag) {
+  if (text.empty()) return nlohmann::json::object();
+  try {
+    auto j = nlohmann::json::parse(text);
+    if (j.is_object()) return j;
+  } catch (const nlohmann::json::parse_error&) {
+  }
+  throw InvalidInput(flag + " " + text, "is not a JSON object", "e.g. " + flag + " '{\"ngf\": 16}'");
+}
+
+struct Common {
+  texture::TrainRunOptions run;
+  std::string model, generator, discriminator;
+};
+
+// Flags both trainings share.
+void add_common(CLI::App* app, Common& c) {
+  app->add_option("--data", c.run.data, "Texture shards: the train split (texgen make-dataset)")->required();
+  app->add_option("--val", c.run.val, "Validation split (PSNR per map in eval.csv, sample grids)");
+  app->add_option("-o,--output", c.run.output, "Run folder")->required();
+  app->add_option("--model", c.model,
+                  "The morphable model the dataset was made with: its CRC-32 is recorded, and 'bareskin run' refuses "
+                  "another model with this run");
+  app->add_option("--steps", c.run.steps, "Training steps")->capture_default_str();
+  app->add_option("--batch", c.run.batch, "Batch size")->capture_default_str();
+  app->add_option("--seed", c.run.seed, "Seed (weights, data order, occlusion draws)")->capture_default_str();
+  app->add_option("--log-every", c.run.log_every, "Loss logging interval")->capture_default_str();
+  app->add_option("--checkpoint-every", c.run.checkpoint_every, "Checkpoint interval")->capture_default_str();
+  app->add_option("--eval-every", c.run.eval_every, "Validation interval")->capture_default_str();
+  app->add_option("--sample-every", c.run.sample_every, "Sample grid interval")->capture_default_str();
+  app->add_option("--decode-threads", c.run.decode_threads, "PNG decode threads")->capture_default_str();
+  app->add_option("--device", c.run.device, "cpu or cuda[:N]")->capture_default_str();
+  app->add_flag("--resume", c.run.resume, "Continue the run folder from its checkpoint");
+  app->add_option("--generator", c.generator, "Generator options over the zoo defaults (JSON)");
+  app->add_option("--discriminator", c.discriminator, "Discriminator options over the zoo defaults (JSON)");
+}
+
+void finish_common(Common& c, const Globals& globals) {
+  c.run.progress = !globals.quiet();
+  c.run.extra["threads"] = globals.threads;
+  c.run.extra["model_crc32"] = c.model.empty() ? nlohmann::json() : nlohmann::json(shards::file_crc32(c.model));
+}
+
+}  // namespace
+
+// Registers `train texture` and `train upscale`; the returned function runs the one chosen (false: neither was).
+std::function<bool()> setup_train_texture(CLI::App& train, const Globals& globals) {
+  auto tex = std::make_shared<Common>();
+  auto tex_model = std::make_shared<texture::TextureNetOptions>();
+  CLI::App* t = train.add_subcommand("texture", "pix2pixHD: UV inputs -> diffuse, normal, roughness, specular (1K)");
+  add_common(t, *tex);
+  t->add_option("--masks", tex->run.masks, "Occlusion masks (a masks/ shard set); default: synthetic occluders");
+  t->add_option("--res", tex_model->res, "Map size the net works at (inputs and targets are resized)")
+      ->capture_default_str();
+  t->add_option("--arch", tex_model->generator, "global (GlobalGenerator) or local (LocalEnhancer)")
+      ->capture_default_str();
+  t->add_option("--lambda-feat", tex_model->lambda_feat, "Feature matching weight")->capture_default_str();
+  t->add_option("--lambda-perceptual", tex_model->lambda_perceptual, "VGG loss weight (vgg16-random trunk)")
+      ->capture_default_str();
+  t->add_option("--lambda-l1", tex_model->lambda_l1, "Optional L1 to the targets (not in pix2pixHD)")
+      ->capture_default_str();
+  t->add_option("--lr", tex_model->lr, "Adam learning rate")->capture_default_str();
+  t->add_option("--decay-start", tex_model->decay_start, "Step where the linear decay starts (-1: half the run)")
+      ->capture_default_str();
+  t->footer("Example: bareskin train texture --data textures/train --val textures/val --masks textures/masks "
+            "--model model.safetensors -o runs/tex --res 1024 --steps 200000");
+
+  auto up = std::make_shared<Common>();
+  auto up_model = std::make_shared<texture::UpscaleOptions>();
+  CLI::App* u = train.add_subcommand("upscale", "SRGAN x4 (MSRResNet) for one map type: 1K -> 4K");
+  add_common(u, *up);
+  u->add_option("--map", up_model->map, "diffuse, normal, roughness or specular")->capture_default_str();
+  u->add_option("--phase", up_model->phase, "l1 (pre-training) or gan (from --init)")->capture_default_str();
+  u->add_option("--init", up->run.init, "GAN phase: the L1 run whose generator it starts from");
+  u->add_option("--patch", up_model->patch, "High-resolution crop (128 or 256)")->capture_default_str();
+  u->add_option("--lambda-gan", up_model->lambda_gan, "Adversarial weight")->capture_default_str();
+  u->add_option("--lambda-perceptual", up_model->lambda_perceptual, "VGG loss weight")->capture_default_str();
+  u->add_option("--lr", up_model->lr, "Adam learning rate")->capture_default_str();
+  u->footer("Example: bareskin train upscale --map diffuse --phase l1 --data textures/train -o runs/up_l1\n"
+            "         bareskin train upscale --map diffuse --phase gan --init runs/up_l1 --data textures/train "
+            "-o runs/up");
+
+  return [&globals, t, u, tex, tex_model, up, up_model] {
+    if (t->parsed()) {
+      finish_common(*tex, globals);
+      tex_model->generator_options = json_option(tex->generator, "--generator");
+      tex_model->discriminator_options = json_option(tex->discriminator, "--discriminator");
+      *tex_model = nlohmann::json(*tex_model).get<texture::TextureNetOptions>();  // range checks
+      texture::train_texture(tex->run, *tex_model);
+      return true;
+    }
+    if (u->parsed()) {
+      finish_common(*up, globals);
+      up_model->generator_options = json_option(up->generator, "--generator");
+      up_model->discriminator_options = json_option(up->discriminator, "--discriminator");
+      *up_model = nlohmann::json(*up_model).get<texture::UpscaleOptions>();  // range checks
+      texture::train_upscale(up->run, *up_model);
+      return true;
+    }
+    return false;
+  };
+}
+
+}  // namespace bareskin::cli

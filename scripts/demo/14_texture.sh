@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# Demo §14: texture inference — tiny pix2pixHD and SRGAN trainings on the texture shards of §10–13, the end-to-end
+# figure on a held-out face with makeup (with and without BareSkinNet), Table 1 at demo size, and `bareskin run` on a
+# real photo. Usage: bash scripts/demo/14_texture.sh <bin> <out>. Every stage is skipped when its output exists.
+set -euo pipefail
+bin=${1:-build/bin}
+out=${2:-out/demo}
+bareskin="$bin/bareskin"
+dir="$out/texture"
+py=/usr/bin/python3
+here=$(cd "$(dirname "$0")" && pwd)
+mkdir -p "$dir" "$out/img" "$out/sections"
+stage() { echo "demo §14: $*" >&2; }
+timed() {
+  local name=$1 start=$EPOCHREALTIME
+  shift
+  "$@"
+  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
+    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
+}
+
+# Sizes (2 cores, 180 s for the whole section): nets at 64² maps (pix2pixHD ngf 16, 3 downsamplings, 3 blocks;
+# MSRResNet 16 features, 4 blocks), a few hundred steps; the paper's nets are the zoo defaults at 1K and 4K.
+RES=${DEMO_TEX_RES:-64}
+STEPS=${DEMO_TEX_STEPS:-300}
+UP_STEPS=${DEMO_UP_STEPS:-150}
+SAMPLES=${DEMO_TABLE1_SAMPLES:-4}
+THREADS=${DEMO_THREADS:-2}
+export OMP_WAIT_POLICY=PASSIVE
+
+# Inputs of the earlier sections, found by what they are (manifest kind/split, checkpoint task), not by folder name.
+eval "$($py "$here/14_texture_find.py" "$out")"
+model="$out/model/model.safetensors"
+[ -n "${TEX_TRAIN:-}" ] || { echo "error: $out: no texture shards (texgen make-dataset, §10–13); run the demo's earlier sections" >&2; exit 3; }
+
+# 1. pix2pixHD ------------------------------------------------------------------------------------------------------
+if [ ! -f "$dir/tex/checkpoint.safetensors" ]; then
+  stage "pix2pixHD at ${RES}², $STEPS steps"
+  masks=(); [ -n "${TEX_MASKS:-}" ] && masks=(--masks "$TEX_MASKS")
+  timed "tex train" "$bareskin" -q --threads "$THREADS" train texture --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} \
+    "${masks[@]}" --model "$model" -o "$dir/tex" --res "$RES" --steps "$STEPS" --batch 2 \
+    --generator '{"ngf": 16, "n_downsampling": 3, "n_blocks": 3}' --discriminator '{"ndf": 16, "n_layers": 2}' \
+    --lambda-perceptual 2 --log-every 10 --eval-every 100 --sample-every 100 --checkpoint-every 100
+fi
+# 2. SRGAN x4 on the diffuse: L1 pre-training, then the GAN phase ---------------------------------------------------
+if [ ! -f "$dir/up/checkpoint.safetensors" ]; then
+  stage "SRGAN x4 (diffuse), $UP_STEPS + $((UP_STEPS / 2)) steps"
+  gen='{"num_feat": 16, "num_block": 4}'
+  timed "up l1" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase l1 --data "$TEX_TRAIN" \
+    ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up_l1" --steps "$UP_STEPS" --batch 4 --generator "$gen" \
+    --log-every 10 --eval-every "$UP_STEPS" --sample-every "$UP_STEPS" --checkpoint-every "$UP_STEPS"
+  timed "up gan" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase gan --init "$dir/up_l1" \
+    --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up" --steps $((UP_STEPS / 2)) --batch 4 \
+    --generator "$gen" --discriminator '{"num_feat": 16}' --lambda-perceptual 0.1 --log-every 10 \
+    --eval-every $((UP_STEPS / 2)) --sample-every $((UP_STEPS / 2)) --checkpoint-every $((UP_STEPS / 2))
+fi
+# 3. End to end on a held-out face with makeup, with and without BareSkinNet; bareskin run on a real photo ----------
+bsn=(); [ -n "${BSN_RUN:-}" ] && bsn=(--bareskin "$BSN_RUN")
+common=(--model "$model" --texture "$dir/tex" --upscale "$dir/up" --preview-size 256)
+if [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/heldout.png" ]; then
+  $py "$here/14_texture_find.py" --extract "$FACES_TEST" "$dir/heldout.png"
+fi
+for variant in with without; do
+  [ "$variant" = with ] && [ -z "${BSN_RUN:-}" ] && continue
+  flag=("${bsn[@]}"); [ "$variant" = without ] && flag=(--no-bareskin)
+  if [ -f "$dir/heldout.png" ] && [ ! -d "$dir/avatar_heldout_$variant" ]; then
+    timed "run $variant" "$bareskin" -q --threads "$THREADS" run "$dir/heldout.png" -o "$dir/avatar_heldout_$variant" \
+      "${common[@]}" "${flag[@]}"
+  fi
+done
+astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
+if [ ! -d "$dir/avatar_astronaut" ]; then
+  flag=(--no-bareskin); [ -n "${BSN_RUN:-}" ] && flag=("${bsn[@]}")
+  timed "run photo" "$bareskin" -q --threads "$THREADS" run "$astronaut" -o "$dir/avatar_astronaut" "${common[@]}" \
+    "${flag[@]}"
+fi
+# 4. Table 1 at demo size ------------------------------------------------------------------------------------------
+if [ -n "${BSN_RUN:-}" ] && [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/table1/table.md" ]; then
+  stage "Table 1 on $SAMPLES held-out samples"
+  timed "table 1" "$bareskin" -q --threads "$THREADS" evaluate --faces "$FACES_TEST" ${TEX_TEST:+--textures "$TEX_TEST"} \
+    --model "$model" --texture "$dir/tex" --upscale "$dir/up" --bareskin "$BSN_RUN" --max-samples "$SAMPLES" \
+    -o "$dir/table1"
+fi
+# 5. Figures and the report fragment -------------------------------------------------------------------------------
+$py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" > "$out/sections/14_texture.html"
+stage "wrote $out/sections/14_texture.html"

@@ -1,0 +1,181 @@
+#!/usr/bin/env python3
+"""Helpers of demo §14 (scripts/demo/14_texture.sh).
+  14_texture_find.py OUT                      shell assignments: the texture splits, masks, held-out faces and the
+                                              BareSkinNet run under OUT, found by manifest kind/split and checkpoint task
+  14_texture_find.py --extract FACES PNG      the first sample's makeup.png of a faces split
+  14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES   figures into OUT/img, the HTML fragment on stdout"""
+import csv
+import glob
+import html
+import json
+import os
+import struct
+import sys
+import tarfile
+
+
+def checkpoint_task(path):
+    try:
+        with open(path, "rb") as f:
+            n = struct.unpack("<Q", f.read(8))[0]
+            header = json.loads(f.read(n))
+        return json.loads(header["__metadata__"]["bareskin.checkpoint"])["task"]
+    except Exception:
+        return None
+
+
+def find(out):
+    found = {}
+    for manifest in sorted(glob.glob(os.path.join(out, "**", "manifest.json"), recursive=True)):
+        try:
+            meta = json.load(open(manifest)).get("metadata", {})
+        except Exception:
+            continue
+        folder = os.path.dirname(manifest)
+        kind, split = meta.get("kind"), meta.get("split")
+        if kind == "texture" and split in ("train", "val", "test"):
+            found.setdefault("TEX_" + split.upper(), folder)
+        elif kind == "mask":
+            found.setdefault("TEX_MASKS", folder)
+        elif kind in ("faces", "face") and split == "test":
+            found.setdefault("FACES_TEST", folder)
+        elif split == "test" and os.path.basename(os.path.dirname(folder)).startswith("faces"):
+            found.setdefault("FACES_TEST", folder)
+    for ckpt in sorted(glob.glob(os.path.join(out, "**", "checkpoint.safetensors"), recursive=True)):
+        if checkpoint_task(ckpt) == "bareskinnet":
+            run = os.path.dirname(ckpt)
+            if os.path.basename(run) in ("stage1", "stage2"):
+                run = os.path.dirname(run)
+            found.setdefault("BSN_RUN", run)
+    for key, value in found.items():
+        print(f"{key}='{value}'")
+
+
+def extract(faces, png):
+    manifest = json.load(open(os.path.join(faces, "manifest.json")))
+    with tarfile.open(os.path.join(faces, manifest["shards"][0]["name"])) as tar:
+        for member in tar:
+            if member.name.endswith(".makeup.png"):
+                open(png, "wb").write(tar.extractfile(member).read())
+                return
+    sys.exit(f"error: {faces}: no makeup.png in the first shard")
+
+
+def tile(path, size=150, grey=False):
+    from PIL import Image
+    image = Image.open(path)
+    image = image.convert("L").convert("RGB") if grey else image.convert("RGB")
+    return image.resize((size, size), Image.BILINEAR)
+
+
+def strip(columns, target):
+    from PIL import Image, ImageDraw
+    size, label_h = 150, 16
+    sheet = Image.new("RGB", (size * len(columns), size + label_h), "white")
+    draw = ImageDraw.Draw(sheet)
+    for i, (label, path, grey) in enumerate(columns):
+        if path and os.path.exists(path):
+            sheet.paste(tile(path, size, grey), (i * size, label_h))
+        draw.text((i * size + 4, 2), label, fill="black")
+    sheet.save(target)
+
+
+def avatar_columns(a):
+    return [("input (aligned)", f"{a}/aligned.png", False), ("bare skin", f"{a}/bare.png", False),
+            ("3DMM fit", f"{a}/fit.png", False), ("diffuse", f"{a}/maps/diffuse.png", False),
+            ("normal", f"{a}/maps/normal.png", False), ("roughness", f"{a}/maps/roughness.png", True),
+            ("specular", f"{a}/maps/specular.png", True), ("relit 1", f"{a}/preview_light1.png", False),
+            ("relit 2", f"{a}/preview_light2.png", False), ("relit 3", f"{a}/preview_light3.png", False)]
+
+
+def last_eval(run):
+    values = {}
+    path = os.path.join(run, "eval.csv")
+    if os.path.exists(path):
+        for row in csv.DictReader(open(path)):
+            values[row["name"]] = float(row["value"])
+    return values
+
+
+def md_table_to_html(md):
+    rows = [l for l in md.splitlines() if l.startswith("|") and not l.startswith("|---")]
+    text = [l for l in md.splitlines() if l and not l.startswith("|")]
+    out = "<table border=1 cellpadding=3 style='border-collapse:collapse'>"
+    for i, r in enumerate(rows):
+        cells = [c.strip() for c in r.strip("|").split("|")]
+        tag = "th" if i == 0 else "td"
+        out += "<tr>" + "".join(f"<{tag}>{html.escape(c)}</{tag}>" for c in cells) + "</tr>"
+    return out + "</table>" + "".join(f"<p>{html.escape(t)}</p>" for t in text)
+
+
+def report(out, d, res, steps, up_steps, samples):
+    img = os.path.join(out, "img")
+    rel = os.path.relpath(d, out)
+    parts = [f"<h2>14. Texture inference: pix2pixHD, SRGAN ×4, <code>bareskin run</code>, Table 1</h2>",
+             f"<p>Demo sizes, chosen to fit 180 s on 2 cores: pix2pixHD at {res}² maps (GlobalGenerator ngf 16, 3 "
+             f"downsamplings, 3 residual blocks; 2-scale discriminator ndf 16), {steps} steps of batch 2; SRGAN ×4 on "
+             f"the diffuse (MSRResNet 16 features, 4 blocks) {up_steps} L1 steps then {int(up_steps) // 2} GAN steps "
+             "on 128² crops. The paper's nets are the zoo defaults at 1K → 4K (<code>train --list-models</code>). "
+             "Perceptual losses use VGG16 with seeded random weights (vgg16-random): no ImageNet weights ship here. "
+             "At these sizes the maps are blurry: the figures show the pipeline working end to end, not the paper's "
+             "quality.</p>"]
+    tex = os.path.join(d, "tex")
+    ev = last_eval(tex)
+    if ev:
+        parts.append("<p>Held-out PSNR of the four maps after training: " + ", ".join(
+            f"{k.replace('psnr_', '')} {v:.2f} dB" for k, v in sorted(ev.items()) if k.startswith("psnr_")) + ".</p>")
+    grids = sorted(glob.glob(os.path.join(tex, "samples", "step_*.png")))
+    parts.append(f"<figure><img src='{rel}/tex/losses.svg' style='width:420px'><figcaption>pix2pixHD losses "
+                 "(G: LSGAN, feature matching, VGG; D: real, fake)</figcaption></figure>")
+    if grids:
+        parts.append(f"<figure><img src='{os.path.relpath(grids[-1], out)}' style='width:420px'><figcaption>validation "
+                     "samples, last step: rows unwrap | 3DMM albedo | output | truth (diffuse); confidence | 3DMM "
+                     "normal | output | truth (normal); roughness output | truth | specular output | truth"
+                     "</figcaption></figure>")
+    up = last_eval(os.path.join(d, "up"))
+    parts.append(f"<figure><img src='{rel}/up/losses.svg' style='width:420px'><figcaption>SRGAN GAN phase losses"
+                 "</figcaption></figure>")
+    if up:
+        parts.append(f"<p>SRGAN ×4 on the held-out diffuse maps (box-filtered ×4 down, then up): SRGAN "
+                     f"{up.get('psnr_srgan', float('nan')):.2f} dB, bicubic {up.get('psnr_bicubic', float('nan')):.2f}"
+                     " dB.</p>")
+    rows = []
+    for variant in ("with", "without"):
+        a = os.path.join(d, f"avatar_heldout_{variant}")
+        if os.path.isdir(a):
+            target = os.path.join(img, f"texture_heldout_{variant}.png")
+            strip(avatar_columns(a), target)
+            rows.append(f"<figure><img src='img/{os.path.basename(target)}' style='width:100%;max-width:1500px'>"
+                        f"<figcaption>held-out face with makeup, {variant} BareSkinNet</figcaption></figure>")
+    if rows:
+        parts.append("<p>End to end on a held-out synthetic face with makeup (<code>bareskin run</code> on its aligned "
+                     "makeup image): input | bare skin | 3DMM fit | the four maps | relit under three lights.</p>")
+        parts += rows
+    t1 = os.path.join(d, "table1", "table.md")
+    if os.path.exists(t1):
+        parts.append(f"<h3>Table 1 at demo size ({samples} held-out samples)</h3>" + md_table_to_html(open(t1).read()))
+        parts.append(f"<figure><img src='{rel}/table1/psnr.svg' style='width:420px'></figure>")
+    else:
+        parts.append("<p>Table 1 needs a BareSkinNet run and held-out faces from the earlier sections; not run.</p>")
+    a = os.path.join(d, "avatar_astronaut")
+    if os.path.isdir(a):
+        target = os.path.join(img, "texture_astronaut.png")
+        strip(avatar_columns(a), target)
+        rep = json.load(open(os.path.join(a, "report.json")))
+        parts.append("<p><code>bareskin run astronaut.png -o avatar/</code> (scikit-image's astronaut; "
+                     f"{'with' if rep.get('bareskin') else 'without'} BareSkinNet): "
+                     f"{rep['pipeline_seconds']:.1f} s for the pipeline after loading ({rep['load_seconds']:.1f} s), "
+                     f"maps {rep['sizes']['maps']}² and {rep['sizes']['maps_hr']}² ({html.escape(rep['upscaled_with'])})"
+                     "; the folder holds mesh.obj, avatar.glb (PBR, KHR_materials_specular), the maps, bare.png, "
+                     "coefficients.json and the previews.</p>"
+                     f"<figure><img src='img/texture_astronaut.png' style='width:100%;max-width:1500px'></figure>")
+    print("\n".join(parts))
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "--extract":
+        extract(sys.argv[2], sys.argv[3])
+    elif sys.argv[1] == "--report":
+        report(*sys.argv[2:8])
+    else:
+        find(sys.argv[1])
