@@ -15,6 +15,7 @@ std::function<void()> setup_texgen_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
+std::function<void()> setup_recon_command(CLI::App&, const Globals&);
 std::function<void()> setup_demakeup_command(CLI::App&, const Globals&);
 #endif
 #ifdef BARESKIN_WITH_AVATAR
@@ -40,6 +41,8 @@ const std::vector<Command>& commands() {
        setup_landmarks_command},
       {"train", "Training", "The network zoo (--list-models, --print-model) and run weights for Python (export)",
        setup_train_command},
+      {"recon", "Images", "3DMM coefficients, light, mesh and a confidence from one photo by the network F or E",
+       setup_recon_command},
       {"demakeup", "Images", "BareSkinNet on photos: bare-skin image, 3DMM coefficients, unlit render, bare skin in UV",
        setup_demakeup_command},
 #endif

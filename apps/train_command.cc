@@ -64,6 +64,7 @@ void print_model(const std::string& name, const std::string& options_text, bool 
 
 std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals);  // train_bareskin_command.cc
 std::function<bool()> setup_train_texture(CLI::App& train, const Globals& globals);  // train_texture_command.cc
+std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals);  // train_recon_command.cc
 
 std::function<void()> setup_train_command(CLI::App& app, const Globals& globals) {
   struct Options {
@@ -84,11 +85,13 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
              "docs/training.md describes the trainer, the run folder, multi-GPU and SLURM.");
   auto bareskin = setup_train_bareskin(app, globals);
   auto texture = setup_train_texture(app, globals);  // texture, upscale
-  return [opt, &app, &globals, bareskin, texture] {
+  auto recon = setup_train_recon(app, globals);
+  return [opt, &app, &globals, bareskin, texture, recon] {
     set_torch_threads(globals);
     if (app.got_subcommand("bareskin")) {
       bareskin();
     } else if (texture()) {
+    } else if (recon()) {
     } else if (app.got_subcommand("export")) {
       std::string path = opt->checkpoint;
       if (std::filesystem::is_directory(path)) path = train::checkpoint_path(path);

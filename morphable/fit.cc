@@ -69,6 +69,13 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
     return r;
   };
   Eigen::VectorXd x = Eigen::VectorXd::Zero(P);
+  if (const LandmarkFit* s = options.start) {
+    x.head<3>() = s->rotation;
+    x.segment<3>(3) = s->translation;
+    for (int j = 0; j < std::min<int>(Ka, int(s->alpha.size())); ++j) x(6 + j) = s->alpha(j);
+    for (int j = 0; j < std::min<int>(Kb, int(s->beta.size())); ++j) x(6 + Ka + j) = s->beta(j);
+    if (!x.allFinite()) throw InvalidInput("", "the fit's start holds NaN or Inf", "");
+  }
   Eigen::VectorXd r = residuals(x);
   double cost = r.squaredNorm(), lambda = 1e-3;
   LandmarkFit out;

@@ -14,11 +14,16 @@
 
 namespace bareskin {
 
+struct LandmarkFit;
+
 struct LandmarkFitOptions {
   int shape_components = 40;       // α fitted (at most the model's)
   int expression_components = 20;  // β fitted (at most the model's)
   double regularisation = 1.0;  // λ
   int iterations = 50;
+  // Where Levenberg–Marquardt starts (e.g. a network's answer: its rotation, translation and leading α, β); null:
+  // the mean face, frontal, at the origin.
+  const LandmarkFit* start = nullptr;
   void check() const;
 };
 

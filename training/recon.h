@@ -5,6 +5,7 @@
 #pragma once
 #include <torch/torch.h>
 
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -139,6 +140,41 @@ class ReconTask : public train::Task {
 // The render of predictions over the input (sRGB [B, 3, H, W]): the lit face where it covers, the photo elsewhere.
 torch::Tensor overlay(const FaceModel& model, const torch::Tensor& predicted, const torch::Tensor& image,
                       const torch::Tensor& light = torch::Tensor());
+
+// A trained F or E ready for inference: the net of a `bareskin train recon` run with the model it was trained for.
+struct TrainedRecon {
+  ReconNet net{nullptr};
+  FaceModel model;
+  int64_t image_size = 256;
+  std::string module;  // "F" or "E"
+  nlohmann::json config;
+  torch::Device device = torch::kCPU;
+};
+// `run`: a run folder or its checkpoint. IoError when missing; InvalidInput naming the checkpoint when it is not a
+// recon run, was trained for a model with other sizes (both named), or its weights do not fit the net it describes.
+TrainedRecon load_recon(const std::string& run, const FaceModel& model, torch::Device device = torch::kCPU);
+
+// How far to trust an answer: the net's projected landmarks against the detector's (RMS px in the 256² aligned
+// frame) and the lit render against the photo over the face (PSNR, linear light). `flagged` when either passes its
+// threshold (docs/training.md: calibrated on held-out renders; bench/BENCHMARKS.md gives the rates).
+struct ConfidenceOptions {
+  double landmark_px = 4.0;  // flag above
+  double psnr_db = 20.0;     // flag below
+};
+struct Reconstruction {
+  torch::Tensor coefficients;  // [K] with γ (E answers Deep3DFaceRecon's ambient light), CPU float
+  torch::Tensor landmarks;     // [68, 2] projected, aligned frame px
+  torch::Tensor overlay;       // [3, S, S] sRGB: the lit render over the input
+  double landmark_residual_px = std::numeric_limits<double>::quiet_NaN();  // vs `detected` (NaN without)
+  double psnr_db = 0;
+  double confidence = 0;  // in (0, 1]: exp(−½ (r/r₀)²) · σ((psnr − psnr₀) / 2)
+  bool flagged = false;
+  double milliseconds = 0;  // the forward pass
+};
+// aligned: [3, S, S] sRGB in [0, 1] (detect/align.h's frame, S = the net's image size); detected: [68, 2] landmarks
+// in that frame, or undefined.
+Reconstruction reconstruct(const TrainedRecon& recon, const torch::Tensor& aligned, const torch::Tensor& detected,
+                           const ConfidenceOptions& confidence = {});
 
 // Face samples rendered by the face model from random coefficients, in the format `texgen faces` writes (members
 // before.png and makeup.png (the same lit render over a noisy background), skin.png (skin the face covers: not eyes,
