@@ -623,6 +623,14 @@ data::LoaderOptions loader(const std::string& dataset, const TrainRunOptions& ru
   return o;
 }
 
+// Decodes the first sample of a dataset, so bad data stops the command before the run folder exists.
+data::Batch check_first_sample(const std::string& dataset, const TrainRunOptions& run,
+                               const std::vector<std::string>& required) {
+  TrainRunOptions one = run;
+  one.batch = 1;
+  return data::ShardLoader(loader(dataset, one, required, false)).next();
+}
+
 }  // namespace
 
 train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions model) {
@@ -630,6 +638,8 @@ train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions m
   std::vector<std::string> required;
   for (const auto* maps : {&input_maps(), &output_maps()})
     for (const auto& m : *maps) required.push_back(m.name + ".png");
+  check_first_sample(run.data, run, required);
+  if (!run.val.empty()) check_first_sample(run.val, run, required);
   data::ShardLoader train_data(loader(run.data, run, required, true));
   std::unique_ptr<data::ShardLoader> val;
   if (!run.val.empty()) val = std::make_unique<data::ShardLoader>(loader(run.val, run, required, false));
@@ -645,6 +655,14 @@ train::TrainResult train_upscale(const TrainRunOptions& run, UpscaleOptions mode
     model.lambda_l1 = 1;
     if (!run.init.empty())
       throw InvalidInput("--init " + run.init, "is for the GAN phase", "pre-train with --phase l1 from scratch");
+  }
+  {
+    auto first = check_first_sample(run.data, run, {model.map + ".png"});
+    const auto& hr = first.tensors.count(model.map + "_hr") ? first.at(model.map + "_hr") : first.at(model.map);
+    if (hr.size(2) < model.patch || hr.size(3) < model.patch)
+      throw InvalidInput(run.data + ": " + first.keys[0] + "." + model.map + (first.tensors.count(model.map + "_hr") ? "_hr" : "") + ".png",
+                         "is " + std::to_string(hr.size(3)) + " texels wide, smaller than the patch " + std::to_string(model.patch),
+                         "use --patch 128 or larger maps");
   }
   data::ShardLoader train_data(loader(run.data, run, {model.map + ".png"}, true));
   std::unique_ptr<data::ShardLoader> val;

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# bareskin train texture / upscale, run: tiny trainings on procedural shards, then the bad inputs of `run` (a photo
+# without a face, a corrupt photo, runs that do not fit each other or the model): one line, exit 3, no avatar folder.
+source "$(dirname "$0")/lib.sh" "$@"
+fixture="$py $here/../python/texture_cli_fixture.py"
+$fixture model "$work/a.safetensors" 1 && $fixture model "$work/b.safetensors" 2 || fail "fixture models"
+$fixture shards "$work/shards" 4 && $fixture shards "$work/no_normal" 2 mm_normal || fail "fixture shards"
+astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
+
+"$bin" -q train texture --data "$work/shards" -o "$work/tex" --model "$work/a.safetensors" --res 32 --steps 2 \
+  --batch 2 --generator '{"ngf": 4, "n_downsampling": 2, "n_blocks": 1}' --discriminator '{"ndf": 4, "n_layers": 1}' \
+  --lambda-perceptual 0 || fail "train texture"
+[ -f "$work/tex/checkpoint.safetensors" ] || fail "no texture checkpoint"
+"$bin" -q train upscale --map diffuse --phase l1 --data "$work/shards" -o "$work/up" --model "$work/a.safetensors" \
+  --steps 2 --batch 2 --generator '{"num_feat": 4, "num_block": 1}' || fail "train upscale"
+grep -q '"model_crc32"' "$work/tex/config.json" || fail "the model's CRC-32 is not recorded"
+
+# Training: a sample without a member, crops larger than the maps, an unknown map, a GAN phase from another map's run.
+expect_failure 3 "mm_normal" "$work/t2" -- "$bin" -q train texture --data "$work/no_normal" -o "$work/t2" --res 32 \
+  --steps 1 --generator '{"ngf": 4, "n_downsampling": 2, "n_blocks": 1}'
+expect_failure 3 "--map" "" -- "$bin" -q train upscale --map albedo --data "$work/shards" -o "$work/u2"
+expect_failure 3 "patch" "" -- "$bin" -q train upscale --map diffuse --patch 100 --data "$work/shards" -o "$work/u3"
+expect_failure 3 "smaller than the patch" "$work/u3" -- "$bin" -q train upscale --map diffuse --patch 256 \
+  --data "$work/shards" -o "$work/u3"
+expect_failure 3 "not srgan-normal" "" -- "$bin" -q train upscale --map normal --phase gan --init "$work/up" \
+  --data "$work/shards" -o "$work/u4" --steps 1
+
+# run: every refusal leaves no avatar folder.
+run() { "$bin" -q run "$@" -o "$work/avatar"; }
+$py -c "import numpy as np; from PIL import Image; Image.fromarray(np.full((256, 256, 3), 128, np.uint8)).save('$work/grey.png')"
+echo "not an image" > "$work/corrupt.png"
+expect_failure 3 "no face" "$work/avatar" -- run "$work/grey.png" --model "$work/a.safetensors" --texture "$work/tex" \
+  --no-bareskin
+expect_failure 3 "another morphable model" "$work/avatar" -- run "$astronaut" --model "$work/b.safetensors" \
+  --texture "$work/tex" --no-bareskin
+expect_failure 3 "not a texture model" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
+  --texture "$work/up" --no-bareskin
+expect_failure 3 "as another --upscale run" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
+  --texture "$work/tex" --upscale "$work/up" "$work/up" --no-bareskin
+expect_failure 3 "not BareSkinNet" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
+  --texture "$work/tex" --bareskin "$work/tex"
+error_ok 3 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$work/a.safetensors" --texture "$work/tex" \
+  --no-bareskin || error_ok 4 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$work/a.safetensors" \
+  --texture "$work/tex" --no-bareskin || fail "corrupt photo -> exit $error_code: $(cat "$work/err")"
+expect_failure 2 "--no-bareskin" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" --texture "$work/tex"
+echo "texture CLI: ok"
