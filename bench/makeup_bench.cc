@@ -1,13 +1,16 @@
 // makeup_bench TEMPLATE_DIR REGISTERED_DIR [--uv N] [--looks K] [--seed S] [--sheet OUT.png] [--sheet-subjects M]
+//              [--maps DIR]
 // Makeup strength: K seeded looks per style on every registered subject (their diffuse.png in the template UV), painted
-// at N² and applied to the bare albedo; prints the mean CIELAB ΔE*ab (CIE76) between made-up and bare albedo per
-// region and style (mean over the region's texels, then over the looks that paint that region) as a Markdown table,
-// with the time per look (paint + apply). --sheet writes a UV sheet: M subjects (rows) × styles (columns).
+// at N² and applied to the bare albedo; prints the CIELAB ΔE*ab (CIE76) between made-up and bare albedo per region
+// and style (mean over the region's texels; then mean and 10th-90th percentile over the looks that paint that region)
+// as a Markdown table, with the time per look (paint + apply). --sheet writes a UV sheet: M subjects (rows) × styles
+// (columns); --maps writes those made-up diffuse maps as DIR/<subject>_<style>.png (for `bareskin render`).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -62,7 +65,7 @@ int main(int argc, char** argv) {
   }
   int uv = 512, looks = 8, sheet_subjects = 2;
   uint64_t seed = 1;
-  std::string sheet;
+  std::string sheet, maps;
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string flag = argv[i], value = argv[i + 1];
     if (flag == "--uv") uv = std::stoi(value);
@@ -70,6 +73,7 @@ int main(int argc, char** argv) {
     else if (flag == "--seed") seed = std::stoull(value);
     else if (flag == "--sheet") sheet = value;
     else if (flag == "--sheet-subjects") sheet_subjects = std::stoi(value);
+    else if (flag == "--maps") maps = value;
     else {
       std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
       return 2;
@@ -90,7 +94,7 @@ int main(int argc, char** argv) {
     return 3;
   }
   // sums[row][style] over looks that paint the row's region
-  std::map<std::pair<int, int>, std::pair<double, int>> sums;
+  std::map<std::pair<int, int>, std::vector<double>> values;
   double paint_s = 0;
   int painted = 0;
   Image sheet_image;
@@ -112,9 +116,12 @@ int main(int argc, char** argv) {
           if (!paints(look, kRows[r].region)) continue;
           const double d = mean_delta_e(regions, kRows[r].region, bare, made);
           if (d < 0) continue;
-          auto& acc = sums[{int(r), style}];
-          acc.first += d;
-          acc.second += 1;
+          values[{int(r), style}].push_back(d);
+        }
+        if (!maps.empty() && int(s) < sheet_subjects && k == 0) {
+          write_image(maps + "/" + std::filesystem::path(subjects[s]).filename().string() + "_" +
+                          to_string(MakeupStyle(style)) + ".png",
+                      to_srgb(made));
         }
         if (!sheet.empty() && int(s) < sheet_subjects && k == 0) {
           for (int y = 0; y < uv; ++y)
@@ -128,7 +135,7 @@ int main(int argc, char** argv) {
               "paint + apply %.1f ms per look\n\n",
               (long long)face.mesh.V.rows(), uv, regions.mm_per_texel, regions_s, subjects.size(), looks, kStyleCount,
               1e3 * paint_s / std::max(painted, 1));
-  std::printf("| product (region) |");
+  std::printf("ΔE*ab mean [p10–p90] over the looks that paint the region\n\n| product (region) |");
   for (int style = 1; style < kStyleCount; ++style) std::printf(" %s |", to_string(MakeupStyle(style)));
   std::printf("\n|---|");
   for (int style = 1; style < kStyleCount; ++style) std::printf("---|");
@@ -136,9 +143,15 @@ int main(int argc, char** argv) {
   for (size_t r = 0; r < std::size(kRows); ++r) {
     std::printf("| %s (%s) |", kRows[r].product, to_string(kRows[r].region));
     for (int style = 1; style < kStyleCount; ++style) {
-      const auto it = sums.find({int(r), style});
-      if (it == sums.end()) std::printf(" — |");
-      else std::printf(" %.1f (%d) |", it->second.first / it->second.second, it->second.second);
+      const auto it = values.find({int(r), style});
+      if (it == values.end()) {
+        std::printf(" — |");
+        continue;
+      }
+      std::vector<double> v = it->second;
+      std::sort(v.begin(), v.end());
+      const double mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+      std::printf(" %.1f [%.1f–%.1f] |", mean, v[size_t(0.1 * double(v.size() - 1))], v[size_t(0.9 * double(v.size() - 1))]);
     }
     std::printf("\n");
   }

@@ -135,7 +135,7 @@ MakeupLook sample_light(std::mt19937_64& rng) {
     LayerSpec b = from_palette(rng, "brow", "brow", Region::Brows);
     look.layers.push_back(tune(b, range(rng, 0.2, 0.35), range(rng, 1, 2), Finish::Matte));
   }
-  add_lips(look, rng, "lipstick", 0.35, 0.55, 0.3);
+  add_lips(look, rng, "lipstick", 0.45, 0.65, 0.3);
   return look;
 }
 
