@@ -64,7 +64,11 @@ std::function<void()> setup_texgen_faces(CLI::App& texgen, const Globals& global
   CLI::Option* shard = app->add_option("--shard", opt->shard, "This worker's number (default: SLURM_ARRAY_TASK_ID)");
   CLI::Option* shards = app->add_option("--shards", opt->shards, "Workers sharing the run (default: "
                                                                   "SLURM_ARRAY_TASK_COUNT)");
-  app->add_option("--map-size", opt->map_size, "Registered maps are resampled to this size")->capture_default_str();
+  app->add_option("--map-size", opt->map_size, "Registered maps are resampled to this size; makeup is painted at it")
+      ->capture_default_str();
+  app->add_option("--layer-size", opt->layer_size, "Size of the stored makeup layer (layer.png, finish.png); divides "
+                                                   "--map-size")
+      ->capture_default_str();
   app->add_option("--backgrounds", opt->backgrounds, "Folder of background photos (missing: procedural only)")
       ->capture_default_str();
   app->footer("Example:\n  bareskin texgen faces --registered out/registered --model out/model/model.safetensors "

@@ -63,6 +63,11 @@ namespace {
 // Area average to size² (integer factors), or bilinear when the factor is not whole.
 Image resample(const Image& in, int size) {
   if (in.width == size && in.height == size) return in;
+  if (in.width == 1 && in.height == 1) {
+    Image out(size, size, in.channels, in.color_space);
+    for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = in.pixels[i % size_t(in.channels)];
+    return out;
+  }
   Image out(size, size, in.channels, in.color_space);
   if (in.width % size == 0 && in.height % size == 0) {
     const int fx = in.width / size, fy = in.height / size;
@@ -146,6 +151,8 @@ std::shared_ptr<const Image> mean_map(const std::vector<FaceSubject>& subjects, 
 }
 
 }  // namespace
+
+Image resample_map(const Image& map, int size) { return resample(map, size); }
 
 RegisteredSubjects read_registered_subjects(const std::string& folder, const MorphableModel& model, int map_size) {
   RegisteredSubjects out;

@@ -63,6 +63,9 @@ struct RegisteredSubjects {
 // not in the model's topology; an empty `folder` gives no subjects.
 RegisteredSubjects read_registered_subjects(const std::string& folder, const MorphableModel& model, int map_size);
 
+// A map resampled to size² (area average for whole factors, else bilinear; a 1x1 constant is repeated).
+Image resample_map(const Image& map, int size);
+
 // The 3DMM subject number `index` of a run seeded `seed`: α, δ ~ N(0, 1) truncated at ±kSubjectTruncation.
 constexpr double kSubjectTruncation = 2.0;
 FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index);

@@ -1,6 +1,7 @@
 #include "texgen/faces.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include "core/png.h"
 #include "morphable/fit.h"
 #include "texgen/face_render.h"
+#include "texgen/makeup.h"
 
 namespace bareskin::texgen {
 namespace fs = std::filesystem;
@@ -35,8 +37,12 @@ void FacesOptions::check() const {
                        "give 0 <= --shard < --shards");
   if (align != "detector" && align != "truth")
     throw InvalidInput("--align", "'" + align + "' is neither detector nor truth", "use --align detector|truth");
+  const auto chosen = makeup::parse_styles(styles, "--styles");
+  if (!exclude_styles.empty()) makeup::select_styles(chosen, makeup::parse_styles(exclude_styles, "--exclude-styles"));
   if (!(occluder_prob >= 0 && occluder_prob <= 1)) throw InvalidInput("--occluders", "is not a probability", "0..1");
-  if (map_size < 16) throw InvalidInput("--map-size", "is too small", "e.g. --map-size 512");
+  if (map_size < 32 || map_size > 4096) throw InvalidInput("--map-size", "must be in [32, 4096]", "e.g. --map-size 512");
+  if (layer_size < 16 || (map_size % layer_size) != 0)
+    throw InvalidInput("--layer-size", "must divide --map-size", "e.g. --map-size 512 --layer-size 256");
   const SampleRanges& r = ranges;
   for (double v : {r.yaw_max, r.pitch_max, r.roll_max})
     if (!(v >= 0 && v <= 90)) throw InvalidInput("--yaw-max/--pitch-max/--roll-max", "must be in [0, 90] degrees", "");
@@ -55,7 +61,7 @@ nlohmann::json FacesOptions::to_json() const {
           {"expression_max", ranges.expression_max}, {"expression_prob", ranges.expression_prob},
           {"light_max", ranges.light_max}, {"specular_max", ranges.specular_max},
           {"occluders", occluder_prob}, {"styles", styles},
-          {"exclude_styles", exclude_styles}, {"map_size", map_size},
+          {"exclude_styles", exclude_styles}, {"map_size", map_size}, {"layer_size", layer_size},
           {"size", kSize}};
 }
 
@@ -109,11 +115,39 @@ nlohmann::json FacesReport::to_json() const {
                       {"shards_skipped", shards_skipped},   {"complete_splits", complete_splits},
                       {"seconds", seconds},
                       {"samples_per_second", seconds > 0 ? double(samples_written) / seconds : 0.0}};
-  if (detector_runs) j["detector"] = {{"runs", detector_runs}, {"detected", detected}};
+  if (detector_runs) j["detector"] = {{"runs", detector_runs}, {"detected", detected}, {"seconds", detector_seconds}};
+  j["stage_cpu_seconds"] = stage_seconds;
   return j;
 }
 
 // ---- the world ----
+
+// CPU seconds per stage over all threads (report.json), to see where a sample's time goes.
+enum StageId { kSubject, kMakeup, kBackground, kPhoto, kRender, kShade, kEncode, kStageCount };
+const char* const kStageNames[kStageCount] = {"subject", "makeup", "background", "photo", "rasterize", "shade", "encode"};
+struct StageClock {
+  mutable std::atomic<int64_t> ns[kStageCount] = {};
+  struct Scope {
+    const StageClock& clock;
+    StageId id;
+    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+    ~Scope() {
+      clock.ns[id] += std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - t0).count();
+    }
+  };
+  Scope time(StageId id) const { return Scope{*this, id}; }
+  // The time since t0 into `id`; returns now (the next stage's t0).
+  std::chrono::steady_clock::time_point lap(StageId id, std::chrono::steady_clock::time_point t0) const {
+    const auto now = std::chrono::steady_clock::now();
+    ns[id] += std::chrono::duration_cast<std::chrono::nanoseconds>(now - t0).count();
+    return now;
+  }
+  nlohmann::json to_json() const {
+    nlohmann::json j;
+    for (int i = 0; i < kStageCount; ++i) j[kStageNames[i]] = double(ns[i]) * 1e-9;
+    return j;
+  }
+};
 
 struct FaceGenerator::World {
   FacesOptions opt;
@@ -128,7 +162,10 @@ struct FaceGenerator::World {
     c.cx = c.cy = kPhotoSize / 2.0;
     return c;
   }();
-  std::vector<uint8_t> skin_vertex;  // per vertex: 1 where the skin mask may be 1 (not eyes, brows, lips)
+  makeup::MakeupRegions regions;      // at map_size, from the model's topology and landmark vertices
+  std::vector<uint8_t> skin_uv;       // map_size²: 1 = skin (the foundation region: not eyes, brows, lips, nostrils)
+  std::vector<makeup::MakeupStyle> styles_train, styles_test;  // test also draws the excluded family
+  StageClock clock;
 
   // One sample between the pre-alignment render ("the photo") and the aligned render.
   struct Stage {
@@ -137,6 +174,9 @@ struct FaceGenerator::World {
     std::shared_ptr<const FaceSubject> subject;
     SampleParams params;
     std::string style = "none";
+    makeup::MakeupLook look;
+    makeup::MakeupLayer layer;
+    std::shared_ptr<const Image> makeup_diffuse, makeup_roughness, makeup_specular;  // the maps with makeup
     Eigen::Vector3d photo_translation;
     Eigen::MatrixX3d shape;  // neutral + expression, model frame
     detect::Landmarks68 photo_truth;
@@ -176,6 +216,7 @@ struct FaceGenerator::World {
     return out;
   }
 
+  void apply_look(Stage& s, Rng& rng) const;
   Stage prepare(int64_t index) const;
   shards::Sample finish(Stage& stage) const;
 };
@@ -185,6 +226,22 @@ namespace {
 Image encode_srgb(const Image& linear) {
   Image out(linear.width, linear.height, linear.channels, ColorSpace::sRGB);
   for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = linear_to_srgb(std::clamp(linear.pixels[i], 0.f, 1.f));
+  return out;
+}
+
+// The summed layer at size² for storage: premultiplied colour and alpha averaged over each block, then straight again.
+makeup::MakeupLayer stored_layer(const makeup::MakeupLayer& layer, int size) {
+  if (layer.colour.width == size) return layer;
+  Image pre = layer.colour;
+  for (size_t i = 0; i < pre.pixels.size(); i += 4)
+    for (int k = 0; k < 3; ++k) pre.pixels[i + size_t(k)] *= pre.pixels[i + 3];
+  makeup::MakeupLayer out;
+  out.colour = resample_map(pre, size);
+  out.finish = resample_map(layer.finish, size);
+  for (size_t i = 0; i < out.colour.pixels.size(); i += 4) {
+    const float a = out.colour.pixels[i + 3];
+    for (int k = 0; k < 3; ++k) out.colour.pixels[i + size_t(k)] = a > 0 ? std::min(1.f, out.colour.pixels[i + size_t(k)] / a) : 0.f;
+  }
   return out;
 }
 
@@ -205,19 +262,56 @@ const detect::PhotoFace* ours(const std::vector<detect::PhotoFace>& faces, const
 
 }  // namespace
 
+// The sample's makeup: a style from its split's pool, a look, its summed layer, and the subject's maps with it.
+void FaceGenerator::World::apply_look(Stage& s, Rng& rng) const {
+  std::mt19937_64 mt(rng.next());
+  const makeup::MakeupStyle style = makeup::sample_style(s.split == 2 ? styles_test : styles_train, mt);
+  s.look = makeup::sample_look(style, mt);
+  s.style = makeup::to_string(style);
+  const FaceSubject& subj = *s.subject;
+  const int n = regions.uv_size;
+  if (s.look.layers.empty()) {
+    s.layer.colour = Image(n, n, 4, ColorSpace::Linear);
+    s.layer.finish = Image(n, n, 2, ColorSpace::Data);
+    s.makeup_diffuse = subj.diffuse;
+    s.makeup_roughness = subj.roughness;
+    s.makeup_specular = subj.specular;
+    return;
+  }
+  s.layer = makeup::paint(regions, s.look, makeup::skin_tone(regions, *subj.diffuse));
+  auto diffuse = std::make_shared<Image>(resample_map(*subj.diffuse, n));
+  auto roughness = std::make_shared<Image>(resample_map(*subj.roughness, n));
+  auto specular = std::make_shared<Image>(resample_map(*subj.specular, n));
+  makeup::apply_makeup(s.layer, *diffuse, roughness.get(), specular.get());
+  s.makeup_diffuse = diffuse;
+  s.makeup_roughness = roughness;
+  s.makeup_specular = specular;
+}
+
 FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
   Stage s;
   s.index = index;
   const int subject_index = plan.sample_subject[size_t(index)];
   s.split = plan.subject_split[size_t(subject_index)];
-  s.subject = subject(subject_index);
   Rng rng(opt.seed, uint64_t(index));
-  s.params = draw_params(model, opt.ranges, rng);
-  s.shape = s.subject->shape;
-  if (s.params.beta.size() && s.params.beta.cwiseAbs().maxCoeff() > 0)
-    s.shape += model.shape(Eigen::VectorXd(), s.params.beta) - model.topology.V;
+  {
+    auto t = clock.time(kSubject);
+    s.subject = subject(subject_index);
+    s.params = draw_params(model, opt.ranges, rng);
+    s.shape = s.subject->shape;
+    if (s.params.beta.size() && s.params.beta.cwiseAbs().maxCoeff() > 0)
+      s.shape += model.shape(Eigen::VectorXd(), s.params.beta) - model.topology.V;
+  }
+  {
+    auto t = clock.time(kMakeup);
+    apply_look(s, rng);
+  }
   s.photo_translation = s.params.jitter;
-  s.photo_background = make_background(kPhotoSize, photos, rng, &s.background_kind);
+  {
+    auto t = clock.time(kBackground);
+    s.photo_background = make_background(kPhotoSize, photos, rng, &s.background_kind);
+  }
+  auto t_photo = clock.time(kPhoto);
   const Mesh photo_mesh = posed(s, s.photo_translation);
   s.photo_truth = project_landmarks(photo_mesh, photo_camera);
   std::vector<Eigen::Vector2d> lm(68);
@@ -225,7 +319,7 @@ FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
   s.photo_occluders = draw_occluders(kPhotoSize, lm, opt.occluder_prob, rng);
   if (opt.align == "detector") {
     const Surface surface = rasterize_face(photo_mesh, photo_camera);
-    const SurfaceMaps maps{s.subject->diffuse.get(), s.subject->roughness.get(), s.subject->specular.get()};
+    const SurfaceMaps maps{s.makeup_diffuse.get(), s.makeup_roughness.get(), s.makeup_specular.get()};
     s.photo_srgb = encode_srgb(picture(surface, maps, s.params.light, s.photo_background, s.photo_occluders));
   }
   return s;
@@ -257,14 +351,17 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
   const Eigen::Vector2d centre1 = sim.apply(centre0);
   const Eigen::Vector3d T1((centre1.x() - c) * D1 / f, -(centre1.y() - camera.cy) * D1 / f, 1000 - D1);
 
+  auto lap = std::chrono::steady_clock::now();
   const Mesh mesh = posed(s, T1);
   const Surface surface = rasterize_face(mesh, camera);
+  lap = clock.lap(kRender, lap);
   const Occluders occluders = warp_occluders(s.photo_occluders, sim, kSize);
   const Image background = detect::warp_aligned(s.photo_background, sim, kSize);
   const FaceSubject& subj = *s.subject;
   const SurfaceMaps bare_maps{subj.diffuse.get(), subj.roughness.get(), subj.specular.get()};
   const Image before = picture(surface, bare_maps, s.params.light, background, occluders);
-  const Image makeup = before;  // style none: the makeup layer is empty
+  const SurfaceMaps makeup_maps{s.makeup_diffuse.get(), s.makeup_roughness.get(), s.makeup_specular.get()};
+  const Image makeup = s.look.layers.empty() ? before : picture(surface, makeup_maps, s.params.light, background, occluders);
   const Image bare = sample_map(surface, *subj.diffuse);
 
   // Masks and landmarks.
@@ -273,10 +370,10 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
   for (size_t i = 0; i < n; ++i) {
     if (!surface.covered(i) || occluders.labels.label[i]) continue;
     face.pixels[i] = 1;
-    const int t = surface.raster.triangle[i];
-    const float b1 = surface.raster.bary[2 * i], b2 = surface.raster.bary[2 * i + 1], b0 = 1 - b1 - b2;
-    const int corner = b0 >= b1 && b0 >= b2 ? 0 : (b1 >= b2 ? 1 : 2);
-    skin.pixels[i] = skin_vertex[size_t(mesh.F(t, corner))] ? 1.f : 0.f;
+    const int un = regions.uv_size;
+    const int tx = std::clamp(int(surface.uv[2 * i] * un), 0, un - 1);
+    const int ty = std::clamp(int((1 - surface.uv[2 * i + 1]) * un), 0, un - 1);
+    skin.pixels[i] = skin_uv[size_t(ty) * un + tx] ? 1.f : 0.f;
   }
   const detect::Landmarks68 landmarks = project_landmarks(mesh, camera);
   nlohmann::json lm_json = nlohmann::json::array(), visible = nlohmann::json::array();
@@ -311,6 +408,8 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
       {"subject", subj.id},
       {"split", kSplitNames[s.split]},
       {"style", s.style},
+      {"makeup", makeup::to_json(s.look)},
+      {"layer_size", std::min(opt.layer_size, regions.uv_size)},
       {"landmarks", lm_json},
       {"landmarks_visible", visible},
       {"coefficients",
@@ -328,6 +427,8 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
       {"subject_truth", truth},
       {"has_truth", true},
   };
+  lap = clock.lap(kShade, lap);
+  auto t_encode = clock.time(kEncode);
   shards::Sample out;
   char key[16];
   std::snprintf(key, sizeof(key), "%08lld", static_cast<long long>(s.index));
@@ -337,6 +438,9 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
   out.members["bare.png"] = encode_png(encode_srgb(bare));
   out.members["skin.png"] = encode_png(skin);
   out.members["face.png"] = encode_png(face);
+  const makeup::MakeupLayer layer = stored_layer(s.layer, std::min(opt.layer_size, regions.uv_size));
+  out.members["layer.png"] = encode_png(makeup::layer_png_image(layer));
+  out.members["finish.png"] = encode_png(makeup::finish_png_image(layer));
   out.members["json"] = meta.dump(1);
   return out;
 }
@@ -355,13 +459,21 @@ FaceGenerator::FaceGenerator(FacesOptions options) : world_(std::make_unique<Wor
   std::vector<std::string> ids;
   for (const FaceSubject& s : w.registered.subjects) ids.push_back(s.id);
   w.plan = plan_faces(w.opt, ids);
-  w.skin_vertex.assign(size_t(w.model.vertices()), 1);
-  for (int v = 0; v < w.model.vertices(); ++v) {
-    if (size_t(v) >= w.model.vertex_region.size()) break;
-    const size_t r = w.model.vertex_region[size_t(v)];
-    const std::string name = r < w.model.region_names.size() ? w.model.region_names[r] : "";
-    if (name == "eyes" || name == "brows" || name == "mouth") w.skin_vertex[size_t(v)] = 0;
-  }
+  // Makeup regions on the model's topology (the template's) and the skin in UV.
+  TemplateFace face;
+  face.mesh = w.model.topology;
+  face.landmark_vertices = w.model.landmark_vertices;
+  w.regions = makeup::makeup_regions(face, w.opt.map_size);
+  const int n = w.regions.uv_size;
+  w.skin_uv.assign(size_t(n) * n, 0);
+  const Image& foundation = w.regions[makeup::Region::Face];
+  for (size_t i = 0; i < w.skin_uv.size(); ++i)
+    w.skin_uv[i] = foundation.pixels[i] < 0 && w.regions.coverage.pixels[i] > 0 && w.regions.exclusion.pixels[i] <= 0;
+  const auto styles = makeup::parse_styles(w.opt.styles, "--styles");
+  w.styles_test = styles;
+  w.styles_train = w.opt.exclude_styles.empty()
+                       ? styles
+                       : makeup::select_styles(styles, makeup::parse_styles(w.opt.exclude_styles, "--exclude-styles"));
 }
 
 FaceGenerator::~FaceGenerator() = default;
@@ -426,7 +538,9 @@ FacesReport FaceGenerator::run(const detect::PhotoDetector& detector, const Prog
       });
       for (auto& s : stages) {  // the detector runs on the Torch side's own threads, one photo at a time
         if (s.photo_srgb.empty() || !detector) continue;
+        const auto td = std::chrono::steady_clock::now();
         s.detected = detector(s.photo_srgb);
+        out.detector_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - td).count();
         ++out.detector_runs;
         out.detected += ours(s.detected, s.photo_truth) != nullptr;
       }
@@ -474,11 +588,13 @@ FacesReport FaceGenerator::run(const detect::PhotoDetector& detector, const Prog
       if (w.plan.subject_split[s] == split) subjects.push_back(w.plan.subjects[s]);
     m.metadata = {{"generator", w.opt.generator}, {"kind", "faces"},          {"split", kSplitNames[split]},
                   {"samples", int64_t(list.size())}, {"subjects", subjects}, {"config", w.opt.to_json()},
-                  {"members", {"makeup.png", "before.png", "bare.png", "skin.png", "face.png", "json"}}};
+                  {"members", {"makeup.png", "before.png", "bare.png", "skin.png", "face.png", "layer.png",
+                               "finish.png", "json"}}};
     shards::write_manifest(dir.string(), m);
     out.complete_splits.push_back(kSplitNames[split]);
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.stage_seconds = w.clock.to_json();
   return out;
 }
 

@@ -37,7 +37,9 @@ struct FacesOptions {
   SampleRanges ranges;
   double occluder_prob = 0.3;
   std::string styles = "all", exclude_styles;
-  int map_size = 512;             // registered maps are resampled to this (the face is ~180 px wide at 256²)
+  int map_size = 512;             // registered maps are resampled to this (the face is ~180 px wide at 256²); the
+                                  // makeup is painted at this size
+  int layer_size = 256;           // the stored makeup layer (layer.png, finish.png)
   std::string backgrounds = kSkimageDataFolderDefault;  // photo folder ("" or missing: procedural only)
   std::string generator = "bareskin texgen faces";      // name and version, for the manifest
 
@@ -62,6 +64,8 @@ struct FacesReport {
   std::vector<std::string> complete_splits;  // manifests written
   double seconds = 0;
   int64_t detected = 0, detector_runs = 0;   // --align detector: faces found on the pre-alignment render
+  double detector_seconds = 0;
+  nlohmann::json stage_seconds;              // CPU seconds per stage, all threads
   nlohmann::json to_json() const;
 };
 
