@@ -90,8 +90,13 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
       photos.push_back(o->input);
     }
     const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
-    const bsn::Demakeup d = bsn::Demakeup::load(o->run, o->teacher, o->model, device);
     const detect::PhotoDetector detector = photo_detector(globals, o->detector_size);
+    if (!folder) {  // a photo without a face fails before the networks load
+      Image image = read_image(photos[0].string());
+      if (image.channels < 3) throw InvalidInput(photos[0].string(), "is not an RGB photo", "give a colour photo");
+      if (detector(image).empty()) throw InvalidInput(photos[0].string(), "no face was found", "give a photo with a face of at least ~80 px");
+    }
+    const bsn::Demakeup d = bsn::Demakeup::load(o->run, o->teacher, o->model, device);
     std::vector<std::string> failed;
     auto bar = globals.progress("demakeup");
     for (size_t i = 0; i < photos.size(); ++i) {

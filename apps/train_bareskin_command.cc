@@ -1,11 +1,15 @@
 // bareskin train bareskin: BareSkinNet's two stages (training/bareskinnet.h) on `texgen faces` samples, with the
 // teacher F of `bareskin train recon`. docs/training.md, "BareSkinNet"; docs/cli.md.
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <iostream>
 
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
+#include "core/files.h"
+#include "detect/face_recognition.h"
 #include "detect/face_api.h"
 #include "training/bareskinnet.h"
 #include "training/face_model.h"
@@ -40,7 +44,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     int64_t steps1 = 10000, steps2 = 30000, batch = 4, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
             sample_every = 1000;
     uint64_t seed = 0;
-    bool resume = false;
+    bool resume = false, evaluate = false;
+    int64_t eval_samples = 0;
   };
   auto o = std::make_shared<Options>();
   CLI::App* app = train.add_subcommand("bareskin", "Train BareSkinNet: stage 1 (G alone), stage 2 (G + E with the frozen teacher F)");
@@ -71,10 +76,13 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--eval-every", o->eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
   app->add_option("--sample-every", o->sample_every, "Steps between sample grids (0: never)")->capture_default_str();
   app->add_flag("--resume", o->resume, "Continue the run in the output folder (finished stages are kept)");
+  app->add_flag("--evaluate", o->evaluate, "Only evaluate the run in the output folder on the test split (eval.json)");
+  app->add_option("--eval-samples", o->eval_samples, "Test samples the final evaluation reads (0: all)")->capture_default_str();
   app->footer("Example:\n  bareskin train bareskin --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
               "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
   return [o, app, &globals] {
     set_torch_threads(globals);
+    const auto data_splits = splits(o->data);
     bsn::Options task = o->task;
     task.g = json_option(o->g, "--g-options");
     task.d = json_option(o->d, "--d-options");
@@ -84,9 +92,10 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
     if (!o->ablation.empty() && !bsn::ablation_has_stage2(o->ablation)) o->steps2 = 0;
     const nlohmann::json student_options = json_option(o->student, "--student-options");
-    if (o->steps2 > 0) {
+    if (o->steps2 > 0 && !o->evaluate) {
       if (o->teacher.empty())
         throw InvalidInput("--teacher", "is needed by stage 2", "give a 'bareskin train recon' run, or --steps2 0");
+      bsn::check_teacher(o->teacher);
       if (o->model.empty())
         throw InvalidInput("--model", "is needed by stage 2", "give the model.safetensors the teacher was trained with");
       if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file");
@@ -96,7 +105,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
     bsn::RunOptions ro;
     ro.task = task;
-    std::tie(ro.train_data, ro.val_data) = splits(o->data);
+    std::tie(ro.train_data, ro.val_data) = data_splits;
     ro.run_dir = o->output;
     ro.steps1 = o->steps1;
     ro.steps2 = o->steps2;
@@ -111,6 +120,31 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     ro.trainer.eval_every = ro.val_data.empty() ? 0 : o->eval_every;
     ro.trainer.sample_every = o->sample_every;
     ro.trainer.progress = !globals.quiet();
+    // The held-out evaluation (test/: unseen subjects and makeup styles) into <run>/eval.json.
+    const std::string test_split = (fs::path(o->data) / "test").string();
+    auto evaluate = [&] {
+      if (!fs::exists(fs::path(test_split) / "manifest.json")) {
+        if (o->evaluate) throw InvalidInput(o->data, "has no test/manifest.json to evaluate on", "give the folder 'bareskin texgen faces' wrote");
+        return;
+      }
+      bsn::EvalOptions eo;
+      eo.lpips_trunk = task.lpips_trunk;
+      eo.device = device;
+      eo.max_samples = o->eval_samples;
+      const std::string face_api = detect::default_face_api_folder();
+      if (fs::exists(fs::path(face_api) / detect::kFaceRecognitionManifest)) eo.face_api = face_api;
+      if (eo.lpips_trunk == "facenet" && eo.face_api.empty()) eo.lpips_trunk.clear();
+      const bsn::EvalResult r = bsn::evaluate_generator(bsn::load_generator(o->output, device), test_split, eo);
+      nlohmann::json j = r;
+      j["lpips_trunk"] = eo.lpips_trunk;
+      j["split"] = test_split;
+      write_file_atomic(o->output + "/eval.json", j.dump(2) + "\n");
+      if (!globals.quiet())
+        std::cerr << fmt::format("test ({} faces): skin PSNR {:.2f} dB / SSIM {:.4f} vs bare (input {:.2f} / {:.4f}); vs before {:.2f} dB; G {:.1f} ms\n",
+                                 r.samples, r.mean.at("psnr_bare"), r.mean.at("ssim_bare"), r.mean.at("psnr_input_bare"),
+                                 r.mean.at("ssim_input_bare"), r.mean.at("psnr_before"), r.ms_per_image);
+    };
+    if (o->evaluate) return evaluate();
     // Check the teacher before stage 1 spends its time: a wrong checkpoint fails at once.
     std::shared_ptr<recon::FaceModel> model;
     if (o->steps2 > 0) {
@@ -133,6 +167,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
         for (auto& [k, v] : r->last_eval) std::cerr << (r == &result.stage1 ? "stage 1 " : "stage 2 ") << k << " " << v << "\n";
       std::cerr << "wrote " << o->output << "/stage1" << (o->steps2 > 0 ? " and stage2" : "") << "\n";
     }
+    if (result.stage1.steps + result.stage2.steps > 0 || !fs::exists(o->output + "/eval.json")) evaluate();
   };
 }
 

@@ -1,5 +1,6 @@
 #include "training/bareskinnet.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 
@@ -308,25 +309,28 @@ ReconNet wrap(recon::ReconNet net, int64_t input_size) {
 
 }  // namespace
 
-ReconNet load_teacher(const std::string& run, const recon::FaceModel& model) {
+std::string check_teacher(const std::string& run) {
   namespace fs = std::filesystem;
   const std::string path = fs::is_directory(run) ? train::checkpoint_path(run) : run;
   const std::string hint = "give --teacher the run folder of 'bareskin train recon' (the teacher F)";
   if (!fs::exists(path)) throw IoError(path, "does not exist", hint);
-  nlohmann::json meta;
-  {
-    SafeTensors file = SafeTensors::open(path);
-    auto it = file.metadata().find("bareskin.checkpoint");
-    if (it == file.metadata().end()) throw InvalidInput(path, "is not a training checkpoint", hint);
-    meta = nlohmann::json::parse(it->second, nullptr, false);
-    if (!meta.is_object()) throw InvalidInput(path, "has unreadable checkpoint metadata", hint);
-    const std::string task = meta.value("task", "");
-    if (task != "recon")
-      throw InvalidInput(path, "is a checkpoint of '" + task + "', not of the teacher F (recon)", hint);
-    bool has_f = false;
-    for (const auto& name : file.names()) has_f = has_f || name.rfind("module.F.", 0) == 0;
-    if (!has_f) throw InvalidInput(path, "holds no teacher F (a student E run?)", hint);
-  }
+  SafeTensors file = SafeTensors::open(path);
+  auto it = file.metadata().find("bareskin.checkpoint");
+  if (it == file.metadata().end()) throw InvalidInput(path, "is not a training checkpoint", hint);
+  const nlohmann::json meta = nlohmann::json::parse(it->second, nullptr, false);
+  if (!meta.is_object()) throw InvalidInput(path, "has unreadable checkpoint metadata", hint);
+  const std::string task = meta.value("task", "");
+  if (task != "recon") throw InvalidInput(path, "is a checkpoint of '" + task + "', not of the teacher F (recon)", hint);
+  bool has_f = false;
+  for (const auto& name : file.names()) has_f = has_f || name.rfind("module.F.", 0) == 0;
+  if (!has_f) throw InvalidInput(path, "holds no teacher F (a student E run?)", hint);
+  return path;
+}
+
+ReconNet load_teacher(const std::string& run, const recon::FaceModel& model) {
+  const std::string path = check_teacher(run);
+  const nlohmann::json meta =
+      nlohmann::json::parse(SafeTensors::open(path).metadata().at("bareskin.checkpoint"), nullptr, false);
   const nlohmann::json config = meta.value("config", nlohmann::json::object());
   recon::ReconNetOptions net_options;
   if (const nlohmann::json* o = find_object_with(config, "arch")) recon::from_json(*o, net_options);
@@ -373,6 +377,10 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   lo.seed = ro.seed;
   lo.decode_threads = ro.decode_threads;
   data::ShardLoader train_loader(lo);
+  if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made
+    train_loader.next();
+    train_loader.seek({0, 0});
+  }
   std::unique_ptr<data::ShardLoader> val;
   if (!ro.val_data.empty()) {
     data::LoaderOptions vo = lo;
@@ -451,8 +459,9 @@ torch::Tensor image_to_tensor(const Image& im) {
 
 }  // namespace
 
-Demakeup Demakeup::load(const std::string& run, const std::string& teacher, const std::string& model,
-                        torch::Device device) {
+namespace {
+
+std::string run_checkpoint(const std::string& run) {
   namespace fs = std::filesystem;
   std::string path = run;
   if (fs::is_directory(run)) {
@@ -462,6 +471,13 @@ Demakeup Demakeup::load(const std::string& run, const std::string& teacher, cons
   }
   if (!fs::exists(path))
     throw IoError(run, "holds no BareSkinNet checkpoint (stage2/ or stage1/)", "give the run folder of 'bareskin train bareskin'");
+  return path;
+}
+
+}  // namespace
+
+Demakeup load_generator(const std::string& run, torch::Device device) {
+  const std::string path = run_checkpoint(run);
   const nlohmann::json config = checkpoint_config(path);
   Options o;
   from_json(config.value("task", nlohmann::json::object()), o);
@@ -472,6 +488,13 @@ Demakeup Demakeup::load(const std::string& run, const std::string& teacher, cons
   train::load_module_weights(path, "G", *d.G);
   d.G->to(device);
   d.G->eval();
+  return d;
+}
+
+Demakeup Demakeup::load(const std::string& run, const std::string& teacher, const std::string& model,
+                        torch::Device device) {
+  Demakeup d = load_generator(run, device);
+  const nlohmann::json config = checkpoint_config(run_checkpoint(run));
   const std::string teacher_run = teacher.empty() ? config.value("teacher", "") : teacher;
   const std::string model_path = model.empty() ? config.value("model", "") : model;
   if (teacher_run.empty() || model_path.empty())
@@ -498,6 +521,82 @@ Demakeup Demakeup::with_model(const std::string& model_path, torch::Device devic
   d.uv_vertex = torch::zeros({d.uvs.size(0)}, torch::TensorOptions().dtype(torch::kLong).device(device));
   d.uv_vertex.index_put_({d.uv_triangles.flatten()}, tri.flatten());
   return d;
+}
+
+void to_json(nlohmann::json& j, const EvalResult& r) {
+  j = {{"samples", r.samples}, {"ms_per_image", r.ms_per_image}, {"mean", r.mean}, {"by_style", r.by_style}};
+}
+
+EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& eo) {
+  torch::NoGradGuard no_grad;
+  data::LoaderOptions lo;
+  lo.dataset = split;
+  lo.required = {"makeup.png", "before.png", "bare.png", "skin.png", "json"};
+  lo.batch_size = eo.batch;
+  lo.shuffle_buffer = 0;
+  data::ShardLoader loader(lo);
+  const int64_t total = eo.max_samples > 0 ? std::min(eo.max_samples, loader.epoch_size()) : loader.epoch_size();
+  losses::Lpips lpips{nullptr};
+  if (!eo.lpips_trunk.empty()) lpips = losses::Lpips(eo.lpips_trunk, eo.face_api);
+  if (lpips) lpips->to(eo.device);
+  detect::FaceRecognitionNet face{nullptr};
+  if (!eo.face_api.empty()) face = detect::FaceRecognitionNet(eo.face_api);
+  if (face) face->to(eo.device);
+  std::map<std::string, double> sums;
+  std::map<std::string, std::map<std::string, double>> style_sums;
+  std::map<std::string, int64_t> style_counts;
+  EvalResult r;
+  while (r.samples < total) {
+    data::Batch batch = loader.next();
+    const int64_t n = std::min(batch.size(), total - r.samples);
+    auto take = [&](const std::string& name) { return batch.at(name).narrow(0, 0, n).to(eo.device); };
+    auto makeup = take("makeup");
+    auto skin = take("skin");
+    auto out = run_generator(d, makeup);
+    std::map<std::string, torch::Tensor> m;  // per image [n]
+    for (const char* truth : {"bare", "before"}) {
+      auto t = take(truth);
+      for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
+        m["psnr_" + name + truth] = masked_psnr(x, t, skin);
+        m["ssim_" + name + truth] = masked_ssim(x, t, skin);
+        if (lpips) m["lpips_" + name + truth] = lpips->forward(x * skin, t * skin);
+        if (face && std::string(truth) == "bare") {
+          auto ea = F::normalize(face->forward(x), F::NormalizeFuncOptions().dim(1));
+          auto eb = F::normalize(face->forward(t), F::NormalizeFuncOptions().dim(1));
+          m["identity_" + name + truth] = (ea * eb).sum(1);
+        }
+      }
+    }
+    for (int64_t i = 0; i < n; ++i) {
+      const std::string style = batch.meta[size_t(i)].value("style", "unknown");
+      ++style_counts[style];
+      for (auto& [name, v] : m) {
+        const double x = v[i].item<double>();
+        sums[name] += x;
+        style_sums[style][name] += x;
+      }
+    }
+    r.samples += n;
+  }
+  for (auto& [name, v] : sums) r.mean[name] = v / double(std::max<int64_t>(1, r.samples));
+  for (auto& [style, ms] : style_sums)
+    for (auto& [name, v] : ms) r.by_style[style][name] = v / double(style_counts[style]);
+  r.by_style["count"] = {};
+  for (auto& [style, c] : style_counts) r.by_style["count"][style] = double(c);
+  // Inference time of G alone (batch 1, at its training size), median of 5 after a warm-up.
+  auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
+  auto x = torch::rand({1, 3, d.size, d.size}, torch::TensorOptions().device(eo.device));
+  std::vector<double> times;
+  for (int k = 0; k < 6; ++k) {
+    if (eo.device.is_cuda()) torch::cuda::synchronize();
+    const auto t0 = std::chrono::steady_clock::now();
+    G->forward(x);
+    if (eo.device.is_cuda()) torch::cuda::synchronize();
+    if (k) times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::sort(times.begin(), times.end());
+  r.ms_per_image = times[times.size() / 2];
+  return r;
 }
 
 torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {

@@ -167,6 +167,8 @@ RunResult train_two_stages(const RunOptions& options, const std::function<Stage2
 // resized to the size F was trained at. InvalidInput naming the file when the checkpoint belongs to another task
 // or holds no F, or when F's head does not fit the model.
 ReconNet load_teacher(const std::string& run, const recon::FaceModel& model);
+// The checks of load_teacher that need no model (the checkpoint's task and its F); returns the checkpoint's path.
+std::string check_teacher(const std::string& run);
 // A fresh student E (ResNet-18 by default, no light) for this model; `options` over recon::ReconNetOptions.
 ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& options = nlohmann::json::object());
 
@@ -217,6 +219,28 @@ DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::Pho
 std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
                                                      const torch::Tensor& coefficients, int64_t uv_size,
                                                      double depth_tolerance = 2.0);
+
+// ---- Evaluation on held-out faces (the test split: unseen subjects and, with texgen's --exclude-styles, unseen
+// makeup styles). ----
+struct EvalOptions {
+  std::string lpips_trunk = "vgg16-random";  // LPIPS of the skin region (masked images); "" = none
+  std::string face_api;                      // face-api folder: facenet LPIPS and the identity cosine ("" = no identity)
+  int64_t batch = 4;
+  int64_t max_samples = 0;  // 0: all
+  torch::Device device = torch::kCPU;
+};
+struct EvalResult {
+  int64_t samples = 0;
+  double ms_per_image = 0;  // G alone, batch 1 at its training size on this device (median)
+  std::map<std::string, double> mean;  // psnr_bare, ssim_bare, lpips_bare, psnr_before, ..., identity_bare,
+                                       // and the input's own (psnr_input_bare ...): the do-nothing baseline
+  std::map<std::string, std::map<std::string, double>> by_style;  // the same per makeup style
+};
+void to_json(nlohmann::json& j, const EvalResult& r);
+// G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json).
+EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
+// G alone from a run (stage2, else stage1): the Demakeup evaluate_generator takes.
+Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
 
 // The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
 nlohmann::json generator_options(const nlohmann::json& g, int64_t size);

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# bareskin train bareskin / bareskin demakeup: a tiny stage-1 run on face shards written here (Python: tar + PNG), its
+# held-out evaluation, and bad input: a teacher checkpoint of another model, corrupt shards, a photo without a face.
+source "$(dirname "$0")/lib.sh" "$@"
+
+# Face samples in texgen faces' layout (32², 8 train + 4 test), with an independent PNG and tar writer.
+"$py" - "$work/faces" <<'PY'
+import io, json, os, struct, sys, tarfile, zlib
+import numpy as np
+root = sys.argv[1]
+def png(a):
+    a = (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
+    h, w = a.shape[:2]
+    c = 1 if a.ndim == 2 else a.shape[2]
+    raw = b"".join(b"\0" + a[y].tobytes() for y in range(h))
+    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, {1: 0, 3: 2}[c], 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+rng = np.random.default_rng(1)
+yy, xx = np.mgrid[0:32, 0:32] / 31.0 * 2 - 1
+disc = (xx**2 + yy**2 < 0.6).astype(float)
+for split, count in (("train", 8), ("test", 4)):
+    os.makedirs(f"{root}/{split}", exist_ok=True)
+    name = f"faces-000000.tar"
+    with tarfile.open(f"{root}/{split}/{name}", "w") as tar:
+        for i in range(count):
+            bare = 0.3 + 0.4 * rng.random(3)[None, None, :] * np.ones((32, 32, 1))
+            before = bare * (0.8 + 0.2 * xx[..., None])
+            makeup = before * 0.7 + 0.3 * np.array([0.8, 0.2, 0.3]) * disc[..., None]
+            meta = {"subject": f"mm/{i}", "split": split, "style": "natural", "has_truth": True,
+                    "landmarks": (rng.random((68, 2)) * 32).tolist()}
+            for member, data in (("makeup.png", png(makeup)), ("before.png", png(before)), ("bare.png", png(bare)),
+                                 ("skin.png", png(disc)), ("face.png", png(disc)), ("json", json.dumps(meta).encode())):
+                info = tarfile.TarInfo(f"{i:08d}.{member}")
+                info.size = len(data)
+                tar.addfile(info, io.BytesIO(data))
+    data = open(f"{root}/{split}/{name}", "rb").read()
+    json.dump({"format": "bareskin-shards/1", "samples": count, "metadata": {},
+               "shards": [{"name": name, "samples": count, "crc32": zlib.crc32(data), "bytes": len(data)}]},
+              open(f"{root}/{split}/manifest.json", "w"))
+PY
+[ -f "$work/faces/train/manifest.json" ] || fail "could not write the test shards"
+
+small=(--size 32 --batch 4 --g-options '{"ngf": 8}' --d-options '{"ndf": 8, "n_layers": 2}' --ablation b
+       --log-every 1 --checkpoint-every 2 --eval-every 0 --sample-every 2 --eval-samples 4 --threads 2 -q)
+"$bin" train bareskin --data "$work/faces" --steps1 2 -o "$work/bsn" "${small[@]}" \
+  || fail "a stage-1 run failed: $("$bin" train bareskin --data "$work/faces" --steps1 2 -o "$work/bsn2" "${small[@]}" 2>&1 | tail -3)"
+[ -f "$work/bsn/stage1/checkpoint.safetensors" ] || fail "no stage-1 checkpoint"
+[ ! -e "$work/bsn/stage2" ] || fail "ablation row b trained a second stage"
+"$py" - "$work/bsn/eval.json" <<'PY' || fail "eval.json: $(cat "$work/bsn/eval.json")"
+import json, sys
+j = json.load(open(sys.argv[1]))
+assert j["samples"] == 4, j["samples"]
+for k in ("psnr_bare", "ssim_bare", "psnr_before", "psnr_input_bare"):
+    assert k in j["mean"] and j["mean"][k] == j["mean"][k], k  # present and not NaN
+assert j["ms_per_image"] > 0
+PY
+# A second run into the same folder without --resume is refused; --resume of a finished run trains nothing more.
+expect_failure 3 "already holds a run" "" -- "$bin" train bareskin --data "$work/faces" --steps1 2 -o "$work/bsn" "${small[@]}"
+
+# The teacher must be a recon run holding F: a BareSkinNet checkpoint is refused before anything is trained.
+expect_failure 3 "not of the teacher F" "$work/bsn3" -- "$bin" train bareskin --data "$work/faces" --steps1 1 --steps2 1 \
+  --teacher "$work/bsn/stage1" --model "$work/none.safetensors" -o "$work/bsn3" --size 32 -q
+expect_failure 3 "--teacher" "$work/bsn3" -- "$bin" train bareskin --data "$work/faces" --steps1 1 --steps2 1 -o "$work/bsn3" -q
+# Corrupt shards: one line, nothing written.
+mkdir -p "$work/bad/train"
+cp "$work/faces/train/manifest.json" "$work/bad/train/"
+head -c 3000 "$work/faces/train/faces-000000.tar" > "$work/bad/train/faces-000000.tar"
+expect_failure 3 "faces-000000.tar" "$work/bsn4" -- "$bin" train bareskin --data "$work/bad" --steps1 1 --steps2 0 -o "$work/bsn4" -q
+expect_failure 3 "train/manifest.json" "$work/bsn4" -- "$bin" train bareskin --data "$work/nowhere" --steps1 1 -o "$work/bsn4" -q
+
+# demakeup: a photo without a face (flat grey) fails before any output is made; a missing run names itself.
+"$py" -c "
+import numpy as np, skimage.io
+skimage.io.imsave('$work/grey.png', np.full((160, 160, 3), 128, np.uint8), check_contrast=False)"
+expect_failure 3 "no face was found" "$work/out" -- "$bin" demakeup "$work/grey.png" --run "$work/bsn" -o "$work/out" -q
+expect_failure 4 "nothing" "$work/out" -- "$bin" demakeup "$work/nothing.png" --run "$work/bsn" -o "$work/out" -q
+echo "bareskin CLI: ok"
