@@ -8,9 +8,10 @@
 
 namespace bareskin::cli {
 
-// face-api's networks on a front render of the scan (detect/scan_landmarks.h); sets LibTorch's threads from --threads.
+// face-api's networks on a front render of the scan (detect/scan_landmarks.h), or with `calibration` (a `landmarks
+// calibrate` file) on 16 views, triangulated and calibrated (detect/multiview_landmarks.h); sets LibTorch's threads.
 // Empty without the Torch side: such scans then take the fallback alignment.
-ScanLandmarkDetector scan_landmark_detector(const Globals& globals);
+ScanLandmarkDetector scan_landmark_detector(const Globals& globals, const std::string& calibration = "");
 
 // face-api's networks on a photo (texgen faces, ingest): the faces with their 68 landmarks, best first; the detector
 // looks at `input_size`² (a multiple of 32). Empty without the Torch side.

@@ -29,29 +29,28 @@ void set_torch_threads(const Globals& globals) {
   torch::set_num_threads(globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency()));
 }
 
-ScanLandmarkDetector scan_landmark_detector(const Globals& globals) {
+ScanLandmarkDetector scan_landmark_detector(const Globals& globals, const std::string& calibration_path) {
   set_torch_threads(globals);
-  return [](const Mesh& scan, const Image* diffuse) {
+  std::optional<LandmarkCalibration> calibration;
+  if (!calibration_path.empty()) calibration = read_landmark_calibration(calibration_path);
+  return [calibration](const Mesh& scan, const Image* diffuse) {
     static const detect::FaceApi net(detect::default_face_api_folder());
-    const detect::ScanLandmarks found = detect::detect_scan_landmarks(net, scan, diffuse);
     DetectedLandmarks out;
-    out.landmarks = found.landmarks;
-    out.detector_score = found.detector_score;
-    out.snapped_to_silhouette = found.off_surface;
+    if (!calibration) {  // the front render (detect/scan_landmarks.h)
+      const detect::ScanLandmarks found = detect::detect_scan_landmarks(net, scan, diffuse);
+      out.landmarks = found.landmarks;
+      out.detector_score = found.detector_score;
+      out.snapped_to_silhouette = found.off_surface;
+      return out;
+    }
+    auto found = detect::detect_multiview_landmarks(net, scan, diffuse, detect::MultiviewOptions{});
+    apply_calibration(scan, *calibration, found.result);
+    out.landmarks = found.result.landmarks;
+    for (const auto& v : found.views) out.detector_score = std::max(out.detector_score, v.score);
+    out.views = found.result.views;
+    out.calibrated = true;
+    for (const auto& p : found.result.points) out.sigma_mm.push_back(p.sigma_mm);
     return out;
-  };
-}
-
-detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
-  set_torch_threads(globals);
-  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  return [net, input_size](const Image& photo) {
-    detect::DetectOptions options;
-    options.input_size = input_size;
-    std::vector<detect::PhotoFace> faces;
-    for (const detect::Face& f : net->detect(detect::photo_tensor(photo, "photo"), options))
-      faces.push_back({f.score, f.points});
-    return faces;
   };
 }
 
@@ -87,6 +86,24 @@ Mesh read_textured_scan(const std::string& scan, const std::string& texture_give
   if (!texture.empty()) diffuse = to_linear(read_image(texture));
   if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
   return mesh;
+}
+
+// The views as a capture folder: view_NN.png (sRGB) and cameras.json (docs/file_formats.md).
+void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
+  std::filesystem::create_directories(dir);
+  nlohmann::json cams = nlohmann::json::array();
+  for (size_t v = 0; v < m.pictures.size(); ++v) {
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%02zu.png", v);
+    write_image(dir + "/" + name, m.pictures[v]);
+    const Camera& c = m.views[v].camera;
+    nlohmann::json R = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
+    cams.push_back({{"image", name}, {"width", c.width}, {"height", c.height}, {"focal", c.focal}, {"cx", c.cx},
+                    {"cy", c.cy}, {"R", R}, {"t", {c.t.x(), c.t.y(), c.t.z()}}});
+  }
+  write_file_atomic(dir + "/cameras.json", nlohmann::json{{"convention", "bareskin pinhole: p = R x + t, looks down -z"},
+                                                          {"cameras", cams}}.dump(1) + "\n");
 }
 
 void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
@@ -152,9 +169,10 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     detect::ScanLandmarkOptions detect;
     detect::MultiviewOptions multiview;
     bool no_jaw = false;
-    std::string calibration;
+    std::string calibration, uncalibrated, save_views, capture, sparse;
   };
   auto sc = std::make_shared<ScanOptions>();
+  sc->multiview.views = 1;
   CLI::App* s = app.add_subcommand("scan", "3D landmarks of a textured scan: detected in its front render, back-projected");
   s->add_option("scan", sc->scan, "Scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file")->required();
   s->add_option("--texture", sc->texture, "Diffuse map, when the scan is a mesh file (else: grey)");
@@ -174,6 +192,9 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_flag("--no-jaw", sc->no_jaw, "Leave the jaw contour (0-16, silhouette-dependent) out: null points");
   s->add_option("--calibration", sc->calibration, "Landmark calibration (`landmarks calibrate`): the detector's "
                                                   "convention mapped onto the template's landmarks");
+  s->add_option("--uncalibrated", sc->uncalibrated, "With --calibration: also write the points before it (JSON)");
+  s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
+                                                "this folder: a synthetic capture");
 
   struct CalibrateOptions {
     std::string scans, output, weights;
@@ -204,13 +225,17 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       std::optional<Image> diffuse;
       const Mesh mesh = read_textured_scan(sc->scan, sc->texture, mesh_path, diffuse);
       detect::FaceApi net(sc->weights);
+      if (sc->multiview.views == 1 && !(sc->calibration.empty() && sc->save_views.empty()))
+        throw InvalidInput("--views", "--calibration and --save-views need several views", "pass --views 16");
       if (sc->multiview.views > 1) {
         sc->multiview.triangulate.jaw = !sc->no_jaw;
         sc->multiview.refinements = sc->detect.refinements;
         std::optional<LandmarkCalibration> calibration;
         if (!sc->calibration.empty()) calibration = read_landmark_calibration(sc->calibration);
         auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
-                                                    !sc->draw.empty());
+                                                    !sc->draw.empty() || !sc->save_views.empty());
+        if (!sc->save_views.empty()) save_views(sc->save_views, m);
+        if (!sc->uncalibrated.empty()) write_file_atomic(sc->uncalibrated, multiview_landmarks_json(m.result));
         if (calibration) apply_calibration(mesh, *calibration, m.result);
         if (!sc->draw.empty()) write_image(sc->draw, detect::draw_multiview(m));
         write_file_atomic(sc->output, multiview_landmarks_json(m.result));

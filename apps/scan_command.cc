@@ -18,7 +18,7 @@ namespace bareskin::cli {
 
 #ifndef BARESKIN_WITH_DETECT
 // Without the Torch side there is no detector: scans without landmarks.json take the fallback alignment.
-ScanLandmarkDetector scan_landmark_detector(const Globals&) { return {}; }
+ScanLandmarkDetector scan_landmark_detector(const Globals&, const std::string&) { return {}; }
 void set_torch_threads(const Globals&) {}
 detect::PhotoDetector photo_detector(const Globals&, int) { return {}; }
 #endif
@@ -28,7 +28,7 @@ namespace {
 // `scan register`: flags into RegisterFolderOptions, then register_folder.
 std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) {
   struct Options {
-    std::string template_dir, map_format = "png";
+    std::string template_dir, map_format = "png", landmark_calibration;
     RegisterFolderOptions folder;
   };
   auto opt = std::make_shared<Options>();
@@ -64,13 +64,15 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
       ->capture_default_str()->group("Maps");
   app->add_option("--map-format", opt->map_format, "png, tif or exr")->capture_default_str()->group("Maps");
   app->add_option("--heat-max", f.heat_max_mm, "Error (mm) shown red in the QA heat maps")->capture_default_str();
+  app->add_option("--landmark-calibration", opt->landmark_calibration,
+                  "For scans without landmarks.json: map the detected landmarks with this `landmarks calibrate` file");
   return [opt, &globals] {
     RegisterFolderOptions& f = opt->folder;
     f.nicp.check();
     f.maps.format = parse_map_format(opt->map_format);
     if (f.maps.resolution != 0) f.maps.check();
     const TemplateFace face = read_template_folder(opt->template_dir);
-    f.detect = scan_landmark_detector(globals);
+    f.detect = scan_landmark_detector(globals, opt->landmark_calibration);
     ProgressBar bar = globals.progress("scan register");
     register_folder(face, f, bar.callback());
     bar.finish();

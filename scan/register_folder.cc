@@ -51,10 +51,19 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   if (const std::string p = find_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) diffuse = to_linear(read_image(p));
   const DetectedLandmarks found = options.detect(scan, diffuse ? &*diffuse : nullptr);
   out.landmarks = found.landmarks;
-  for (int k = 17; k < 68; ++k) out.nicp.landmark_ids.push_back(k);
+  // Calibrated points follow the template's convention, jaw included; otherwise the jaw contour (where a 2D
+  // detector sees the outline) and points that were not triangulated are left out.
+  for (int k = found.calibrated ? 0 : 17; k < 68; ++k)
+    if (found.landmarks.points.row(k).allFinite()) out.nicp.landmark_ids.push_back(k);
+  for (int k = 0; k < 68; ++k)
+    if (!found.landmarks.points.row(k).allFinite()) out.landmarks->points.row(k).setZero();  // unused, kept finite
   for (size_t i = 0; i < out.nicp.landmark_weight.size(); ++i)
     out.nicp.landmark_weight[i] = i < 3 ? 10.0 / std::pow(3.0, double(i)) : 0;
-  out.detected = {{"detector_score", found.detector_score}, {"used", "17-67 (the jaw contour is left out)"},
+  out.detected = {{"detector_score", found.detector_score},
+                  {"used", found.calibrated ? "calibrated, " + std::to_string(out.nicp.landmark_ids.size()) + " points"
+                                            : std::to_string(out.nicp.landmark_ids.size()) +
+                                                  " points of 17-67 (the jaw contour is left out)"},
+                  {"views", found.views},
                   {"snapped_to_silhouette", found.snapped_to_silhouette}};
   return out;
 }

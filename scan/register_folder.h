@@ -23,6 +23,9 @@ struct DetectedLandmarks {
   Landmarks landmarks;
   double detector_score = 0;
   int snapped_to_silhouette = 0;
+  int views = 1;            // cameras the points were triangulated from (1: the front render)
+  bool calibrated = false;  // mapped onto the template's convention (then all 68 are used)
+  std::vector<double> sigma_mm;  // per-point uncertainty when known
 };
 using ScanLandmarkDetector = std::function<DetectedLandmarks(const Mesh& scan, const Image* diffuse_linear)>;
 
