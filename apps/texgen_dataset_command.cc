@@ -25,15 +25,22 @@ detect::Box box_around(const texgen::Landmarks68& p) {
   return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
 }
 
+// iBUG-68 under a left-right mirror: point k of the mirrored face is point kMirror68[k] of the face.
+constexpr int kMirror68[68] = {16, 15, 14, 13, 12, 11, 10, 9,  8,  7,  6,  5,  4,  3,  2,  1,  0,  26, 25, 24, 23, 22, 21,
+                               20, 19, 18, 17, 27, 28, 29, 30, 35, 34, 33, 32, 31, 45, 44, 43, 42, 47, 46, 39, 38, 37, 36,
+                               41, 40, 54, 53, 52, 51, 50, 49, 48, 59, 58, 57, 56, 55, 64, 63, 62, 61, 60, 67, 66, 65};
+
 // The detectors make-dataset uses. Photos: face-api's detector box, then the landmark network; nothing when no face
 // scores above min_score. Renders (a face on black): the same, but when the detector's classifier rejects the
 // render (unlit albedo renders lack the shading it learned faces by) the box is the bounding box of the non-black
-// pixels; then `refinements` landmark passes on the box the previous points imply. No truth is used.
+// pixels; then `refinements` landmark passes on the box the previous points imply, and (flip) the average with the
+// mirrored image's landmarks. No truth is used.
 std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
-                                                                                         int input_size, int refinements) {
+                                                                                         int input_size, int refinements,
+                                                                                         bool flip) {
   set_torch_threads(globals);
   auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  auto find = [net, input_size, refinements](const Image& image, bool coverage_fallback) -> std::optional<texgen::Landmarks68> {
+  auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) -> std::optional<texgen::Landmarks68> {
     const torch::Tensor photo = detect::photo_tensor(image, "image");
     detect::DetectOptions options;
     options.input_size = input_size;
@@ -55,12 +62,20 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
     }
     texgen::Landmarks68 points = net->landmarks(photo, {box})[0];
     for (int pass = 0; pass < refinements; ++pass) points = net->landmarks(photo, {box_around(points)})[0];
-    return points;
+    if (!flip) return points;
+    // Test-time mirroring: the landmarks of the mirrored image on the mirrored box, mirrored back and relabelled
+    // (left and right points swap), averaged with the direct ones.
+    const detect::Box b = box_around(points);
+    const double W = image.width;
+    const texgen::Landmarks68 mirrored = net->landmarks(photo.flip({1}).contiguous(), {{W - b.x - b.width, b.y, b.width, b.height}})[0];
+    texgen::Landmarks68 back;
+    for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kMirror68[k], 0), mirrored(kMirror68[k], 1));
+    return texgen::Landmarks68((points + back) / 2);
   };
   return {[find](const Image& image) { return find(image, true); }, [find](const Image& image) { return find(image, false); }};
 }
 #else
-std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int) {
+std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int, bool) {
   throw InvalidInput("texgen make-dataset", "needs face-api's detector, which this build lacks (no Torch side)",
                      "build bareskin with LibTorch");
 }
@@ -75,6 +90,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     std::string occluders = "hair,glasses,hand,hat";
     std::vector<double> split = {0.8, 0.1, 0.1};
     int detector_size = 416, refinements = 2;
+    bool no_flip = false;
   };
   auto opt = std::make_shared<Options>();
   texgen::TextureDatasetOptions& o = opt->o;
@@ -99,6 +115,8 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->group("Fit");
   app->add_option("--refinements", opt->refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10))->group("Fit");
+  app->add_flag("--no-flip", opt->no_flip, "Landmarks from the image alone (default: averaged with those of its mirror "
+                                          "image)")->group("Fit");
   app->add_option("--fitter", o.fitter, "mm-fit (detected landmarks, then the photometric fit); recon (the network F) "
                                         "once it exists")
       ->capture_default_str()->check(CLI::IsMember({"mm-fit", "recon"}))->group("Fit");
@@ -151,7 +169,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       if (shards->count() == 0 && count && *count) o.shards = std::atoi(count);
     }
     o.check();
-    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements);
+    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, !opt->no_flip);
     ProgressBar bar = globals.progress("make-dataset");
     const texgen::TextureDatasetReport r =
         texgen::make_texture_dataset(o, render_detect, photo_detect, bar.callback());

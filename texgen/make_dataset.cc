@@ -365,7 +365,7 @@ json options_to_json(const TextureDatasetOptions& o) {
           {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},
           {"hr_res", o.hr_res}, {"merge_sharpness", o.sample.merge_sharpness}, {"masks_per_subject", o.masks_per_subject},
           {"occluders", occluders}, {"celebamask_count", o.celebamask.empty() ? 0 : o.celebamask_count},
-          {"split", o.split}, {"subjects_per_shard", o.subjects_per_shard}, {"shards", o.shards}, {"seed", o.seed}};
+          {"split", o.split}, {"subjects_per_shard", o.subjects_per_shard}, {"seed", o.seed}};
 }
 
 }  // namespace
@@ -429,7 +429,14 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& o, const 
     if (int(photos.size()) > o.celebamask_count) photos.resize(size_t(o.celebamask_count));
   }
 
+  // CelebAMask photos first: a photo without a face then stops a run before any subject's shard.
   std::vector<Unit> units;
+  for (size_t i = 0; i < photos.size(); i += size_t(o.celebamask_per_shard)) {
+    Unit u;
+    u.id = int(units.size());
+    u.photos.assign(photos.begin() + long(i), photos.begin() + long(std::min(photos.size(), i + size_t(o.celebamask_per_shard))));
+    units.push_back(u);
+  }
   const auto splits = split_subjects(int(subjects.size()), o.split, o.seed);
   for (int k = 0; k < 3; ++k) {
     report.split_subjects[size_t(k)] = int(splits[size_t(k)].size());
@@ -442,12 +449,6 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& o, const 
         u.subjects.push_back(splits[size_t(k)][j]);
       units.push_back(u);
     }
-  }
-  for (size_t i = 0; i < photos.size(); i += size_t(o.celebamask_per_shard)) {
-    Unit u;
-    u.id = int(units.size());
-    u.photos.assign(photos.begin() + long(i), photos.begin() + long(std::min(photos.size(), i + size_t(o.celebamask_per_shard))));
-    units.push_back(u);
   }
   report.units = int(units.size());
   make_directories(o.output);

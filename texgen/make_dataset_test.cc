@@ -1,0 +1,118 @@
+// texgen make-dataset, geometry side: merging views by confidence on a hand-computed case, and the unwrap of renders
+// through the true geometry (a fit equal to the truth) giving the texture back, while a fit 3 mm off does not.
+// Determinism, resume and bad input run through the command (tests/cli/texgen_dataset.sh).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "core/error.h"
+#include "core/mesh_io.h"
+#include "core/test_util.h"
+#include "render/shade.h"
+#include "texgen/texture_sample.h"
+
+namespace bareskin::texgen {
+namespace {
+
+UnwarpResult uv_of(int size, std::vector<std::array<float, 3>> colours, std::vector<float> confidences) {
+  UnwarpResult r;
+  r.colour = Image(size, size, 3);
+  r.confidence = Image(size, size, 1, ColorSpace::Data);
+  for (size_t i = 0; i < confidences.size(); ++i) {
+    for (int k = 0; k < 3; ++k) r.colour.pixels[3 * i + size_t(k)] = colours[i][size_t(k)];
+    r.confidence.pixels[i] = confidences[i];
+  }
+  return r;
+}
+
+TEST(MergeByConfidence, WeighsViewsByConfidenceToTheSharpness) {
+  // Texel 0: both views (weights 0.5² and 1²); texel 1: only the first; texel 2: only the second; texel 3: none.
+  const UnwarpResult a = uv_of(2, {{1, 0, 0}, {0.2f, 0.4f, 0.6f}, {9, 9, 9}, {0, 0, 0}}, {0.5f, 0.3f, 0, 0});
+  const UnwarpResult b = uv_of(2, {{0, 0, 1}, {7, 7, 7}, {0.1f, 0.1f, 0.1f}, {0, 0, 0}}, {1.0f, 0, 0.8f, 0});
+  const MergedUnwrap m = merge_by_confidence({&a, &b}, 2.0);
+  const float expect[4][3] = {{0.25f / 1.25f, 0, 1 / 1.25f}, {0.2f, 0.4f, 0.6f}, {0.1f, 0.1f, 0.1f}, {0, 0, 0}};
+  const float confidence[4] = {1.0f, 0.3f, 0.8f, 0};
+  for (int i = 0; i < 4; ++i) {
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(m.colour.pixels[size_t(3 * i + k)], expect[i][k], 1e-6) << i << " " << k;
+    EXPECT_FLOAT_EQ(m.confidence.pixels[size_t(i)], confidence[i]);
+  }
+  // Sharpness 0: a plain mean of the views that saw the texel.
+  const MergedUnwrap mean = merge_by_confidence({&a, &b}, 0.0);
+  EXPECT_NEAR(mean.colour.pixels[0], 0.5f, 1e-6);
+  EXPECT_NEAR(mean.colour.pixels[2], 0.5f, 1e-6);
+  const UnwarpResult small = uv_of(1, {{0, 0, 0}}, {1});
+  EXPECT_THROW(merge_by_confidence({&a, &small}, 2.0), InvalidInput);
+}
+
+// A smooth texture with detail at several scales (linear RGB).
+Image pattern(int size) {
+  Image t(size, size, 3);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double u = (x + 0.5) / size, v = (y + 0.5) / size;
+      t.at(x, y, 0) = float(0.45 + 0.25 * std::sin(9 * u) * std::cos(7 * v));
+      t.at(x, y, 1) = float(0.35 + 0.2 * std::sin(23 * u + 5 * v));
+      t.at(x, y, 2) = float(0.3 + 0.15 * std::cos(17 * v - 3 * u));
+    }
+  return t;
+}
+
+// Renders the template face (textured) from the three views and unwraps each through `fitted` (the geometry the
+// fit believes in, in the model frame), merged; the PSNR against the texture over the seen texels.
+double merged_psnr(const Mesh& truth, const Mesh& fitted, const Image& texture, double* coverage) {
+  const int render = 512, uv = 128;
+  std::vector<UnwarpResult> views;
+  for (const ViewSpec& view : TextureSampleOptions().views) {
+    Mesh turned = truth, fit_turned = fitted;
+    turned.V = (truth.V * view_rotation(view).transpose()).eval();
+    fit_turned.V = (fitted.V * view_rotation(view).transpose()).eval();
+    const Camera camera = view_camera("front", render, Eigen::Vector3d::Zero(), 1000);
+    ShadeOptions shade;
+    shade.texture = &texture;
+    const Frame frame = render_frame(turned, camera, shade);
+    UnwarpOptions options;
+    options.size = uv;
+    views.push_back(unwarp(frame.albedo, fit_turned, camera, options));
+  }
+  const MergedUnwrap m = merge_by_confidence({&views[0], &views[1], &views[2]}, 4);
+  int64_t seen = 0;
+  for (float c : m.confidence.pixels) seen += c > 0;
+  *coverage = double(seen) / double(views[0].in_layout);
+  return masked_psnr_srgb(m.colour, resize_square(texture, uv), m.confidence);
+}
+
+TEST(Unwrap, TruthFitGivesTheTextureBackAndAnOffsetFitDoesNot) {
+  Mesh face = read_mesh(BARESKIN_TEMPLATE_DIR + "/face.obj");
+  face.V = (face.V.rowwise() - 0.5 * (face.V.colwise().minCoeff() + face.V.colwise().maxCoeff())).eval();
+  const Image texture = pattern(512);
+  double coverage = 0;
+  const double truth_psnr = merged_psnr(face, face, texture, &coverage);
+  EXPECT_GT(truth_psnr, 33.0);
+  EXPECT_GT(coverage, 0.9);
+  Mesh off = face;
+  off.V.col(0).array() += 3.0;  // the fit 3 mm to the side
+  const double off_psnr = merged_psnr(face, off, texture, &coverage);
+  EXPECT_LT(off_psnr, truth_psnr - 6.0) << "truth " << truth_psnr;
+  std::printf("merged unwrap PSNR: truth fit %.1f dB, 3 mm off %.1f dB\n", truth_psnr, off_psnr);
+}
+
+TEST(ResizeSquare, BoxFilterAveragesAndBilinearKeepsConstants) {
+  Image a(4, 4, 1, ColorSpace::Data);
+  for (int i = 0; i < 16; ++i) a.pixels[size_t(i)] = float(i);
+  const Image half = resize_square(a, 2);
+  EXPECT_FLOAT_EQ(half.at(0, 0), (0 + 1 + 4 + 5) / 4.f);
+  EXPECT_FLOAT_EQ(half.at(1, 1), (10 + 11 + 14 + 15) / 4.f);
+  const Image up = resize_square(Image(3, 3, 3, ColorSpace::Linear, 0.25f), 7);
+  for (float v : up.pixels) EXPECT_FLOAT_EQ(v, 0.25f);
+}
+
+TEST(SampleLight, DefaultFirstThenSeededRandomLights) {
+  EXPECT_EQ(sample_light(0, 5), default_lighting());
+  EXPECT_EQ(sample_light(2, 5), sample_light(2, 5));
+  EXPECT_NE(sample_light(2, 5), sample_light(2, 6));
+  EXPECT_NE(sample_light(1, 5), sample_light(2, 5));
+}
+
+}  // namespace
+}  // namespace bareskin::texgen
