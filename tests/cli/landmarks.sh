@@ -110,4 +110,37 @@ cp "$assets"/face_api/*.bin "$work/w2/"
 cp "$assets/face_api/face_landmark_68_model-weights_manifest.json" "$work/w2/"
 cp "$assets/face_api/face_landmark_68_model-weights_manifest.json" "$work/w2/tiny_face_detector_model-weights_manifest.json"
 expect_error mismatch "another model" "$astronaut" --weights "$work/w2"
+
+# 5. Multi-view landmarks: calibrated on two synthetic scans, measured on a third (truth: its landmarks.json); bad
+# input to the multi-view options gets one line and exit 3.
+"$bin" scan synth -q --template "$work/t" --count 3 --vertices 30000 --res 512 -o "$work/mv" || fail "scan synth (3)"
+mkdir -p "$work/mvcal" && ln -s "$work/mv/subject_0000" "$work/mv/subject_0001" "$work/mvcal/"
+"$bin" landmarks calibrate -q --scans "$work/mvcal" --views 6 --view-size 256 -o "$work/calib.json" || fail "calibrate"
+"$bin" landmarks scan -q "$work/mv/subject_0002" --views 6 --view-size 256 --calibration "$work/calib.json" \
+  --uncalibrated "$work/mv_raw.json" -o "$work/mv_lm.json" --draw "$work/mv.png" || fail "landmarks scan --views"
+"$bin" landmarks scan -q "$work/mv/subject_0002" -o "$work/sv_lm.json" || fail "landmarks scan (single view)"
+/usr/bin/python3 - "$work" <<'PY' || fail "multi-view landmarks far from truth"
+import json, sys
+import numpy as np
+w = sys.argv[1]
+t = np.array(json.load(open(f"{w}/mv/subject_0002/landmarks.json"))["points"])
+err = lambda f: np.linalg.norm(np.array(json.load(open(f))["points"], dtype=float) - t, axis=1)
+mv, sv = err(f"{w}/mv_lm.json"), err(f"{w}/sv_lm.json")
+sigma = np.array([d["sigma_mm"] for d in json.load(open(f"{w}/mv_lm.json"))["detail"]])
+print(f"  multi-view + calibration: 17-67 median {np.median(mv[17:]):.2f} mm, jaw {np.median(mv[:17]):.2f} mm; "
+      f"single view {np.median(sv[17:]):.2f} / {np.median(sv[:17]):.2f} mm")
+assert np.isfinite(mv).all() and (sigma > 0).all()
+assert np.median(mv[17:]) < 3 and np.median(mv[17:]) < 0.7 * np.median(sv[17:]), (mv, sv)
+assert np.median(mv[:17]) < 0.5 * np.median(sv[:17])
+PY
+ok
+expect_failure 3 "calibration" "$work/bad_mv.json" -- "$bin" landmarks scan -q "$work/mv/subject_0002" --views 4 \
+  --calibration "$work/mv/subject_0002/landmarks.json" -o "$work/bad_mv.json"
+ok
+expect_failure 3 "several views" "$work/bad_mv.json" -- "$bin" landmarks scan -q "$work/mv/subject_0002" \
+  --calibration "$work/calib.json" -o "$work/bad_mv.json"
+ok
+expect_failure 3 "two or more" "$work/bad_cal.json" -- "$bin" landmarks calibrate -q --scans "$work/mv" --count 1 \
+  --views 4 -o "$work/bad_cal.json"
+ok
 echo "$passed passed, 0 failed"
