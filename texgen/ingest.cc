@@ -199,15 +199,21 @@ IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& d
     for (size_t i = 0; i < stems.size(); ++i) {
       bareskin::report(progress, int64_t(i), int64_t(stems.size()), "ingest");
       AlignedPhoto a, b;
-      std::string failed;
-      if (!align_photo(after[stems[i]], detector, a)) failed = after[stems[i]];
-      else if (!align_photo(before[stems[i]], detector, b)) failed = before[stems[i]];
+      std::string failed, why = "no face found";
+      try {
+        if (!align_photo(after[stems[i]], detector, a)) failed = after[stems[i]];
+        else if (!align_photo(before[stems[i]], detector, b)) failed = before[stems[i]];
+      } catch (const Error& e) {  // unreadable or corrupt photo: an error, or listed with --keep-going
+        if (!o.keep_going) throw;
+        failed = a.image.empty() ? after[stems[i]] : before[stems[i]];
+        why = e.what();
+      }
       if (!failed.empty()) {
         if (!o.keep_going) {
           throw InvalidInput(failed, "no face found", "use a photo with a visible frontal face, or pass --keep-going");
         }
         report.undetected.push_back(failed);
-        spdlog::warn("{}: no face found; the pair '{}' is skipped", failed, stems[i]);
+        spdlog::warn("{}: {}; the pair '{}' is skipped", failed, why, stems[i]);
         continue;
       }
       const FaceMasks masks = landmark_masks(a.points, a.image);

@@ -35,8 +35,8 @@ struct IngestReport {
 std::vector<std::pair<std::string, std::string>> photos_by_stem(const std::string& dir);
 
 // Everything lands in the output folder at once (AtomicDirectory) or not at all. Without keep_going the first
-// unmatched or faceless photo is an InvalidInput naming it; with it they are listed (and no pair at all is still an
-// error).
+// unmatched, faceless or unreadable photo is an error naming it (InvalidInput; IoError when it cannot be read); with
+// it they are listed (and no pair left at all is still an error).
 IngestReport ingest_pairs(const IngestOptions& options, const detect::PhotoDetector& detector,
                           const ProgressCallback& progress = {});
 

@@ -2,7 +2,8 @@
 # texgen ingest-pairs on skimage's astronaut with a synthetic "after" (a colour change of the lower face): one face
 # sample with the before/after pair aligned alike, masks that leave the lips out, "has_truth": false and no truth
 # members (read back with Python's tarfile); texgen show draws it with n/a tiles for the absent members. Bad input:
-# an unmatched photo, a photo without a face, a folder that is no shard set -> one line, exit 3, nothing written.
+# an unmatched photo, a photo without a face, a corrupt photo, a folder that is no shard set -> one line, exit 3,
+# nothing written; an output folder that cannot be made -> exit 4.
 source "$(dirname "$0")/lib.sh" "$@"
 export BARESKIN_ASSETS=${BARESKIN_ASSETS:-$here/../../assets}
 astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
@@ -91,5 +92,14 @@ code=$?
 [ $code -eq 3 ] && tail -1 "$work/err" | grep -qF "no pair has a face" && grep -qF "flat.png: no face found" "$work/err" \
   && [ ! -e "$work/bad" ] || fail "--keep-going without any face -> exit $code: $(cat "$work/err")"
 expect_failure 3 "not a shard set" "$work/bad.png" -- "$bin" texgen show -q "$work/before" -o "$work/bad.png"
+# A corrupt photo: an error naming it, or listed and skipped with --keep-going; an output that cannot be made: exit 4.
+rm "$work/after/lonely.png"
+echo "not an image" > "$work/before/broken.png"
+cp "$astronaut" "$work/after/broken.png"
+expect_failure 3 "broken.png" "$work/bad" -- "$bin" texgen ingest-pairs -q "$work/before" "$work/after" -o "$work/bad"
+"$bin" texgen ingest-pairs -q --keep-going "$work/before" "$work/after" -o "$work/kept2" 2> /dev/null \
+  || fail "--keep-going over a corrupt photo"
+grep -q broken.png "$work/kept2/report.json" || fail "the corrupt photo is not listed"
+expect_failure 4 "/proc" "" -- "$bin" texgen ingest-pairs -q "$work/before" "$work/after" -o /proc/bareskin/real
 [ "$(ls -A "$work" | grep -c '^\.')" -eq 0 ] || fail "temporaries left behind"
 echo "texgen ingest-pairs / show: ok"
