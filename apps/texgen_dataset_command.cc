@@ -32,9 +32,9 @@ constexpr int kMirror68[68] = {16, 15, 14, 13, 12, 11, 10, 9,  8,  7,  6,  5,  4
 
 // The detectors make-dataset uses. Photos: face-api's detector box, then the landmark network; nothing when no face
 // scores above min_score. Renders (a face on black): the same, but when the detector's classifier rejects the
-// render (unlit albedo renders lack the shading it learned faces by) the box is the bounding box of the non-black
-// pixels; then `refinements` landmark passes on the box the previous points imply, and (flip) the average with the
-// mirrored image's landmarks. No truth is used.
+// render (flat synthetic faces filling the frame) or its box overlaps the face's pixels by less than 30 % (IoU), the
+// box is the bounding box of the non-black pixels; then `refinements` landmark passes on the box the previous points
+// imply, and (flip) the average with the mirrored image's landmarks. No truth is used.
 std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
                                                                                          int input_size, int refinements,
                                                                                          bool flip) {
@@ -47,18 +47,21 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
     options.max_faces = 1;
     options.min_score = 0.3;
     const auto faces = net->detect(photo, options);
-    detect::Box box;
-    if (!faces.empty()) {
-      box = faces[0].box;
-    } else {
-      if (!coverage_fallback) return std::nullopt;
+    if (faces.empty() && !coverage_fallback) return std::nullopt;
+    detect::Box box = faces.empty() ? detect::Box{} : faces[0].box;
+    if (coverage_fallback) {
       int x0 = image.width, y0 = image.height, x1 = -1, y1 = -1;
       for (int y = 0; y < image.height; ++y)
         for (int x = 0; x < image.width; ++x)
           if (image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2) > 0)
             x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
       if (x1 < 0) return std::nullopt;
-      box = {double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
+      const detect::Box coverage{double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
+      // A detection that hardly overlaps the face's pixels found something else: the coverage box instead.
+      const double ix = std::max(0.0, std::min(box.x + box.width, coverage.x + coverage.width) - std::max(box.x, coverage.x));
+      const double iy = std::max(0.0, std::min(box.y + box.height, coverage.y + coverage.height) - std::max(box.y, coverage.y));
+      const double inter = ix * iy, uni = box.width * box.height + coverage.width * coverage.height - inter;
+      if (faces.empty() || inter < 0.3 * uni) box = coverage;
     }
     texgen::Landmarks68 points = net->landmarks(photo, {box})[0];
     for (int pass = 0; pass < refinements; ++pass) points = net->landmarks(photo, {box_around(points)})[0];
