@@ -45,9 +45,10 @@ struct Row {
   const char* product;
   Region region;
 };
-const Row kRows[] = {{"foundation", Region::Face},      {"concealer", Region::UnderEye}, {"contour", Region::Cheekbones},
-                     {"blush", Region::Cheeks},         {"eyeshadow (lid)", Region::Lids},
-                     {"eyeshadow (smoky)", Region::Smoky}, {"eyeliner", Region::LashLine}, {"brow fill", Region::Brows},
+const Row kRows[] = {{"foundation", Region::Face},      {"concealer", Region::UnderEye},
+                     {"contour", Region::Cheekbones},   {"blush", Region::Cheeks},
+                     {"eyeshadow (lid)", Region::Lids}, {"eyeshadow (smoky)", Region::Smoky},
+                     {"eyeliner", Region::LashLine},    {"brow fill", Region::Brows},
                      {"lipstick", Region::Lips},        {"paint", Region::EyePaint}};
 
 bool paints(const MakeupLook& look, Region r) {
@@ -60,7 +61,8 @@ bool paints(const MakeupLook& look, Region r) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: makeup_bench TEMPLATE_DIR REGISTERED_DIR [--uv N] [--looks K] [--seed S] [--sheet OUT.png]\n");
+    std::fprintf(stderr,
+                 "usage: makeup_bench TEMPLATE_DIR REGISTERED_DIR [--uv N] [--looks K] [--seed S] [--sheet OUT.png]\n");
     return 2;
   }
   int uv = 512, looks = 8, sheet_subjects = 2;
@@ -68,12 +70,18 @@ int main(int argc, char** argv) {
   std::string sheet, maps;
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string flag = argv[i], value = argv[i + 1];
-    if (flag == "--uv") uv = std::stoi(value);
-    else if (flag == "--looks") looks = std::stoi(value);
-    else if (flag == "--seed") seed = std::stoull(value);
-    else if (flag == "--sheet") sheet = value;
-    else if (flag == "--sheet-subjects") sheet_subjects = std::stoi(value);
-    else if (flag == "--maps") maps = value;
+    if (flag == "--uv")
+      uv = std::stoi(value);
+    else if (flag == "--looks")
+      looks = std::stoi(value);
+    else if (flag == "--seed")
+      seed = std::stoull(value);
+    else if (flag == "--sheet")
+      sheet = value;
+    else if (flag == "--sheet-subjects")
+      sheet_subjects = std::stoi(value);
+    else if (flag == "--maps")
+      maps = value;
     else {
       std::fprintf(stderr, "unknown flag %s\n", flag.c_str());
       return 2;
@@ -131,10 +139,11 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("template %lld vertices, UV %d² (%.3f mm/texel), regions %.2f s; %zu subjects × %d looks × %d styles; "
-              "paint + apply %.1f ms per look\n\n",
-              (long long)face.mesh.V.rows(), uv, regions.mm_per_texel, regions_s, subjects.size(), looks, kStyleCount,
-              1e3 * paint_s / std::max(painted, 1));
+  std::printf(
+      "template %lld vertices, UV %d² (%.3f mm/texel), regions %.2f s; %zu subjects × %d looks × %d styles; "
+      "paint + apply %.1f ms per look\n\n",
+      (long long)face.mesh.V.rows(), uv, regions.mm_per_texel, regions_s, subjects.size(), looks, kStyleCount,
+      1e3 * paint_s / std::max(painted, 1));
   std::printf("ΔE*ab mean [p10–p90] over the looks that paint the region\n\n| product (region) |");
   for (int style = 1; style < kStyleCount; ++style) std::printf(" %s |", to_string(MakeupStyle(style)));
   std::printf("\n|---|");
@@ -151,7 +160,8 @@ int main(int argc, char** argv) {
       std::vector<double> v = it->second;
       std::sort(v.begin(), v.end());
       const double mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
-      std::printf(" %.1f [%.1f–%.1f] |", mean, v[size_t(0.1 * double(v.size() - 1))], v[size_t(0.9 * double(v.size() - 1))]);
+      std::printf(" %.1f [%.1f–%.1f] |", mean, v[size_t(0.1 * double(v.size() - 1))],
+                  v[size_t(0.9 * double(v.size() - 1))]);
     }
     std::printf("\n");
   }

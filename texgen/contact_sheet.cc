@@ -84,7 +84,8 @@ Image landmark_tile(const shards::Sample& s, Image tile, int member_size, const 
   try {
     meta = nlohmann::json::parse(it->second);
   } catch (const nlohmann::json::exception& e) {
-    throw InvalidInput(where + ": " + s.key + ".json", std::string("malformed JSON: ") + e.what(), "regenerate the shard");
+    throw InvalidInput(where + ": " + s.key + ".json", std::string("malformed JSON: ") + e.what(),
+                       "regenerate the shard");
   }
   if (!meta.contains("landmarks")) return {};
   const double scale = double(tile.width) / double(member_size);
@@ -120,7 +121,8 @@ std::vector<std::string> shard_sets(const std::string& dataset) {
 }  // namespace
 
 Image contact_sheet(const std::string& dataset, const ContactSheetOptions& o) {
-  if (o.count < 1 || o.tile < 32) throw InvalidInput("--count", "count must be >= 1 and tile >= 32", "use e.g. --count 8");
+  if (o.count < 1 || o.tile < 32)
+    throw InvalidInput("--count", "count must be >= 1 and tile >= 32", "use e.g. --count 8");
   static const char* const kColumns[] = {"makeup", "before", "bare", "skin", "landmarks"};
   const int t = o.tile, header = std::max(16, t / 10);
   std::vector<std::vector<Image>> rows;
@@ -132,7 +134,8 @@ Image contact_sheet(const std::string& dataset, const ContactSheetOptions& o) {
       shards::Sample s;
       while (int(rows.size()) < o.count && reader.next(s)) {
         std::vector<Image> row;
-        for (const char* name : {"makeup.png", "before.png", "bare.png", "skin.png"}) row.push_back(member_tile(s, name, t, path));
+        for (const char* name : {"makeup.png", "before.png", "bare.png", "skin.png"})
+          row.push_back(member_tile(s, name, t, path));
         int member_size = t;
         if (s.members.count("makeup.png")) member_size = decode_png(s.members.at("makeup.png"), path).width;
         row.push_back(landmark_tile(s, row[0], member_size, path));
@@ -144,7 +147,8 @@ Image contact_sheet(const std::string& dataset, const ContactSheetOptions& o) {
   }
   if (rows.empty()) throw InvalidInput(dataset, "holds no sample", "generate the shards first");
   Image sheet(5 * t, header + int(rows.size()) * t, 3, ColorSpace::sRGB, 0.0f);
-  for (int c = 0; c < 5; ++c) draw_text(sheet, kColumns[c], c * t + t / 2, header / 2, std::max(2, header / 8), {1, 1, 1});
+  for (int c = 0; c < 5; ++c)
+    draw_text(sheet, kColumns[c], c * t + t / 2, header / 2, std::max(2, header / 8), {1, 1, 1});
   const Image na = na_tile(t);
   for (size_t r = 0; r < rows.size(); ++r)
     for (int c = 0; c < 5; ++c) {

@@ -9,8 +9,8 @@
 namespace bareskin::texgen {
 
 struct ContactSheetOptions {
-  int count = 8;    // rows (samples), in shard order
-  int tile = 256;   // tile size in pixels (members of another size are resampled)
+  int count = 8;   // rows (samples), in shard order
+  int tile = 256;  // tile size in pixels (members of another size are resampled)
 };
 
 // `dataset`: a shard set folder (manifest.json), a single .tar, or a `texgen faces` output whose train/, val/ and test/

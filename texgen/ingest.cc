@@ -31,7 +31,8 @@ void fill_polygon(Image& mask, const std::vector<Vec2>& poly, float value) {
     }
     std::sort(xs.begin(), xs.end());
     for (size_t k = 0; k + 1 < xs.size(); k += 2) {
-      const int x0 = std::max(0, int(std::ceil(xs[k] - 0.5))), x1 = std::min(mask.width - 1, int(std::floor(xs[k + 1] - 0.5)));
+      const int x0 = std::max(0, int(std::ceil(xs[k] - 0.5))),
+                x1 = std::min(mask.width - 1, int(std::floor(xs[k + 1] - 0.5)));
       for (int x = x0; x <= x1; ++x) mask.at(x, y) = value;
     }
   }
@@ -52,7 +53,8 @@ void fill_band(Image& mask, const std::vector<Vec2>& line, double radius, float 
     }
 }
 
-std::vector<Vec2> points(const detect::Landmarks68& L, std::initializer_list<int> ids, const Vec2& shift = Vec2::Zero()) {
+std::vector<Vec2> points(const detect::Landmarks68& L, std::initializer_list<int> ids,
+                         const Vec2& shift = Vec2::Zero()) {
   std::vector<Vec2> out;
   for (int k : ids) out.push_back(L.row(k).transpose() + shift);
   return out;
@@ -102,7 +104,8 @@ bool align_photo(const std::string& path, const detect::PhotoDetector& detector,
 }  // namespace
 
 void IngestOptions::check() const {
-  if (before_dir.empty() || after_dir.empty()) throw InvalidInput("texgen ingest-pairs", "needs two folders", "give before/ after/");
+  if (before_dir.empty() || after_dir.empty())
+    throw InvalidInput("texgen ingest-pairs", "needs two folders", "give before/ after/");
   for (const std::string& d : {before_dir, after_dir})
     if (!fs::is_directory(d)) throw IoError(d, "is not a folder", "give the folder of before (or after) photos");
   if (output.empty()) throw InvalidInput("-o", "no output folder", "give -o shards/");
@@ -132,7 +135,8 @@ FaceMasks landmark_masks(const detect::Landmarks68& L, const Image& aligned) {
   fill_polygon(m.face, hull, 1);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      if (m.face.at(x, y) > 0 && !ycbcr_skin(aligned.at(x, y, 0), aligned.at(x, y, 1), aligned.at(x, y, 2))) m.face.at(x, y) = 0;
+      if (m.face.at(x, y) > 0 && !ycbcr_skin(aligned.at(x, y, 0), aligned.at(x, y, 1), aligned.at(x, y, 2)))
+        m.face.at(x, y) = 0;
   m.skin = m.face;
   fill_polygon(m.skin, points(L, {36, 37, 38, 39, 40, 41}), 0);
   fill_polygon(m.skin, points(L, {42, 43, 44, 45, 46, 47}), 0);
@@ -160,7 +164,8 @@ std::vector<std::pair<std::string, std::string>> photos_by_stem(const std::strin
   return out;
 }
 
-IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& detector, const ProgressCallback& progress) {
+IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& detector,
+                          const ProgressCallback& progress) {
   o.check();
   BS_CHECK(bool(detector), "ingest_pairs needs a face detector");
   IngestReport report;
@@ -177,8 +182,10 @@ IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& d
   fill(o.after_dir, after);
   std::vector<std::string> stems;
   for (const auto& [stem, path] : before) {
-    if (after.count(stem)) stems.push_back(stem);
-    else report.unmatched.push_back(path);
+    if (after.count(stem))
+      stems.push_back(stem);
+    else
+      report.unmatched.push_back(path);
   }
   for (const auto& [stem, path] : after)
     if (!before.count(stem)) report.unmatched.push_back(path);
@@ -201,8 +208,10 @@ IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& d
       AlignedPhoto a, b;
       std::string failed, why = "no face found";
       try {
-        if (!align_photo(after[stems[i]], detector, a)) failed = after[stems[i]];
-        else if (!align_photo(before[stems[i]], detector, b)) failed = before[stems[i]];
+        if (!align_photo(after[stems[i]], detector, a))
+          failed = after[stems[i]];
+        else if (!align_photo(before[stems[i]], detector, b))
+          failed = before[stems[i]];
       } catch (const Error& e) {  // unreadable or corrupt photo: an error, or listed with --keep-going
         if (!o.keep_going) throw;
         failed = a.image.empty() ? after[stems[i]] : before[stems[i]];
@@ -226,11 +235,13 @@ IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& d
           {"landmarks_visible", std::vector<bool>(68, true)},
           {"align", {{"similarity", similarity_json(a.similarity)}, {"source", "detector"}}},
           {"camera", {{"focal", 1015.0 * 256 / 224}, {"cx", 128.0}, {"cy", 128.0}, {"width", 256}, {"height", 256}}},
-          {"before", {{"landmarks", points_json(b.points)},
-                      {"align", {{"similarity", similarity_json(b.similarity)}, {"source", "detector"}}}}},
+          {"before",
+           {{"landmarks", points_json(b.points)},
+            {"align", {{"similarity", similarity_json(b.similarity)}, {"source", "detector"}}}}},
           {"detector_score", {{"after", a.score}, {"before", b.score}}},
-          {"source", {{"before", fs::path(before[stems[i]]).filename().string()},
-                      {"after", fs::path(after[stems[i]]).filename().string()}}}};
+          {"source",
+           {{"before", fs::path(before[stems[i]]).filename().string()},
+            {"after", fs::path(after[stems[i]]).filename().string()}}}};
       char key[16];
       std::snprintf(key, sizeof key, "%08lld", (long long)report.written);
       shards::Sample sample{key, {}};
@@ -249,8 +260,9 @@ IngestReport ingest_pairs(const IngestOptions& o, const detect::PhotoDetector& d
   }
   shards::Manifest manifest;
   manifest.shards = written;
-  manifest.metadata = {{"generator", o.generator}, {"kind", "faces"}, {"split", o.split}, {"has_truth", false},
-                       {"before", o.before_dir}, {"after", o.after_dir}, {"report", report.to_json()}};
+  manifest.metadata = {{"generator", o.generator},  {"kind", "faces"},        {"split", o.split},
+                       {"has_truth", false},        {"before", o.before_dir}, {"after", o.after_dir},
+                       {"report", report.to_json()}};
   shards::write_manifest(out.path(), manifest);
   write_file_atomic(out.path() + "/report.json", report.to_json().dump(1) + "\n");
   out.commit();

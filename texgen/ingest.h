@@ -19,7 +19,7 @@ struct IngestOptions {
   std::string output;                 // one shard set (prefix "faces") + manifest.json + report.json
   bool keep_going = false;            // list unmatched / faceless photos and go on, instead of failing
   int64_t shard_size = 100;
-  std::string split = "test";         // the "split" field of the samples
+  std::string split = "test";  // the "split" field of the samples
   std::string generator = "bareskin texgen ingest-pairs";
   void check() const;  // InvalidInput naming the flag
 };

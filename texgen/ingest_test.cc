@@ -1,6 +1,8 @@
 // texgen ingest-pairs without the Torch side: a stand-in detector (a fixed 68-point face on bright photos, none on dark
 // ones) checks pairing, alignment, masks, the shard members and all-or-nothing output. tests/cli/texgen_ingest.sh runs
 // the real detector on a real photo.
+#include "texgen/ingest.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -9,7 +11,6 @@
 #include "core/image_io.h"
 #include "core/png.h"
 #include "core/test_util.h"
-#include "texgen/ingest.h"
 #include "template/template_face.h"
 #include "texgen/shards.h"
 
@@ -44,7 +45,8 @@ detect::PhotoDetector fake_detector(int* calls) {
 // A skin-coloured photo (passes the YCbCr box) or a dark one (no face for the fake detector).
 void write_photo(const std::string& path, bool face) {
   Image img(300, 300, 3, ColorSpace::sRGB);
-  for (size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = face ? (i % 3 == 0 ? 0.8f : i % 3 == 1 ? 0.6f : 0.5f) : 0.05f;
+  for (size_t i = 0; i < img.pixels.size(); ++i)
+    img.pixels[i] = face ? (i % 3 == 0 ? 0.8f : i % 3 == 1 ? 0.6f : 0.5f) : 0.05f;
   write_image(path, img);
 }
 
@@ -78,13 +80,15 @@ TEST(IngestPairs, AlignsPairsIntoFaceShardsWithLandmarkMasks) {
   shards::Sample s;
   ASSERT_TRUE(reader.next(s));
   EXPECT_EQ(s.key, "00000000");
-  for (const char* name : {"makeup.png", "before.png", "skin.png", "face.png", "json"}) EXPECT_TRUE(s.members.count(name)) << name;
+  for (const char* name : {"makeup.png", "before.png", "skin.png", "face.png", "json"})
+    EXPECT_TRUE(s.members.count(name)) << name;
   for (const char* name : {"bare.png", "layer.png"}) EXPECT_FALSE(s.members.count(name)) << name;
   const nlohmann::json meta = nlohmann::json::parse(s.members.at("json"));
   EXPECT_EQ(meta.at("subject"), "real/a");
   EXPECT_FALSE(meta.at("has_truth").get<bool>());
   detect::Landmarks68 aligned;
-  for (int k = 0; k < 68; ++k) aligned.row(k) << meta["landmarks"][size_t(k)][0].get<double>(), meta["landmarks"][size_t(k)][1].get<double>();
+  for (int k = 0; k < 68; ++k)
+    aligned.row(k) << meta["landmarks"][size_t(k)][0].get<double>(), meta["landmarks"][size_t(k)][1].get<double>();
   // A least-squares scale + translation maps the mean of the five points onto the mean of the standard five exactly.
   const Eigen::RowVector2d mean = detect::five_points(aligned).colwise().mean();
   const Eigen::RowVector2d target = detect::standard_five_points().colwise().mean();

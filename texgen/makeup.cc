@@ -32,8 +32,10 @@ float unit(uint32_t h) { return float(h >> 8) * (1.0f / 16777216.0f); }
 float pattern_mask(Pattern pattern, const Eigen::Vector2f& q, float P) {
   constexpr float kTwoPi = 6.2831853f;
   switch (pattern) {
-    case Pattern::Solid: return 1;
-    case Pattern::Stripes: return smoothstep(-0.25f, 0.25f, std::cos(kTwoPi * q.x() / P));
+    case Pattern::Solid:
+      return 1;
+    case Pattern::Stripes:
+      return smoothstep(-0.25f, 0.25f, std::cos(kTwoPi * q.x() / P));
     case Pattern::Dots: {
       const Eigen::Vector2f c = q / P;
       const Eigen::Vector2f local(c.x() - std::floor(c.x()) - 0.5f, c.y() - std::floor(c.y()) - 0.5f);
@@ -51,17 +53,20 @@ float pattern_mask(Pattern pattern, const Eigen::Vector2f& q, float P) {
 void check_layer(const LayerSpec& l) {
   const bool colour_ok = l.colour.allFinite() && l.colour.minCoeff() >= 0 &&
                          l.colour.maxCoeff() <= (l.mode == ColourMode::Absolute ? 1.0f : 4.0f);
-  if (!colour_ok || !(l.opacity >= 0 && l.opacity <= 1) || !(l.feather_mm >= 0) || !(l.shimmer >= 0 && l.shimmer <= 1) ||
-      !(std::abs(l.offset_mm) + 0.5f * l.feather_mm <= kMaxReachMm) || !(l.pattern_period_mm > 0)) {
-    throw InvalidInput("makeup look", "layer '" + l.product + "' has a colour, opacity, feather, offset or shimmer out of range",
-                       "colours in [0,1] (skin factors in [0,4]), opacity and shimmer in [0,1], |offset| + feather/2 <= " +
-                           std::to_string(int(kMaxReachMm)) + " mm");
+  if (!colour_ok || !(l.opacity >= 0 && l.opacity <= 1) || !(l.feather_mm >= 0) ||
+      !(l.shimmer >= 0 && l.shimmer <= 1) || !(std::abs(l.offset_mm) + 0.5f * l.feather_mm <= kMaxReachMm) ||
+      !(l.pattern_period_mm > 0)) {
+    throw InvalidInput(
+        "makeup look", "layer '" + l.product + "' has a colour, opacity, feather, offset or shimmer out of range",
+        "colours in [0,1] (skin factors in [0,4]), opacity and shimmer in [0,1], |offset| + feather/2 <= " +
+            std::to_string(int(kMaxReachMm)) + " mm");
   }
 }
 
 // Bilinear lookup of channel c of `image` at texel-space point (x, y) (texel centres at +0.5), clamped.
 float bilinear(const Image& image, float x, float y, int c) {
-  const float fx = std::clamp(x - 0.5f, 0.0f, float(image.width - 1)), fy = std::clamp(y - 0.5f, 0.0f, float(image.height - 1));
+  const float fx = std::clamp(x - 0.5f, 0.0f, float(image.width - 1)),
+              fy = std::clamp(y - 0.5f, 0.0f, float(image.height - 1));
   const int x0 = int(fx), y0 = int(fy), x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
   const float tx = fx - float(x0), ty = fy - float(y0);
   return (1 - ty) * ((1 - tx) * image.at(x0, y0, c) + tx * image.at(x1, y0, c)) +
@@ -72,9 +77,12 @@ float bilinear(const Image& image, float x, float y, int c) {
 
 FinishDelta finish_delta(Finish finish) {
   switch (finish) {
-    case Finish::Matte: return {0.2f, -0.15f};
-    case Finish::Satin: return {-0.05f, 0.05f};
-    case Finish::Gloss: return {-0.3f, 0.35f};
+    case Finish::Matte:
+      return {0.2f, -0.15f};
+    case Finish::Satin:
+      return {-0.05f, 0.05f};
+    case Finish::Gloss:
+      return {-0.3f, 0.35f};
   }
   return {0, 0};
 }
@@ -83,7 +91,8 @@ MakeupLayer paint(const MakeupRegions& regions, const MakeupLook& look, const Ei
   const int n = regions.uv_size;
   BS_CHECK(n > 0, "paint needs regions built by makeup_regions");
   if (!skin.allFinite() || skin.minCoeff() < 0 || skin.maxCoeff() > 1) {
-    throw InvalidInput("makeup", "the skin tone is not a linear colour in [0,1]", "pass skin_tone() of the bare albedo");
+    throw InvalidInput("makeup", "the skin tone is not a linear colour in [0,1]",
+                       "pass skin_tone() of the bare albedo");
   }
   MakeupLayer out;
   Image premultiplied(n, n, 4, ColorSpace::Linear);  // C (premultiplied) and A, composited with "over"
@@ -91,7 +100,8 @@ MakeupLayer paint(const MakeupRegions& regions, const MakeupLook& look, const Ei
   const float mm = float(regions.mm_per_texel);
   for (const LayerSpec& l : look.layers) {
     check_layer(l);
-    const Eigen::Vector3f colour = l.mode == ColourMode::Absolute ? l.colour : l.colour.cwiseProduct(skin).cwiseMin(1.0f);
+    const Eigen::Vector3f colour =
+        l.mode == ColourMode::Absolute ? l.colour : l.colour.cwiseProduct(skin).cwiseMin(1.0f);
     const FinishDelta fd = finish_delta(l.finish);
     const Image& distance = regions[l.region];
     const auto& box = regions.box[size_t(l.region)];
@@ -110,7 +120,8 @@ MakeupLayer paint(const MakeupRegions& regions, const MakeupLook& look, const Ei
         Eigen::Vector3f col = colour;
         float dr = fd.roughness, ds = fd.specular;
         if (l.shimmer > 0) {  // flecks on a 0.3 mm grid
-          const int gx = int(std::floor((float(x) + 0.5f) * mm / 0.3f)), gy = int(std::floor((float(y) + 0.5f) * mm / 0.3f));
+          const int gx = int(std::floor((float(x) + 0.5f) * mm / 0.3f)),
+                    gy = int(std::floor((float(y) + 0.5f) * mm / 0.3f));
           if (unit(hash2(gx, gy, l.seed)) < 0.35f * l.shimmer) {
             col = (col * (1 + 1.5f * l.shimmer)).array() + 0.1f * l.shimmer;
             col = col.cwiseMin(1.0f);
@@ -128,7 +139,8 @@ MakeupLayer paint(const MakeupRegions& regions, const MakeupLook& look, const Ei
   out.colour = Image(n, n, 4, ColorSpace::Linear);
   for (size_t i = 0; i < size_t(n) * n; ++i) {
     const float A = premultiplied.pixels[4 * i + 3];
-    for (int k = 0; k < 3; ++k) out.colour.pixels[4 * i + k] = A > 0 ? std::min(1.0f, premultiplied.pixels[4 * i + k] / A) : 0;
+    for (int k = 0; k < 3; ++k)
+      out.colour.pixels[4 * i + k] = A > 0 ? std::min(1.0f, premultiplied.pixels[4 * i + k] / A) : 0;
     out.colour.pixels[4 * i + 3] = A;
   }
   return out;
@@ -149,7 +161,8 @@ Eigen::Vector3f skin_tone(const MakeupRegions& regions, const Image& diffuse_lin
       for (int k = 0; k < 3; ++k) sum[k] += bilinear(diffuse_linear, (float(x) + 0.5f) * sx, (float(y) + 0.5f) * sy, k);
       count += 1;
     }
-  if (count == 0) throw InvalidInput("makeup", "the face region is empty", "check the template's UV layout and landmarks");
+  if (count == 0)
+    throw InvalidInput("makeup", "the face region is empty", "check the template's UV layout and landmarks");
   return (sum / count).cast<float>();
 }
 
@@ -165,7 +178,8 @@ void apply_makeup(const MakeupLayer& layer, Image& diffuse, Image* roughness, Im
   const bool same = diffuse.width == n && diffuse.height == n;
   for (int y = 0; y < diffuse.height; ++y)
     for (int x = 0; x < diffuse.width; ++x) {
-      const float lx = (float(x) + 0.5f) * float(n) / float(diffuse.width), ly = (float(y) + 0.5f) * float(n) / float(diffuse.height);
+      const float lx = (float(x) + 0.5f) * float(n) / float(diffuse.width),
+                  ly = (float(y) + 0.5f) * float(n) / float(diffuse.height);
       const float A = same ? premultiplied.at(x, y, 3) : bilinear(premultiplied, lx, ly, 3);
       if (A <= 0) continue;
       for (int k = 0; k < 3; ++k) {
@@ -225,13 +239,16 @@ Eigen::Vector3f linear_rgb_to_lab(const Eigen::Vector3f& rgb) {
   return {116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)};
 }
 
-float delta_e(const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return (linear_rgb_to_lab(a) - linear_rgb_to_lab(b)).norm(); }
+float delta_e(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+  return (linear_rgb_to_lab(a) - linear_rgb_to_lab(b)).norm();
+}
 
 double mean_delta_e(const MakeupRegions& regions, Region region, const Image& before, const Image& after) {
   const int n = regions.uv_size;
   if (before.width != n || before.height != n || after.width != n || after.height != n || before.channels < 3 ||
       after.channels < 3) {
-    throw InvalidInput("makeup", "ΔE needs two RGB maps of the regions' size", "resample them to " + std::to_string(n) + "²");
+    throw InvalidInput("makeup", "ΔE needs two RGB maps of the regions' size",
+                       "resample them to " + std::to_string(n) + "²");
   }
   const Image& distance = regions[region];
   double sum = 0;

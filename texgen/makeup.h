@@ -8,10 +8,9 @@
 // which the summed layer reproduces exactly (bare * (1 - A) + premultiplied colour).
 #pragma once
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
-
 #include <array>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>

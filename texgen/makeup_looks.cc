@@ -10,9 +10,9 @@ namespace bareskin::makeup {
 namespace {
 
 const char* const kStyleNames[kStyleCount] = {"none", "light", "natural", "heavy", "dramatic"};
-const char* const kRegionNames[kRegionCount] = {"face",   "under_eye", "cheeks", "cheekbones", "jaw",      "nose_sides",
-                                                "lips",   "lip_centre", "lids",  "crease",     "smoky",    "lash_line",
-                                                "wing",   "brows",      "eye_paint", "cheek_paint"};
+const char* const kRegionNames[kRegionCount] = {"face", "under_eye",  "cheeks",    "cheekbones", "jaw",   "nose_sides",
+                                                "lips", "lip_centre", "lids",      "crease",     "smoky", "lash_line",
+                                                "wing", "brows",      "eye_paint", "cheek_paint"};
 const char* const kFinishNames[] = {"matte", "satin", "gloss"};
 const char* const kPatternNames[] = {"solid", "stripes", "dots", "zigzag"};
 
@@ -34,25 +34,66 @@ struct PaletteTable {
       for (const auto& [name, rgb] : shades) table[product].push_back({name, hex(rgb)});
     };
     // Swatch colours of common cosmetics as worn (sRGB), from sheer nudes to deep berries.
-    add("lipstick", {{"nude", 0xB9806E},     {"pink_nude", 0xC4847F}, {"rose", 0xB55A6A},    {"pink", 0xD0607E},
-                     {"hot_pink", 0xCC2F6E}, {"coral", 0xDC5F55},     {"red", 0xB01E2A},     {"cherry", 0x98182E},
-                     {"brick", 0x983A2C},    {"plum", 0x6A2444},      {"berry", 0x862246},   {"mauve", 0x9A6276},
-                     {"brown", 0x7A4636},    {"chocolate", 0x5A3026}});
-    add("blush", {{"baby_pink", 0xF0A0B0}, {"rose", 0xD87888}, {"coral", 0xEE8670}, {"peach", 0xF2A07A},
-                  {"berry", 0xBE5670},     {"bronze", 0xBE7654}});
-    add("eyeshadow", {{"champagne", 0xE2C6A4}, {"taupe", 0x8A7262},  {"brown", 0x684634},  {"bronze", 0xA46638},
-                      {"gold", 0xC49C48},      {"charcoal", 0x383434}, {"black", 0x1E1C1C},  {"plum", 0x5C344E},
-                      {"navy", 0x2C3858},      {"emerald", 0x2C684C},  {"rose_gold", 0xC48878}, {"mauve", 0x8E6878}});
+    add("lipstick", {{"nude", 0xB9806E},
+                     {"pink_nude", 0xC4847F},
+                     {"rose", 0xB55A6A},
+                     {"pink", 0xD0607E},
+                     {"hot_pink", 0xCC2F6E},
+                     {"coral", 0xDC5F55},
+                     {"red", 0xB01E2A},
+                     {"cherry", 0x98182E},
+                     {"brick", 0x983A2C},
+                     {"plum", 0x6A2444},
+                     {"berry", 0x862246},
+                     {"mauve", 0x9A6276},
+                     {"brown", 0x7A4636},
+                     {"chocolate", 0x5A3026}});
+    add("blush", {{"baby_pink", 0xF0A0B0},
+                  {"rose", 0xD87888},
+                  {"coral", 0xEE8670},
+                  {"peach", 0xF2A07A},
+                  {"berry", 0xBE5670},
+                  {"bronze", 0xBE7654}});
+    add("eyeshadow", {{"champagne", 0xE2C6A4},
+                      {"taupe", 0x8A7262},
+                      {"brown", 0x684634},
+                      {"bronze", 0xA46638},
+                      {"gold", 0xC49C48},
+                      {"charcoal", 0x383434},
+                      {"black", 0x1E1C1C},
+                      {"plum", 0x5C344E},
+                      {"navy", 0x2C3858},
+                      {"emerald", 0x2C684C},
+                      {"rose_gold", 0xC48878},
+                      {"mauve", 0x8E6878}});
     add("eyeliner", {{"black", 0x141414}, {"brown", 0x3C2A20}, {"navy", 0x1C284A}});
     add("brow", {{"dark_brown", 0x46342A}, {"medium_brown", 0x6A4E3A}, {"soft_black", 0x2C2422}, {"taupe", 0x786454}});
-    add("dramatic_lipstick", {{"black", 0x1A181E},  {"blue", 0x2848B0},   {"green", 0x288848}, {"purple", 0x682896},
-                              {"white", 0xE6DEE6}, {"orange", 0xF85A1E}, {"oxblood", 0x600A16}, {"teal", 0x18807C}});
-    add("dramatic_eyeshadow", {{"electric_blue", 0x1E68E0}, {"neon_green", 0x48D048}, {"yellow", 0xF0D020},
-                               {"hot_pink", 0xF0308A},      {"orange", 0xF07020},     {"red", 0xC81E28},
-                               {"violet", 0x8A2AD0},        {"turquoise", 0x20C0C0},  {"white", 0xF0F0F0},
+    add("dramatic_lipstick", {{"black", 0x1A181E},
+                              {"blue", 0x2848B0},
+                              {"green", 0x288848},
+                              {"purple", 0x682896},
+                              {"white", 0xE6DEE6},
+                              {"orange", 0xF85A1E},
+                              {"oxblood", 0x600A16},
+                              {"teal", 0x18807C}});
+    add("dramatic_eyeshadow", {{"electric_blue", 0x1E68E0},
+                               {"neon_green", 0x48D048},
+                               {"yellow", 0xF0D020},
+                               {"hot_pink", 0xF0308A},
+                               {"orange", 0xF07020},
+                               {"red", 0xC81E28},
+                               {"violet", 0x8A2AD0},
+                               {"turquoise", 0x20C0C0},
+                               {"white", 0xF0F0F0},
                                {"black", 0x141414}});
-    add("paint", {{"white", 0xF4F4F4}, {"black", 0x121212}, {"red", 0xD01A1A}, {"blue", 0x1A4AD0},
-                  {"gold", 0xD4A838},  {"green", 0x1AA04A}, {"silver", 0xC8C8D0}, {"purple", 0x7A1AB0}});
+    add("paint", {{"white", 0xF4F4F4},
+                  {"black", 0x121212},
+                  {"red", 0xD01A1A},
+                  {"blue", 0x1A4AD0},
+                  {"gold", 0xD4A838},
+                  {"green", 0x1AA04A},
+                  {"silver", 0xC8C8D0},
+                  {"purple", 0x7A1AB0}});
   }
 };
 
@@ -61,7 +102,8 @@ const PaletteTable& palettes() {
   return p;
 }
 
-LayerSpec from_palette(std::mt19937_64& rng, const std::string& product, const std::string& palette_name, Region region) {
+LayerSpec from_palette(std::mt19937_64& rng, const std::string& product, const std::string& palette_name,
+                       Region region) {
   const std::vector<Shade>& shades = palette(palette_name);
   const Shade& s = shades[index(rng, shades.size())];
   LayerSpec l;
@@ -110,10 +152,12 @@ Finish any_finish(std::mt19937_64& rng) { return Finish(index(rng, 3)); }
 
 void add_base(MakeupLook& look, std::mt19937_64& rng, double lo, double hi) {
   LayerSpec f = skin_layer(rng, "foundation", Region::Face);
-  look.layers.push_back(tune(f, range(rng, lo, hi), range(rng, 2, 5), chance(rng, 0.6) ? Finish::Matte : Finish::Satin));
+  look.layers.push_back(
+      tune(f, range(rng, lo, hi), range(rng, 2, 5), chance(rng, 0.6) ? Finish::Matte : Finish::Satin));
 }
 
-void add_lips(MakeupLook& look, std::mt19937_64& rng, const std::string& palette_name, double lo, double hi, double gloss) {
+void add_lips(MakeupLook& look, std::mt19937_64& rng, const std::string& palette_name, double lo, double hi,
+              double gloss) {
   LayerSpec l = from_palette(rng, "lipstick", palette_name, Region::Lips);
   look.layers.push_back(tune(l, range(rng, lo, hi), range(rng, 0.6, 1.4), any_finish(rng), range(rng, -0.3, 0.5)));
   if (chance(rng, gloss)) {
@@ -180,7 +224,8 @@ MakeupLook sample_heavy(std::mt19937_64& rng) {
   look.layers.push_back(tune(b, range(rng, 0.35, 0.55), range(rng, 10, 14), any_finish(rng)));
   LayerSpec lid = from_palette(rng, "eyeshadow", "eyeshadow", Region::Lids);
   lid.shimmer = chance(rng, 0.4) ? range(rng, 0.2, 0.7) : 0;
-  look.layers.push_back(tune(lid, range(rng, 0.55, 0.8), range(rng, 2, 4), lid.shimmer > 0 ? Finish::Satin : Finish::Matte));
+  look.layers.push_back(
+      tune(lid, range(rng, 0.55, 0.8), range(rng, 2, 4), lid.shimmer > 0 ? Finish::Satin : Finish::Matte));
   LayerSpec crease = from_palette(rng, "eyeshadow", "eyeshadow", Region::Crease);
   look.layers.push_back(tune(crease, range(rng, 0.4, 0.65), range(rng, 4, 6), Finish::Matte));
   LayerSpec liner = from_palette(rng, "eyeliner", "eyeliner", Region::LashLine);
@@ -202,14 +247,16 @@ MakeupLook sample_dramatic(std::mt19937_64& rng) {
   add_contour(look, rng, 0.4, 0.65);
   LayerSpec b = from_palette(rng, "blush", chance(rng, 0.4) ? "dramatic_eyeshadow" : "blush", Region::Cheeks);
   look.layers.push_back(tune(b, range(rng, 0.4, 0.65), range(rng, 8, 12), any_finish(rng)));
-  LayerSpec smoky = from_palette(rng, "eyeshadow", chance(rng, 0.6) ? "dramatic_eyeshadow" : "eyeshadow", Region::Smoky);
+  LayerSpec smoky =
+      from_palette(rng, "eyeshadow", chance(rng, 0.6) ? "dramatic_eyeshadow" : "eyeshadow", Region::Smoky);
   smoky.shimmer = chance(rng, 0.4) ? range(rng, 0.3, 0.9) : 0;
   look.layers.push_back(tune(smoky, range(rng, 0.7, 0.95), range(rng, 3, 6), any_finish(rng), range(rng, 0, 2)));
   if (chance(rng, 0.5)) {
     LayerSpec lid = from_palette(rng, "eyeshadow", "dramatic_eyeshadow", Region::Lids);
     look.layers.push_back(tune(lid, range(rng, 0.6, 0.9), range(rng, 2, 3), any_finish(rng)));
   }
-  LayerSpec liner = from_palette(rng, "eyeliner", chance(rng, 0.3) ? "dramatic_eyeshadow" : "eyeliner", Region::LashLine);
+  LayerSpec liner =
+      from_palette(rng, "eyeliner", chance(rng, 0.3) ? "dramatic_eyeshadow" : "eyeliner", Region::LashLine);
   look.layers.push_back(tune(liner, range(rng, 0.9, 1.0), range(rng, 0.3, 0.6), Finish::Satin, range(rng, 0.3, 1.2)));
   LayerSpec wing = liner;
   wing.region = Region::Wing;
@@ -267,7 +314,8 @@ std::vector<MakeupStyle> parse_styles(const std::string& list, const std::string
   return out;
 }
 
-std::vector<MakeupStyle> select_styles(const std::vector<MakeupStyle>& styles, const std::vector<MakeupStyle>& exclude) {
+std::vector<MakeupStyle> select_styles(const std::vector<MakeupStyle>& styles,
+                                       const std::vector<MakeupStyle>& exclude) {
   std::vector<MakeupStyle> out;
   for (MakeupStyle s : styles)
     if (std::find(exclude.begin(), exclude.end(), s) == exclude.end()) out.push_back(s);
@@ -292,11 +340,20 @@ const std::vector<Shade>& palette(const std::string& product) {
 MakeupLook sample_look(MakeupStyle style, std::mt19937_64& rng) {
   MakeupLook look;
   switch (style) {
-    case MakeupStyle::None: break;
-    case MakeupStyle::Light: look = sample_light(rng); break;
-    case MakeupStyle::Natural: look = sample_natural(rng); break;
-    case MakeupStyle::Heavy: look = sample_heavy(rng); break;
-    case MakeupStyle::Dramatic: look = sample_dramatic(rng); break;
+    case MakeupStyle::None:
+      break;
+    case MakeupStyle::Light:
+      look = sample_light(rng);
+      break;
+    case MakeupStyle::Natural:
+      look = sample_natural(rng);
+      break;
+    case MakeupStyle::Heavy:
+      look = sample_heavy(rng);
+      break;
+    case MakeupStyle::Dramatic:
+      look = sample_dramatic(rng);
+      break;
   }
   look.style = style;
   return look;

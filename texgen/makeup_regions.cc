@@ -48,7 +48,8 @@ void fill_polygon(Mask& mask, const Curve& poly, bool value = true) {
     }
     std::sort(xs.begin(), xs.end());
     for (size_t k = 0; k + 1 < xs.size(); k += 2) {
-      const int xa = std::max(0, int(std::ceil(xs[k] - 0.5))), xb = std::min(mask.n - 1, int(std::floor(xs[k + 1] - 0.5)));
+      const int xa = std::max(0, int(std::ceil(xs[k] - 0.5))),
+                xb = std::min(mask.n - 1, int(std::floor(xs[k + 1] - 0.5)));
       for (int x = xa; x <= xb; ++x) mask.at(x, y) = value;
     }
   }
@@ -100,7 +101,8 @@ Curve smooth(const Curve& pts, bool closed, int per = 8) {
   for (int i = 0; i < segments; ++i)
     for (int k = 0; k < per; ++k) {
       const double t = double(k) / per, t2 = t * t, t3 = t2 * t;
-      out.push_back(0.5 * ((2 * P(i)) + (-P(i - 1) + P(i + 1)) * t + (2 * P(i - 1) - 5 * P(i) + 4 * P(i + 1) - P(i + 2)) * t2 +
+      out.push_back(0.5 * ((2 * P(i)) + (-P(i - 1) + P(i + 1)) * t +
+                           (2 * P(i - 1) - 5 * P(i) + 4 * P(i + 1) - P(i + 2)) * t2 +
                            (-P(i - 1) + 3 * P(i) - 3 * P(i + 1) + P(i + 2)) * t3));
     }
   if (!closed) out.push_back(pts.back());
@@ -242,8 +244,12 @@ struct Face {
     return c;
   }
   // Per side (0: iBUG 36-41 / brow 17-21, 1: 42-47 / 22-26), curves from the outer eye corner to the inner one.
-  Curve upper_lid(int s) const { return resample(smooth(s ? pts({45, 44, 43, 42}) : pts({36, 37, 38, 39}), false), 32); }
-  Curve lower_lid(int s) const { return resample(smooth(s ? pts({45, 46, 47, 42}) : pts({36, 41, 40, 39}), false), 32); }
+  Curve upper_lid(int s) const {
+    return resample(smooth(s ? pts({45, 44, 43, 42}) : pts({36, 37, 38, 39}), false), 32);
+  }
+  Curve lower_lid(int s) const {
+    return resample(smooth(s ? pts({45, 46, 47, 42}) : pts({36, 41, 40, 39}), false), 32);
+  }
   Curve brow(int s) const {
     return resample(smooth(s ? pts({26, 25, 24, 23, 22}) : pts({17, 18, 19, 20, 21}), false), 32);
   }
@@ -413,7 +419,8 @@ void draw_region(Region r, const Face& f, const Mask& coverage, Mask& m) {
 
 std::vector<Eigen::Vector2d> landmark_texels(const TemplateFace& face, int uv_size) {
   if (face.landmark_vertices.size() != 68) {
-    throw InvalidInput("template", "makeup regions need the 68 iBUG landmark vertices", "give the template's landmarks.json");
+    throw InvalidInput("template", "makeup regions need the 68 iBUG landmark vertices",
+                       "give the template's landmarks.json");
   }
   Eigen::MatrixX2d uv;
   if (!per_vertex_uv(face.mesh, uv)) {
@@ -421,7 +428,8 @@ std::vector<Eigen::Vector2d> landmark_texels(const TemplateFace& face, int uv_si
   }
   std::vector<Vec2> out;
   for (int v : face.landmark_vertices) {
-    if (v < 0 || v >= uv.rows()) throw InvalidInput("template", "a landmark vertex id is out of range", "check landmarks.json");
+    if (v < 0 || v >= uv.rows())
+      throw InvalidInput("template", "a landmark vertex id is out of range", "check landmarks.json");
     out.emplace_back(uv(v, 0) * uv_size, (1 - uv(v, 1)) * uv_size);
   }
   return out;

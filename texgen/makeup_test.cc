@@ -1,5 +1,7 @@
 // Makeup layers: regions land on the template's landmarks, the blend formula against hand-computed texels, the seeded
 // style sampler, the layer's PNG form, CIELAB against published values.
+#include "texgen/makeup.h"
+
 #include <gtest/gtest.h>
 
 #include <tuple>
@@ -7,7 +9,6 @@
 #include "core/error.h"
 #include "core/png.h"
 #include "core/test_util.h"
-#include "texgen/makeup.h"
 
 namespace bareskin::makeup {
 namespace {
@@ -69,7 +70,10 @@ TEST(MakeupRegions, EyeCheekAndBrowLayersSitOnTheirLandmarks) {
   for (const auto& [lid, brow] : {std::pair{37, 19}, std::pair{38, 20}, std::pair{43, 23}, std::pair{44, 24}}) {
     // Lid shadow a fifth of the way from the upper lid to the brow; none inside the eye (between the lids).
     EXPECT_GT(alpha_at(lids, L[size_t(lid)] + 0.2 * (L[size_t(brow)] - L[size_t(lid)])), 0.5f) << lid;
-    const Eigen::Vector2d in_eye = 0.5 * (L[size_t(lid)] + L[size_t(lid == 37 ? 41 : lid == 38 ? 40 : lid == 43 ? 47 : 46)]);
+    const Eigen::Vector2d in_eye = 0.5 * (L[size_t(lid)] + L[size_t(lid == 37   ? 41
+                                                                    : lid == 38 ? 40
+                                                                    : lid == 43 ? 47
+                                                                                : 46)]);
     EXPECT_LT(alpha_at(lids, in_eye), 0.05f) << lid;
     EXPECT_LT(alpha_at(face, in_eye), 0.05f) << lid;
     // Brow fill on the brow (1.5 mm below its landmark line, as the skin model draws it), no lid shadow there.
@@ -109,7 +113,8 @@ TEST(MakeupPaint, BlendFormulaMatchesAHandComputedTexel) {
   ASSERT_LT(regions[Region::Lips].at(bx, by), -1.0f);  // > feather/2 inside
   const Eigen::Vector3f bare(0.4f, 0.25f, 0.2f);
   for (int scale : {1, 2}) {  // the layer's size, and a map twice as large (bilinear lookup of a flat interior)
-    Image diffuse(kUv * scale, kUv * scale, 3, ColorSpace::Linear), rough(kUv * scale, kUv * scale, 1, ColorSpace::Data, 0.5f),
+    Image diffuse(kUv * scale, kUv * scale, 3, ColorSpace::Linear),
+        rough(kUv * scale, kUv * scale, 1, ColorSpace::Data, 0.5f),
         spec(kUv * scale, kUv * scale, 1, ColorSpace::Data, 0.3f);
     for (size_t i = 0; i < diffuse.pixels.size(); ++i) diffuse.pixels[i] = bare[int(i % 3)];
     apply_makeup(layer, diffuse, &rough, &spec);
@@ -188,7 +193,8 @@ TEST(MakeupLayerFiles, PngFormRoundTripsWithin8Bit) {
 }
 
 TEST(MakeupMeasure, CielabMatchesPublishedValues) {
-  // sRGB primaries and white in CIELAB (D65): white (100, 0, 0), red (53.24, 80.09, 67.20), blue (32.30, 79.19, -107.86).
+  // sRGB primaries and white in CIELAB (D65): white (100, 0, 0), red (53.24, 80.09, 67.20), blue (32.30, 79.19,
+  // -107.86).
   const Eigen::Vector3f white = linear_rgb_to_lab({1, 1, 1}), red = linear_rgb_to_lab({1, 0, 0}),
                         blue = linear_rgb_to_lab({0, 0, 1});
   EXPECT_NEAR(white.x(), 100, 0.01);
