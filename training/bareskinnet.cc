@@ -549,9 +549,10 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   while (r.samples < total) {
     data::Batch batch = loader.next();
     const int64_t n = std::min(batch.size(), total - r.samples);
-    auto take = [&](const std::string& name) { return batch.at(name).narrow(0, 0, n).to(eo.device); };
+    // At G's own resolution (the shards' images area-resized; the skin mask kept where at least half covered).
+    auto take = [&](const std::string& name) { return resized(batch.at(name).narrow(0, 0, n).to(eo.device), d.size, true); };
     auto makeup = take("makeup");
-    auto skin = take("skin");
+    auto skin = (take("skin") >= 0.5).to(makeup.dtype());
     auto out = run_generator(d, makeup);
     std::map<std::string, torch::Tensor> m;  // per image [n]
     for (const char* truth : {"bare", "before"}) {

@@ -237,7 +237,8 @@ struct EvalResult {
   std::map<std::string, std::map<std::string, double>> by_style;  // the same per makeup style
 };
 void to_json(nlohmann::json& j, const EvalResult& r);
-// G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json).
+// G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json),
+// at G's training resolution (the samples area-resized to it; skin where the resized mask is ≥ 0.5).
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
 // G alone from a run (stage2, else stage1): the Demakeup evaluate_generator takes.
 Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
