@@ -9,6 +9,7 @@
 
 #include "apps/cli.h"
 #include "apps/detector.h"
+#include "apps/recon_eval.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -72,8 +73,11 @@ void reconstruct_photo(const Context& ctx, const std::string& photo_path, const 
   const std::vector<detect::Face> faces = ctx.detector->detect(detect::photo_tensor(photo, photo_path));
   if (faces.empty()) throw InvalidInput(photo_path, "no face was found", "give a photo with a face of at least ~80 px");
   const detect::Landmarks68 detected = faces.front().points;
-  const detect::Similarity sim = detect::alignment(detected);
+  // The 256² aligned frame scaled to the net's size.
   const int S = int(ctx.net.image_size);
+  detect::Similarity sim = detect::alignment(detected);
+  sim.scale *= S / double(detect::kAlignedSize);
+  sim.translation *= S / double(detect::kAlignedSize);
   const Image aligned = detect::warp_aligned(photo, sim, S);
   const detect::Landmarks68 lm_aligned = detect::transform(sim, detected);
   torch::Tensor lm = torch::empty({68, 2}, torch::kDouble);
@@ -171,9 +175,10 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     bool refine = false, keep_going = false;
     int refine_iterations = 30;
     recon::ConfidenceOptions confidence;
+    EvalOptions eval;
   };
   auto o = std::make_shared<Options>();
-  app.add_option("photo", o->input, "A photo (PNG, JPEG, TIFF) or a folder of photos")->required();
+  app.add_option("photo", o->input, "A photo (PNG, JPEG, TIFF) or a folder of photos");
   app.add_option("-o,--output", o->output, "Output folder (per photo a subfolder when the input is a folder)")->required();
   app.add_option("--run", o->run, "The net: a 'bareskin train recon' run folder or its checkpoint")->required();
   app.add_option("--model", o->model, "The morphable model (default: the one the run was trained with)");
@@ -185,6 +190,11 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
                                                                   "from the detector's (px, 256² frame)")->capture_default_str();
   app.add_option("--flag-psnr", o->confidence.psnr_db, "Flag answers whose render matches the photo worse than this "
                                                        "(dB)")->capture_default_str();
+  app.add_option("--eval", o->eval.data, "Instead of photos: held-out face samples (a split of 'texgen faces') to "
+                                         "measure against their truth and mm-fit (metrics.json, charts, heat maps)");
+  app.add_option("--eval-faces", o->eval.max_faces, "With --eval: at most this many samples (0: all)")->capture_default_str();
+  app.add_option("--eval-input", o->eval.input, "With --eval: the member the net sees (before or makeup)")
+      ->check(CLI::IsMember({"before", "makeup"}))->capture_default_str();
   app.add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   app.footer("Outputs: coefficients.json (the coefficient file, with confidence), mesh.obj, overlay.png, aligned.png,\n"
              "landmarks.json. Example:\n  bareskin recon photo.jpg --run runs/F -o out/\n");
@@ -194,7 +204,12 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
       throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
     }
     const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
-    if (!fs::exists(o->input)) throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
+    if (o->input.empty() == o->eval.data.empty()) {
+      throw CLI::ValidationError("recon", "give a photo (or folder), or --eval with face samples");
+    }
+    if (o->eval.data.empty() && !fs::exists(o->input)) {
+      throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
+    }
     std::string model_path = o->model;
     if (model_path.empty()) {
       // The run's config names the model it was trained with.
@@ -203,6 +218,15 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
       const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
       if (fs::exists(cfg)) model_path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
       if (model_path.empty()) throw InvalidInput(o->run, "names no model file", "give --model");
+    }
+    if (!o->eval.data.empty()) {
+      EvalOptions e = o->eval;
+      e.run = o->run;
+      e.model = model_path;
+      e.output = o->output;
+      e.confidence = o->confidence;
+      evaluate_recon(e, globals);
+      return;
     }
     Context ctx;
     ctx.net = recon::load_recon(o->run, recon::FaceModel::load(model_path), device);

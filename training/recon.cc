@@ -160,6 +160,22 @@ ReconTargets targets_from_batch(const data::Batch& batch, const FaceModel& model
   return t;
 }
 
+ReconTargets resized(const ReconTargets& t, int64_t size) {
+  const int64_t from = t.image.size(3);
+  if (from == size && t.image.size(2) == size) return t;
+  namespace F = torch::nn::functional;
+  ReconTargets out = t;
+  const auto area = [&](const torch::Tensor& x) {
+    auto opt = F::InterpolateFuncOptions().size(std::vector<int64_t>{size, size});
+    return size < from ? F::interpolate(x, opt.mode(torch::kArea))
+                       : F::interpolate(x, opt.mode(torch::kBilinear).align_corners(false));
+  };
+  out.image = area(t.image);
+  out.skin = (area(t.skin) > 0.5).to(t.skin.dtype());
+  if (t.landmarks.defined()) out.landmarks = t.landmarks * (double(size) / double(from));
+  return out;
+}
+
 torch::Tensor photo_loss(const torch::Tensor& rendered, const torch::Tensor& target, const torch::Tensor& mask) {
   const torch::Tensor d = torch::sqrt(1e-6 + (rendered - target).pow(2).sum(1, true)) * mask;
   return d.sum() / mask.sum().clamp_min(1.0);
@@ -321,13 +337,13 @@ std::vector<train::OptimizerSpec> ReconTask::optimizers() {
 }
 
 train::Losses ReconTask::loss(size_t, const data::Batch& batch) {
-  const ReconTargets t = targets_from_batch(batch, model_, options_.input);
+  const ReconTargets t = resized(targets_from_batch(batch, model_, options_.input), options_.image_size);
   const torch::Tensor pred = net_->forward(t.image.to(device_));
   return recon_losses(model_, pred, t, options_.loss, identity_ ? identity_.get() : nullptr, options_.image_size);
 }
 
 std::map<std::string, double> ReconTask::evaluate(const data::Batch& batch) {
-  const ReconTargets t = targets_from_batch(batch, model_, options_.input);
+  const ReconTargets t = resized(targets_from_batch(batch, model_, options_.input), options_.image_size);
   const torch::Tensor pred = net_->forward(t.image.to(device_));
   std::map<std::string, double> out;
   for (const auto& [name, values] : recon_metrics(model_, pred, t, options_.image_size)) {
@@ -343,7 +359,7 @@ std::map<std::string, double> ReconTask::evaluate(const data::Batch& batch) {
 
 std::vector<std::vector<torch::Tensor>> ReconTask::samples(const data::Batch& batch) {
   torch::NoGradGuard guard;
-  const ReconTargets t = targets_from_batch(batch, model_, options_.input);
+  const ReconTargets t = resized(targets_from_batch(batch, model_, options_.input), options_.image_size);
   const torch::Tensor image = t.image.to(device_);
   const torch::Tensor pred = net_->forward(image);
   torch::Tensor light;

@@ -85,6 +85,10 @@ struct ReconTargets {
 // missing member or coefficients of another model.
 ReconTargets targets_from_batch(const data::Batch& batch, const FaceModel& model, const std::string& input = "before");
 
+// The targets at another square size (the nets train and answer at any size; the canonical camera scales with it):
+// images area-resampled, the skin mask re-thresholded at 0.5, landmarks scaled.
+ReconTargets resized(const ReconTargets& targets, int64_t size);
+
 // The terms (Deep3DFaceRecon's definitions; images in linear light, the render against the decoded input).
 torch::Tensor photo_loss(const torch::Tensor& rendered, const torch::Tensor& target, const torch::Tensor& mask);
 torch::Tensor landmark_loss(const torch::Tensor& predicted, const torch::Tensor& target, const torch::Tensor& visible,
