@@ -7,6 +7,7 @@
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/landmarks.h"
 #include "detect/face_api.h"
 #include "texture_infer/avatar.h"
 
@@ -14,7 +15,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string photo, output, model, texture, bareskin, device = "cpu", weights;
+    std::string photo, output, model, texture, bareskin, device = "cpu", weights, landmarks;
     std::vector<std::string> upscale;
     bool no_bareskin = false, no_upscale = false;
     texture::AvatarOptions avatar;
@@ -34,6 +35,8 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
       ->capture_default_str();
   app.add_option("--preview-size", opt->avatar.preview_size, "Relit previews' size")->capture_default_str();
   app.add_option("--device", opt->device, "cpu or cuda[:N] for the networks")->capture_default_str();
+  app.add_option("--landmarks", opt->landmarks,
+                 "The photo's 68 landmarks (a landmark file, px): used instead of the detector (e.g. for aligned shards)");
   app.add_option("--weights", opt->weights, "face-api's tfjs models (default: face_api/ in the assets)");
   app.footer("Example: bareskin run photo.png -o avatar/ --model model.safetensors --texture runs/tex "
              "--upscale runs/up_diffuse --bareskin runs/bsn\nExit 3 (nothing written) for a photo without a face "
@@ -47,13 +50,23 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device);
     const texture::Demakeup G = opt->no_bareskin ? texture::Demakeup{} : texture::load_demakeup(opt->bareskin, opt->device);
     const Image photo = read_image(opt->photo);
-    auto face_api = std::make_shared<detect::FaceApi>(opt->weights.empty() ? detect::default_face_api_folder()
-                                                                             : opt->weights);
-    const texture::FaceFinder detector = [face_api](const Image& srgb) {
-      std::vector<detect::Landmarks68> faces;
-      for (const detect::Face& f : face_api->detect(detect::photo_tensor(srgb, "photo"), {})) faces.push_back(f.points);
-      return faces;
-    };
+    texture::FaceFinder detector;
+    if (!opt->landmarks.empty()) {
+      const Landmarks given = read_landmarks(opt->landmarks);
+      if (given.points.rows() != 68 || given.points.cols() != 2)
+        throw InvalidInput(opt->landmarks, "does not hold 68 2D landmarks", "give an iBUG-68 file in pixels");
+      const detect::Landmarks68 points = given.points;
+      detector = [points](const Image&) { return std::vector<detect::Landmarks68>{points}; };
+    } else {
+      auto face_api = std::make_shared<detect::FaceApi>(opt->weights.empty() ? detect::default_face_api_folder()
+                                                                               : opt->weights);
+      detector = [face_api](const Image& srgb) {
+        std::vector<detect::Landmarks68> faces;
+        for (const detect::Face& f : face_api->detect(detect::photo_tensor(srgb, "photo"), {}))
+          faces.push_back(f.points);
+        return faces;
+      };
+    }
     const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     opt->avatar.upscale = !opt->no_upscale;
     const auto t1 = std::chrono::steady_clock::now();
