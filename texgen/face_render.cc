@@ -170,6 +170,57 @@ std::vector<BackgroundPhoto> read_background_photos(const std::string& folder) {
   return out;
 }
 
+// ---- the head around the face ----
+
+void paint_head(Image& img, const std::vector<Eigen::Vector2d>& lm, const Eigen::Vector3f& skin,
+                const Eigen::Vector3f& hair, Rng& rng) {
+  using Vec = Eigen::Vector2d;
+  Vec eye_r = Vec::Zero(), eye_l = Vec::Zero();
+  for (int k = 36; k < 42; ++k) eye_r += lm[size_t(k)] / 6;
+  for (int k = 42; k < 48; ++k) eye_l += lm[size_t(k)] / 6;
+  const Vec mid = 0.5 * (eye_r + eye_l);
+  const double d = std::max((eye_l - eye_r).norm(), 1.0);
+  const Vec across = (eye_l - eye_r) / d, down(-across.y(), across.x());
+  const Vec centre = 0.5 * (lm[0] + lm[16]);
+  const double half = 0.5 * (lm[16] - lm[0]).norm();
+  const double crown = rng.uniform(1.1, 1.5) * d, width = half * rng.uniform(1.12, 1.3), length = rng.uniform(1.6, 2.6) * d;
+  const double neck = half * rng.uniform(0.6, 0.8);
+  const Vec chin = lm[8];
+  const float strand_phase = float(rng.uniform(0, 6.28)), strand_freq = float(rng.uniform(0.3, 0.7));
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      const Vec p(x + 0.5, y + 0.5);
+      const double u = (p - centre).dot(across), v = (p - mid).dot(down);  // across the face, down from the eyes
+      Eigen::Vector3f c;
+      bool paint = false;
+      // Neck: below the jaw, darker (the chin's shadow) towards the top.
+      const double below_chin = (p - chin).dot(down);
+      if (std::abs(u) < neck && v > 0 && below_chin > -0.6 * d) {
+        const float shade = float(std::clamp(0.45 + 0.25 * below_chin / d, 0.45, 0.8));
+        c = skin * shade;
+        paint = true;
+      }
+      // Ears: beside the face contour at eye to nose height.
+      for (const Vec& side : {lm[1], lm[15]}) {
+        const Vec q = p - (side + 0.12 * d * (side - centre).normalized() + 0.15 * d * down);
+        const double a = q.dot(across) / (0.28 * d), b = q.dot(down) / (0.62 * d);
+        if (a * a + b * b < 1) {
+          c = skin * float(0.7 + 0.15 * a);
+          paint = true;
+        }
+      }
+      // Hair: an ellipse over the crown reaching down the sides, behind the ears at the top.
+      const double hu = u / width, hv = (v + 0.35 * d) / (v < -0.35 * d ? crown + 0.35 * d : length);
+      if (hu * hu + hv * hv < 1 && !(paint && v > 0.3 * d)) {
+        const float strand = 0.75f + 0.25f * std::sin(strand_freq * float(u) + strand_phase + 0.05f * float(v));
+        c = hair * strand;
+        paint = true;
+      }
+      if (paint)
+        for (int k = 0; k < 3; ++k) img.at(x, y, k) = c[k];
+    }
+}
+
 // ---- occluders ----
 
 Occluders draw_occluders(int size, const std::vector<Eigen::Vector2d>& landmarks, double probability, Rng& rng) {

@@ -54,6 +54,13 @@ Image make_background(int size, const std::vector<BackgroundPhoto>& photos, Rng&
 // when present (linear RGB); none otherwise.
 std::vector<BackgroundPhoto> read_background_photos(const std::string& folder);
 
+// The rest of the head behind the face mesh, painted into the background from the 68 landmarks (pixels): hair over
+// the crown and the sides, ears, a neck in the shade of the chin, in the subject's skin tone (linear, lit) and a hair
+// colour. The mesh covers the face itself; this is context for the detector (a face mask on a texture reads as no
+// face), never part of the face or skin masks.
+void paint_head(Image& background, const std::vector<Eigen::Vector2d>& landmarks, const Eigen::Vector3f& skin,
+                const Eigen::Vector3f& hair, Rng& rng);
+
 // Occluders (hair fringe, glasses, hand, hat) drawn from uvtools/mask.h around the landmarks (pixels), with the
 // colours they are painted in.
 struct Occluders {

@@ -177,6 +177,7 @@ struct FaceGenerator::World {
     makeup::MakeupLook look;
     makeup::MakeupLayer layer;
     std::shared_ptr<const Image> makeup_diffuse, makeup_roughness, makeup_specular;  // the maps with makeup
+    Eigen::Vector3f skin_tone;  // the bare albedo's mean over the foundation region
     Eigen::Vector3d photo_translation;
     Eigen::MatrixX3d shape;  // neutral + expression, model frame
     detect::Landmarks68 photo_truth;
@@ -270,6 +271,7 @@ void FaceGenerator::World::apply_look(Stage& s, Rng& rng) const {
   s.style = makeup::to_string(style);
   const FaceSubject& subj = *s.subject;
   const int n = regions.uv_size;
+  s.skin_tone = makeup::skin_tone(regions, *subj.diffuse);
   if (s.look.layers.empty()) {
     s.layer.colour = Image(n, n, 4, ColorSpace::Linear);
     s.layer.finish = Image(n, n, 2, ColorSpace::Data);
@@ -278,7 +280,7 @@ void FaceGenerator::World::apply_look(Stage& s, Rng& rng) const {
     s.makeup_specular = subj.specular;
     return;
   }
-  s.layer = makeup::paint(regions, s.look, makeup::skin_tone(regions, *subj.diffuse));
+  s.layer = makeup::paint(regions, s.look, s.skin_tone);
   auto diffuse = std::make_shared<Image>(resample_map(*subj.diffuse, n));
   auto roughness = std::make_shared<Image>(resample_map(*subj.roughness, n));
   auto specular = std::make_shared<Image>(resample_map(*subj.specular, n));
@@ -317,6 +319,11 @@ FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
   std::vector<Eigen::Vector2d> lm(68);
   for (int i = 0; i < 68; ++i) lm[size_t(i)] = s.photo_truth.row(i).transpose();
   s.photo_occluders = draw_occluders(kPhotoSize, lm, opt.occluder_prob, rng);
+  {
+    auto t = clock.time(kBackground);
+    const Eigen::Vector3f skin = s.skin_tone * float(s.params.light.ambient * 0.886 + 0.5 * s.params.light.strength);
+    paint_head(s.photo_background, lm, skin, s.photo_occluders.hair, rng);
+  }
   if (opt.align == "detector") {
     const Surface surface = rasterize_face(photo_mesh, photo_camera);
     const SurfaceMaps maps{s.makeup_diffuse.get(), s.makeup_roughness.get(), s.makeup_specular.get()};
