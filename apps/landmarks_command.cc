@@ -20,6 +20,7 @@
 #include "detect/face_api.h"
 #include "detect/multiview_landmarks.h"
 #include "detect/scan_landmarks.h"
+#include "scan/colmap.h"
 #include "render/preview.h"
 
 namespace bareskin::cli {
@@ -104,6 +105,70 @@ void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m)
   }
   write_file_atomic(dir + "/cameras.json", nlohmann::json{{"convention", "bareskin pinhole: p = R x + t, looks down -z"},
                                                           {"cameras", cams}}.dump(1) + "\n");
+}
+
+// --capture: the photos' cameras from COLMAP (or --sparse), brought onto the scan (a similarity from the landmarks
+// triangulated in both frames, then ICP of the model's points against the mesh), and the landmarks triangulated on
+// the photos; m.result is replaced. When COLMAP cannot reconstruct the folder, one warning names the fallback (the
+// virtual views already in m) and null is returned.
+nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, detect::MultiviewScanLandmarks& m,
+                                 const std::string& capture, const std::string& sparse,
+                                 const detect::MultiviewOptions& options, int threads) {
+  if (!std::filesystem::is_directory(capture)) throw InvalidInput(capture, "is not a folder", "pass the photos' folder");
+  int photos = 0;
+  for (const auto& e : std::filesystem::directory_iterator(capture)) {
+    const std::string ext = lower_extension(e.path().string());
+    photos += ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
+  }
+  ColmapModel model;
+  if (!sparse.empty()) {
+    model = read_colmap_text_model(sparse);
+  } else {
+    const std::string work = (std::filesystem::temp_directory_path() /
+                              ("bareskin_colmap_" + std::to_string(std::hash<std::string>{}(capture) % 1000000)))
+                                 .string();
+    std::filesystem::remove_all(work);
+    try {
+      model = run_colmap(capture, work, threads > 0 ? threads : int(std::thread::hardware_concurrency()),
+                         work + ".log");
+    } catch (const Error& e) {
+      spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), options.views);
+      return nullptr;
+    }
+  }
+  std::vector<LandmarkView> views;
+  for (const ColmapImage& im : model.images)
+    views.push_back(detect::detect_view(net, read_image(capture + "/" + im.name), im.camera, options.refinements,
+                                        options.triangulate.min_score));
+  // The start: landmarks 17-67 in the model's frame (photos) against the scan's (virtual views).
+  Eigen::MatrixX3d in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
+  Eigen::MatrixX3d on_scan = m.result.landmarks.points;
+  in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
+  Similarity S;
+  double rms = 0;
+  try {
+    S = align_points_to_mesh(model.points, mesh, similarity_from_points(in_model, on_scan), 30, 0.2, &rms);
+  } catch (const InvalidInput&) {
+    spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back to "
+                 "the {} virtual views of the scan", capture, options.views);
+    return nullptr;
+  }
+  nlohmann::json cams = nlohmann::json::array();
+  for (size_t v = 0; v < views.size(); ++v) {
+    views[v].camera = transform_camera(views[v].camera, S);
+    const Camera& c = views[v].camera;
+    nlohmann::json R = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
+    cams.push_back({{"image", model.images[v].name}, {"focal", c.focal}, {"cx", c.cx}, {"cy", c.cy}, {"R", R},
+                    {"t", {c.t.x(), c.t.y(), c.t.z()}}, {"score", views[v].score}});
+  }
+  m.result = triangulate_landmarks(mesh, views, options.triangulate);
+  m.views = views;
+  m.pictures.clear();
+  spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points; aligned to the scan (scale {:.4g}, "
+               "ICP RMS {:.2f} mm over the best 80%)", capture, model.images.size(), photos, model.points.rows(), S.s, rms);
+  return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
+          {"scale", S.s}, {"icp_rms_mm", rms}, {"cameras", cams}};
 }
 
 void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
@@ -193,6 +258,10 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--calibration", sc->calibration, "Landmark calibration (`landmarks calibrate`): the detector's "
                                                   "convention mapped onto the template's landmarks");
   s->add_option("--uncalibrated", sc->uncalibrated, "With --calibration: also write the points before it (JSON)");
+  s->add_option("--capture", sc->capture, "The rig's photos of this scan: cameras from COLMAP, aligned to the scan, "
+                                          "landmarks triangulated on the photos (fallback: the virtual views)");
+  s->add_option("--sparse", sc->sparse, "With --capture: an existing COLMAP TXT model of the photos instead of running "
+                                        "COLMAP");
   s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
                                                 "this folder: a synthetic capture");
 
@@ -235,10 +304,15 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
         auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
                                                     !sc->draw.empty() || !sc->save_views.empty());
         if (!sc->save_views.empty()) save_views(sc->save_views, m);
+        nlohmann::json capture_info;
+        if (!sc->capture.empty())
+          capture_info = capture_landmarks(net, mesh, m, sc->capture, sc->sparse, sc->multiview, globals.threads);
         if (!sc->uncalibrated.empty()) write_file_atomic(sc->uncalibrated, multiview_landmarks_json(m.result));
         if (calibration) apply_calibration(mesh, *calibration, m.result);
-        if (!sc->draw.empty()) write_image(sc->draw, detect::draw_multiview(m));
-        write_file_atomic(sc->output, multiview_landmarks_json(m.result));
+        if (!sc->draw.empty() && !m.pictures.empty()) write_image(sc->draw, detect::draw_multiview(m));
+        nlohmann::json doc = nlohmann::json::parse(multiview_landmarks_json(m.result));
+        if (!capture_info.is_null()) doc["capture"] = capture_info;
+        write_file_atomic(sc->output, doc.dump(1) + "\n");
         int valid = 0;
         for (const auto& p : m.result.points) valid += p.valid;
         spdlog::info("landmarks scan: {}: {} of {} views with a face, {} of 68 points triangulated; render {:.1f} s, "

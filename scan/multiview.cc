@@ -329,6 +329,43 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
   return result;
 }
 
+Eigen::Matrix<double, 68, 3> triangulate_free(const std::vector<LandmarkView>& views, double pixel_sigma,
+                                              double min_score) {
+  Eigen::Matrix<double, 68, 3> out;
+  out.setConstant(std::numeric_limits<double>::quiet_NaN());
+  for (int i = 0; i < 68; ++i) {
+    // Midpoint: Σ (I − d dᵀ)(X − c) = 0 over the rays (c: camera centre, d: unit direction).
+    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    std::vector<int> use;
+    for (int v = 0; v < int(views.size()); ++v) {
+      const LandmarkView& view = views[v];
+      if (view.score < min_score || !view.px.row(i).allFinite()) continue;
+      const Camera& c = view.camera;
+      const Eigen::Vector3d ray_cam((view.px(i, 0) - c.cx) / c.focal, -(view.px(i, 1) - c.cy) / c.focal, -1);
+      const Eigen::Vector3d d = (c.R.transpose() * ray_cam).normalized(), centre = camera_centre(c);
+      const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - d * d.transpose();
+      A += P, b += P * centre;
+      use.push_back(v);
+    }
+    if (use.size() < 2) continue;
+    const Eigen::Vector3d start = A.ldlt().solve(b);
+    double X[3] = {start.x(), start.y(), start.z()};
+    ceres::Problem problem;
+    for (int v : use)
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Reprojection, 2, 3>(new Reprojection(
+                                   views[v].camera, views[v].px.row(i).transpose(), pixel_sigma)),
+                               new ceres::CauchyLoss(1.0), X);
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    out.row(i) << X[0], X[1], X[2];
+  }
+  return out;
+}
+
 namespace {
 
 // Similarity (s, R, t) taking `from` onto `to` over the rows valid in both (Umeyama); false with fewer than 4.

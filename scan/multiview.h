@@ -73,6 +73,12 @@ struct MultiviewLandmarks {
 MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<LandmarkView>& views,
                                          const TriangulateOptions& options = {});
 
+// Landmarks triangulated without a mesh (no occlusion test; e.g. in a COLMAP model's frame before it is aligned):
+// the rays' least-squares point per landmark, refined robustly in Ceres; NaN rows where fewer than two views with a
+// score ≥ min_score see it.
+Eigen::Matrix<double, 68, 3> triangulate_free(const std::vector<LandmarkView>& views, double pixel_sigma = 2,
+                                              double min_score = 0.1);
+
 // A 2D detector's landmarks follow its training annotations (300-W on photos), which differ from a template's own
 // landmark vertices by a few mm per point (brows higher, mouth corners wider, inner lips on the visible lip line). A
 // calibration learns that convention from scans with known landmarks (hand-placed, or `scan synth`'s truth):

@@ -1,0 +1,175 @@
+#include "scan/colmap.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+#include "template/surface.h"
+
+namespace bareskin {
+namespace fs = std::filesystem;
+namespace {
+
+std::vector<std::string> data_lines(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw IoError(path, "cannot be read", "export the model as TXT (colmap model_converter --output_type TXT)");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') lines.push_back(line);
+  return lines;
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+}  // namespace
+
+ColmapModel read_colmap_text_model(const std::string& dir) {
+  struct Intrinsics {
+    int width, height;
+    double focal, cx, cy;
+  };
+  std::map<int, Intrinsics> cams;
+  for (const std::string& line : data_lines(dir + "/cameras.txt")) {
+    std::istringstream s(line);
+    int id, w, h;
+    std::string model;
+    std::vector<double> p;
+    if (!(s >> id >> model >> w >> h)) throw InvalidInput(dir + "/cameras.txt", "has a malformed line", "re-export it");
+    for (double x; s >> x;) p.push_back(x);
+    Intrinsics in{w, h, 0, 0, 0};
+    if ((model == "SIMPLE_PINHOLE" || model == "SIMPLE_RADIAL" || model == "RADIAL") && p.size() >= 3)
+      in.focal = p[0], in.cx = p[1], in.cy = p[2];
+    else if ((model == "PINHOLE" || model == "OPENCV") && p.size() >= 4)
+      in.focal = (p[0] + p[1]) / 2, in.cx = p[2], in.cy = p[3];
+    else
+      throw InvalidInput(dir + "/cameras.txt", "camera model " + model + " is not supported",
+                         "use SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL or OPENCV");
+    cams[id] = in;
+  }
+  ColmapModel m;
+  const auto images = data_lines(dir + "/images.txt");
+  // Two lines per image; the second (its 2D points) may be empty, and empty lines were dropped above, so parse the
+  // image lines by their shape: 10 fields, the 9th an existing camera id.
+  for (const std::string& line : images) {
+    std::istringstream s(line);
+    int id, cam;
+    double qw, qx, qy, qz, tx, ty, tz;
+    std::string name, extra;
+    if (!(s >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> cam >> name) || (s >> extra) || !cams.count(cam)) continue;
+    const Intrinsics& in = cams[cam];
+    // COLMAP: x_c = R X + t, camera looking down +z, y down; ours looks down −z with y up: flip y and z.
+    const Eigen::Matrix3d R = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
+    const Eigen::Vector3d flip(1, -1, -1);
+    ColmapImage im;
+    im.name = name;
+    im.camera.width = in.width, im.camera.height = in.height;
+    im.camera.focal = in.focal, im.camera.cx = in.cx, im.camera.cy = in.cy;
+    im.camera.R = flip.asDiagonal() * R;
+    im.camera.t = flip.asDiagonal() * Eigen::Vector3d(tx, ty, tz);
+    m.images.push_back(im);
+  }
+  const auto pts = data_lines(dir + "/points3D.txt");
+  m.points.resize(Eigen::Index(pts.size()), 3);
+  for (size_t k = 0; k < pts.size(); ++k) {
+    std::istringstream s(pts[k]);
+    long id;
+    double x, y, z;
+    if (!(s >> id >> x >> y >> z)) throw InvalidInput(dir + "/points3D.txt", "has a malformed line", "re-export it");
+    m.points.row(Eigen::Index(k)) << x, y, z;
+  }
+  if (m.images.empty()) throw InvalidInput(dir + "/images.txt", "holds no registered image", "check the model");
+  return m;
+}
+
+ColmapModel run_colmap(const std::string& images, const std::string& work, int threads, const std::string& log) {
+  if (std::system("command -v colmap > /dev/null 2>&1") != 0)
+    throw IoError("colmap", "is not installed", "install Debian's colmap package (make deps)");
+  fs::create_directories(work + "/sparse");
+  const std::string db = shell_quote(work + "/database.db"), img = shell_quote(images), out = " >> " + shell_quote(log) + " 2>&1";
+  const std::string t = std::to_string(std::max(1, threads));
+  const std::vector<std::string> steps = {
+      "colmap feature_extractor --database_path " + db + " --image_path " + img +
+          " --ImageReader.camera_model SIMPLE_PINHOLE --ImageReader.single_camera 1 --SiftExtraction.use_gpu 0"
+          " --SiftExtraction.num_threads " + t,
+      "colmap exhaustive_matcher --database_path " + db + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + t,
+      "colmap mapper --database_path " + db + " --image_path " + img + " --output_path " +
+          shell_quote(work + "/sparse") + " --Mapper.num_threads " + t,
+  };
+  for (const std::string& step : steps)
+    if (std::system((step + out).c_str()) != 0)
+      throw InvalidInput(images, "COLMAP failed at '" + step.substr(7, step.find(' ', 7) - 7) + "'", "see " + log);
+  // The largest model (most registered images).
+  ColmapModel best;
+  for (const auto& e : fs::directory_iterator(work + "/sparse")) {
+    if (!e.is_directory()) continue;
+    const std::string txt = e.path().string() + "_txt";
+    fs::create_directories(txt);
+    const std::string cmd = "colmap model_converter --input_path " + shell_quote(e.path().string()) +
+                            " --output_path " + shell_quote(txt) + " --output_type TXT" + out;
+    if (std::system(cmd.c_str()) != 0) continue;
+    ColmapModel m = read_colmap_text_model(txt);
+    if (m.images.size() > best.images.size()) best = std::move(m);
+  }
+  if (best.images.empty()) throw InvalidInput(images, "COLMAP reconstructed no model from these photos", "see " + log);
+  return best;
+}
+
+Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to) {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < std::min(from.rows(), to.rows()); ++i)
+    if (from.row(i).allFinite() && to.row(i).allFinite()) rows.push_back(i);
+  if (rows.size() < 4) throw InvalidInput("", "fewer than 4 corresponding points to align", "check the detections");
+  Eigen::Matrix3Xd a(3, rows.size()), b(3, rows.size());
+  for (size_t k = 0; k < rows.size(); ++k) a.col(k) = from.row(rows[k]).transpose(), b.col(k) = to.row(rows[k]).transpose();
+  const Eigen::Matrix4d T = Eigen::umeyama(a, b, true);
+  Similarity S;
+  S.s = std::cbrt(T.block<3, 3>(0, 0).determinant());
+  S.R = T.block<3, 3>(0, 0) / S.s;
+  S.t = T.block<3, 1>(0, 3);
+  return S;
+}
+
+Similarity align_points_to_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh, Similarity S, int iterations,
+                                double trim, double* rms_mm) {
+  const SurfaceLocator locator(mesh.V, mesh.F);
+  const Eigen::Index n = points.rows();
+  double rms = 0;
+  for (int it = 0; it < iterations && n >= 4; ++it) {
+    Eigen::MatrixX3d from(n, 3), to(n, 3);
+    std::vector<std::pair<double, Eigen::Index>> dist;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      from.row(i) = points.row(i);
+      const Eigen::Vector3d x = S.apply(points.row(i).transpose());
+      to.row(i) = locator.locate(x).point.transpose();
+      dist.emplace_back((to.row(i).transpose() - x).squaredNorm(), i);
+    }
+    std::sort(dist.begin(), dist.end());
+    const size_t keep = std::max<size_t>(4, size_t(double(n) * (1 - trim)));
+    Eigen::MatrixX3d f(keep, 3), t(keep, 3);
+    rms = 0;
+    for (size_t k = 0; k < keep; ++k) f.row(Eigen::Index(k)) = from.row(dist[k].second), t.row(Eigen::Index(k)) = to.row(dist[k].second), rms += dist[k].first;
+    rms = std::sqrt(rms / double(keep));
+    S = similarity_from_points(f, t);
+  }
+  if (rms_mm) *rms_mm = rms;
+  return S;
+}
+
+Camera transform_camera(const Camera& c, const Similarity& S) {
+  // p = R_c x_model + t_c with x_model = Rᵀ (x − t) / s; scaling p by s keeps its pixels.
+  Camera out = c;
+  out.R = c.R * S.R.transpose();
+  out.t = S.s * c.t - out.R * S.t;
+  return out;
+}
+
+}  // namespace bareskin

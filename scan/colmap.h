@@ -1,0 +1,56 @@
+// Cameras of a real multi-camera capture from COLMAP (docs/pipeline.md, "Captures"): the `colmap` command line
+// (Debian's package; feature extraction, exhaustive matching and mapping on the CPU) or a user's existing sparse model,
+// read from its TXT export; the model's frame brought onto the scan's by a similarity (a landmark-based start, then
+// ICP of the model's 3D points against the mesh with scale). Geometry only: no COLMAP headers, no Torch.
+#pragma once
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/mesh.h"
+#include "render/camera.h"
+#include "scan/multiview.h"
+
+namespace bareskin {
+
+struct ColmapImage {
+  std::string name;  // file name relative to the image folder
+  Camera camera;     // in the model's frame, render/camera.h's convention (looks down −z)
+};
+
+struct ColmapModel {
+  std::vector<ColmapImage> images;  // registered images only
+  Eigen::MatrixX3d points;          // the sparse 3D points
+};
+
+// Reads cameras.txt, images.txt and points3D.txt of a TXT model. Pinhole models (SIMPLE_PINHOLE, PINHOLE) are read
+// as they are; radial ones (SIMPLE_RADIAL, RADIAL, OPENCV) keep their focal and principal point and drop the
+// distortion (fine for the small distortion of rig cameras; say so in the log). InvalidInput naming the file for
+// malformed lines or an unknown camera model.
+ColmapModel read_colmap_text_model(const std::string& dir);
+
+// Runs colmap on the photos in `images` (CPU SIFT, one shared SIMPLE_PINHOLE camera, exhaustive matching, mapper) in
+// `work` and reads the largest model. `log` gets COLMAP's output. IoError when colmap is missing; InvalidInput naming
+// the folder when it reconstructs nothing.
+ColmapModel run_colmap(const std::string& images, const std::string& work, int threads, const std::string& log);
+
+// x_scan = s R x_model + t.
+struct Similarity {
+  double s = 1;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& x) const { return s * R * x + t; }
+};
+
+// The similarity taking `from` onto `to` over the rows finite in both (Umeyama); InvalidInput with fewer than 4.
+Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to);
+
+// ICP with scale of the model's points onto the mesh from `start`: closest points, the worst `trim` fraction left
+// out each round, `iterations` rounds. rms_mm: the kept points' RMS distance at the end.
+Similarity align_points_to_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh, Similarity start, int iterations,
+                                double trim, double* rms_mm = nullptr);
+
+// A camera of the model's frame in the scan's frame (same pixels for corresponding points).
+Camera transform_camera(const Camera& camera, const Similarity& model_to_scan);
+
+}  // namespace bareskin
