@@ -27,7 +27,8 @@ constexpr int kStyleCount = 5;
 const char* to_string(MakeupStyle style);
 // InvalidInput naming `flag` for an unknown name.
 MakeupStyle parse_style(const std::string& name, const std::string& flag = "--styles");
-// A comma-separated list ("light,natural"); "all" or "" gives every style. Duplicates are dropped, order is kept.
+// A comma-separated list ("light,natural") or "all". Duplicates are dropped, order is kept; InvalidInput naming `flag`
+// for an unknown name or an empty list.
 std::vector<MakeupStyle> parse_styles(const std::string& list, const std::string& flag = "--styles");
 // `styles` less `exclude` (--styles minus --exclude-styles); InvalidInput when nothing is left.
 std::vector<MakeupStyle> select_styles(const std::vector<MakeupStyle>& styles, const std::vector<MakeupStyle>& exclude);

@@ -297,7 +297,10 @@ Region parse_region(const std::string& name) { return parse_name<Region>(kRegion
 
 std::vector<MakeupStyle> parse_styles(const std::string& list, const std::string& flag) {
   std::vector<MakeupStyle> out;
-  if (list.empty() || list == "all") {
+  if (list.find_first_not_of(" ,") == std::string::npos) {
+    throw InvalidInput(flag, "names no style", "give none, light, natural, heavy, dramatic (comma-separated) or all");
+  }
+  if (list == "all") {
     for (int i = 0; i < kStyleCount; ++i) out.push_back(MakeupStyle(i));
     return out;
   }

@@ -172,6 +172,8 @@ TEST(MakeupStyles, SamplerIsDeterministicPerSeedAndHonoursExclusions) {
   for (MakeupStyle s : allowed) EXPECT_GT(counts[int(s)], 400) << to_string(s);
   EXPECT_EQ(parse_styles("light, heavy,light"), (std::vector<MakeupStyle>{MakeupStyle::Light, MakeupStyle::Heavy}));
   EXPECT_THROW(parse_styles("light,goth"), InvalidInput);
+  EXPECT_THROW(parse_styles(""), InvalidInput);
+  EXPECT_THROW(parse_styles("light,"), InvalidInput);
   EXPECT_THROW(select_styles(parse_styles("light"), parse_styles("light")), InvalidInput);
 }
 
