@@ -314,8 +314,13 @@ FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
     s.photo_background = make_background(kPhotoSize, photos, rng, &s.background_kind);
   }
   auto t_photo = clock.time(kPhoto);
-  const Mesh photo_mesh = posed(s, s.photo_translation);
-  s.photo_truth = project_landmarks(photo_mesh, photo_camera);
+  {  // the photo's truth landmarks: only the 68 landmark vertices posed (posed() does the same for all of them)
+    const Eigen::Matrix3d R = euler_rotation(s.params.rotation);
+    for (int i = 0; i < 68; ++i) {
+      const Eigen::RowVector3d v = s.shape.row(model.landmark_vertices[size_t(i)]) * R.transpose();
+      s.photo_truth.row(i) = photo_camera.project(v.transpose() + s.photo_translation).head<2>().transpose();
+    }
+  }
   std::vector<Eigen::Vector2d> lm(68);
   for (int i = 0; i < 68; ++i) lm[size_t(i)] = s.photo_truth.row(i).transpose();
   s.photo_occluders = draw_occluders(kPhotoSize, lm, opt.occluder_prob, rng);
@@ -325,7 +330,7 @@ FaceGenerator::World::Stage FaceGenerator::World::prepare(int64_t index) const {
     paint_head(s.photo_background, lm, skin, s.photo_occluders.hair, rng);
   }
   if (opt.align == "detector") {
-    const Surface surface = rasterize_face(photo_mesh, photo_camera);
+    const Surface surface = rasterize_face(posed(s, s.photo_translation), photo_camera);
     const SurfaceMaps maps{s.makeup_diffuse.get(), s.makeup_roughness.get(), s.makeup_specular.get()};
     s.photo_srgb = encode_srgb(picture(surface, maps, s.params.light, s.photo_background, s.photo_occluders));
   }
