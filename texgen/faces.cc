@@ -352,8 +352,7 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
     std::nth_element(err.begin(), err.begin() + 34, err.end());
     detector_error = err[34];
   } else {
-    sim = detect::alignment(s.photo_truth);
-    if (opt.align == "detector") source = "truth (the detector found no face)";
+    sim = detect::alignment(s.photo_truth);  // with --align detector: it found no face ("detected": false)
   }
   // Move the head so the canonical camera sees the aligned view: scale → depth, shift → x/y.
   const double f = camera.focal, c = camera.cx;
