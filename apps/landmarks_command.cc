@@ -147,7 +147,7 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
   Similarity S;
   double rms = 0;
   try {
-    S = align_points_to_mesh(model.points, mesh, similarity_from_points(in_model, on_scan), 30, 0.2, &rms);
+    S = align_points_to_mesh(model.points, mesh, similarity_from_points(in_model, on_scan), 100, 0.2, &rms);
   } catch (const InvalidInput&) {
     spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back to "
                  "the {} virtual views of the scan", capture, options.views);
