@@ -131,7 +131,7 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
     double yaw = 0, expression = 0, shape = 0, shape_aligned = 0, landmark = 0, psnr = 0, gamma = 0, alpha = 0,
            beta = 0, delta = 0, rotation = 0, mean_face = 0, identity = kNan, confidence = 0, residual = kNan, net_ms = 0;
     bool flagged = false, detected = false;
-    std::vector<double> fit_ms, fit_mm, refine_ms, refine_mm;
+    std::vector<double> fit_ms, fit_mm, refine_ms, refine_mm, truth_ms, truth_mm;
   };
   std::vector<Face> faces;
   std::vector<double> pooled, pooled_aligned;
@@ -153,7 +153,9 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
     std::vector<detect::Face> found = detector.detect(detect::photo_tensor(to_image(canvas), f.key), dopt);
     for (detect::Face& d : found) d.points.array() -= double(pad);
     torch::Tensor det;
-    Eigen::MatrixX2d det_lm(68, 2);
+    Eigen::MatrixX2d det_lm(68, 2), true_lm(68, 2);
+    const torch::Tensor tl = t.landmarks[0].to(torch::kDouble);
+    for (int k = 0; k < 68; ++k) true_lm(k, 0) = tl[k][0].item<double>(), true_lm(k, 1) = tl[k][1].item<double>();
     if (!found.empty()) {
       f.detected = true;
       det = torch::empty({68, 2}, torch::kDouble);
@@ -161,9 +163,6 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
         det[k][0] = det_lm(k, 0) = found[0].points(k, 0);
         det[k][1] = det_lm(k, 1) = found[0].points(k, 1);
       }
-    } else {
-      const torch::Tensor tl = t.landmarks[0].to(torch::kDouble);
-      for (int k = 0; k < 68; ++k) det_lm(k, 0) = tl[k][0].item<double>(), det_lm(k, 1) = tl[k][1].item<double>();
     }
     const recon::Reconstruction r = recon::reconstruct(net, image, det, o.confidence);
     const torch::Tensor pred = r.coefficients.unsqueeze(0);
@@ -215,6 +214,14 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
       fo.expression_components = int(layout.exp);
       fo.iterations = iterations;
       auto t0 = Clock::now();
+      const LandmarkFit upper = fit_landmarks(geometry, true_lm, cam, fo);  // the true landmarks: a bound
+      f.truth_ms.push_back(ms_since(t0));
+      f.truth_mm.push_back(shape_error(upper));
+      if (!f.detected) {  // mm-fit needs the detector's landmarks, as on a photo
+        for (auto* v : {&f.fit_ms, &f.fit_mm, &f.refine_ms, &f.refine_mm}) v->push_back(kNan);
+        continue;
+      }
+      t0 = Clock::now();
       const LandmarkFit scratch = fit_landmarks(geometry, det_lm, cam, fo);
       f.fit_ms.push_back(ms_since(t0));
       f.fit_mm.push_back(shape_error(scratch));
@@ -281,24 +288,33 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
   // Speed against accuracy: medians per iteration count.
   Chart speed{"Speed against accuracy (median over " + std::to_string(faces.size()) + " faces)", "milliseconds per face",
               "shape error, mm (mean per vertex)", {}, true, false};
-  ChartSeries scratch{"mm-fit landmark fit from the mean face", {}, {}}, refined{"net, then mm-fit from its answer", {}, {}};
+  ChartSeries scratch{"mm-fit from the mean face (detector landmarks)", {}, {}},
+      refined{"net, then mm-fit from its answer (detector landmarks)", {}, {}},
+      upper{"mm-fit on the true landmarks (a bound)", {}, {}};
   ChartSeries mean_point{"the mean face (no fit)", {0.0}, {quantile(column(&Face::mean_face), 0.5)}};
   ChartSeries net_point{"net alone (one forward pass)", {quantile(column(&Face::net_ms), 0.5)},
                         {quantile(column(&Face::shape), 0.5)}};
-  std::string speed_csv = "iterations,mmfit_ms,mmfit_mm,refine_ms,refine_mm\n";
+  std::string speed_csv = "iterations,mmfit_ms,mmfit_mm,refine_ms,refine_mm,truth_landmarks_ms,truth_landmarks_mm\n";
   nlohmann::json speed_json = nlohmann::json::array();
   for (size_t k = 0; k < o.fit_iterations.size(); ++k) {
-    std::vector<double> a, b, c, d;
-    for (const Face& f : faces) a.push_back(f.fit_ms[k]), b.push_back(f.fit_mm[k]), c.push_back(f.refine_ms[k]), d.push_back(f.refine_mm[k]);
+    std::vector<double> a, b, c, d, e, g;
+    for (const Face& f : faces) {
+      a.push_back(f.fit_ms[k]), b.push_back(f.fit_mm[k]), c.push_back(f.refine_ms[k]), d.push_back(f.refine_mm[k]);
+      e.push_back(f.truth_ms[k]), g.push_back(f.truth_mm[k]);
+    }
+    upper.x.push_back(quantile(e, 0.5)), upper.y.push_back(quantile(g, 0.5));
     scratch.x.push_back(quantile(a, 0.5)), scratch.y.push_back(quantile(b, 0.5));
     refined.x.push_back(quantile(c, 0.5)), refined.y.push_back(quantile(d, 0.5));
     speed_csv += std::to_string(o.fit_iterations[k]) + "," + fmt(scratch.x.back()) + "," + fmt(scratch.y.back()) + "," +
-                 fmt(refined.x.back()) + "," + fmt(refined.y.back()) + "\n";
+                 fmt(refined.x.back()) + "," + fmt(refined.y.back()) + "," + fmt(upper.x.back()) + "," +
+                 fmt(upper.y.back()) + "\n";
     speed_json.push_back({{"iterations", o.fit_iterations[k]}, {"mmfit_ms", scratch.x.back()}, {"mmfit_mm", scratch.y.back()},
-                          {"refine_ms", refined.x.back()}, {"refine_mm", refined.y.back()}});
+                          {"refine_ms", refined.x.back()}, {"refine_mm", refined.y.back()},
+                          {"truth_landmarks_ms", upper.x.back()}, {"truth_landmarks_mm", upper.y.back()}});
   }
   summary["speed"] = speed_json;
-  speed.series = {scratch, refined, net_point, mean_point};
+  summary["detected"] = std::count_if(faces.begin(), faces.end(), [](const Face& f) { return f.detected; });
+  speed.series = {scratch, refined, upper, net_point, mean_point};
   // Failure curves: medians per yaw and expression bin.
   const auto binned = [&](double Face::*key, double width, int bins, const char* label, const char* x_label) {
     Chart c{std::string("Where it fails: error against ") + label, x_label, "median", {}, true, false};
@@ -321,7 +337,10 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
     return std::make_pair(c, rows);
   };
   const auto [yaw_chart, yaw_rows] = binned(&Face::yaw, 10, 6, "yaw", "|yaw|, degrees (bins of 10)");
-  const auto [exp_chart, exp_rows] = binned(&Face::expression, 0.1, 5, "expression", "expression strength (RMS β, σ)");
+  double top_expression = 0;
+  for (const Face& f : faces) top_expression = std::max(top_expression, f.expression);
+  const auto [exp_chart, exp_rows] = binned(&Face::expression, std::max(1e-6, top_expression / 5), 5, "expression",
+                                            "expression strength (RMS β over all components, σ)");
   summary["by_yaw"] = yaw_rows;
   summary["by_expression"] = exp_rows;
   write_file_atomic(o.output + "/speed_accuracy.svg", svg_line_chart(speed));

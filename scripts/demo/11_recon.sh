@@ -82,22 +82,25 @@ rows = [("shape error, mm (per vertex, median / p95)", f"{f(s['median_per_vertex
          f"best at ≤ 10% false alarms: {f(100 * c['detection_rate_at_10pct_false_alarms'] if c['bad'] else None, 0)}%")]
 table = "".join(f"<tr><td>{a}</td><td>{b}</td></tr>" for a, b in rows)
 speed = "".join(f"<tr><td>{r['iterations']}</td><td>{f(r['mmfit_ms'])}</td><td>{f(r['mmfit_mm'])}</td>"
-                f"<td>{f(r['refine_ms'])}</td><td>{f(r['refine_mm'])}</td></tr>" for r in m["speed"])
+                f"<td>{f(r['refine_ms'])}</td><td>{f(r['refine_mm'])}</td><td>{f(r['truth_landmarks_mm'])}</td></tr>"
+                for r in m["speed"])
 print(f"""<h2>11. Face reconstruction by network: the teacher F</h2>
 <p><code>bareskin train recon</code> trained a small F (ResNet-18, width 16, at {size}², {steps} steps of 8 on the
 demo's face shards; the paper's F is a ResNet-50 at 224²) to regress α, β, δ, the pose and the SH light γ from an aligned
 face. <code>bareskin recon --eval</code> ran it on {m['faces']} held-out faces of identities it never saw (yaw up to 60°,
 expressions), against their true coefficients, and ran mm-fit's landmark fitter on the same faces from the detector's
-landmarks. Sizes are the demo's (2 cores, ~150 s); at this size F has learnt pose and light but little identity: compare
-its shape error with the mean face's. bench/BENCHMARKS.md has the figures and how to reproduce them at larger sizes.</p>
+landmarks. Sizes are the demo's (2 cores, ~150 s): at this size F learns the pose and the light roughly (rotation
+error {f(m['rotation_deg'], 1)}°) but not yet the identity — compare its shape error with the mean face's. bench/BENCHMARKS.md has the figures and how to reproduce them at larger sizes.</p>
 <table>{table}</table>
 <figure><img src="img/recon_heat_maps.png" style="width:540px"><figcaption>Held-out faces: the input | F's answer
 rendered over it | per-vertex shape error on F's face (blue 0 mm → red ≥ 5 mm).</figcaption></figure>
 <figure><img src="img/recon_speed_accuracy.svg" style="width:560px"><figcaption>Speed against accuracy (median over
-faces): mm-fit's Levenberg–Marquardt from the mean face after 1–40 iterations, F's single forward pass, and mm-fit
-started from F's answer. mm-fit fits the face-api landmarks, whose convention differs from the model's landmark
-vertices, so it stops at the detector's bias.</figcaption></figure>
-<table><tr><th>iterations</th><th>mm-fit ms</th><th>mm-fit mm</th><th>F + mm-fit ms</th><th>F + mm-fit mm</th></tr>{speed}</table>
+faces): mm-fit's Levenberg–Marquardt from the mean face after 1–40 iterations, F's single forward pass, mm-fit
+started from F's answer, and mm-fit on the true landmarks (a bound no photo gives). mm-fit needs the detector's
+landmarks: face-api found {m['detected']} of the {m['faces']} rendered faces (the medians of the detector curves are
+over those); its landmark convention differs from the model's landmark vertices.</figcaption></figure>
+<table><tr><th>iterations</th><th>mm-fit ms</th><th>mm-fit mm</th><th>F + mm-fit ms</th><th>F + mm-fit mm</th>
+<th>mm-fit on true landmarks, mm</th></tr>{speed}</table>
 <figure><img src="img/recon_failure_yaw.svg" style="width:480px"><img src="img/recon_failure_expression.svg"
 style="width:480px"><figcaption>Where it fails: shape error and landmark RMS against |yaw| and expression strength.
 </figcaption></figure>""")
