@@ -48,7 +48,7 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
     options.min_score = 0.3;
     const auto faces = net->detect(photo, options);
     if (faces.empty() && !coverage_fallback) return std::nullopt;
-    detect::Box box = faces.empty() ? detect::Box{} : faces[0].box;
+    detect::Box box = faces.empty() ? detect::Box{} : faces[0].box, coverage;
     if (coverage_fallback) {
       int x0 = image.width, y0 = image.height, x1 = -1, y1 = -1;
       for (int y = 0; y < image.height; ++y)
@@ -56,15 +56,24 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
           if (image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2) > 0)
             x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
       if (x1 < 0) return std::nullopt;
-      const detect::Box coverage{double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
+      coverage = {double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
       // A detection that hardly overlaps the face's pixels found something else: the coverage box instead.
       const double ix = std::max(0.0, std::min(box.x + box.width, coverage.x + coverage.width) - std::max(box.x, coverage.x));
       const double iy = std::max(0.0, std::min(box.y + box.height, coverage.y + coverage.height) - std::max(box.y, coverage.y));
       const double inter = ix * iy, uni = box.width * box.height + coverage.width * coverage.height - inter;
       if (faces.empty() || inter < 0.3 * uni) box = coverage;
     }
-    texgen::Landmarks68 points = net->landmarks(photo, {box})[0];
-    for (int pass = 0; pass < refinements; ++pass) points = net->landmarks(photo, {box_around(points)})[0];
+    auto refine = [&](const detect::Box& start) {
+      texgen::Landmarks68 p = net->landmarks(photo, {start})[0];
+      for (int pass = 0; pass < refinements; ++pass) p = net->landmarks(photo, {box_around(p)})[0];
+      return p;
+    };
+    texgen::Landmarks68 points = refine(box);
+    // Points that collapsed into a small part of the face (the refinements shrank onto a feature): again from the
+    // face's pixels.
+    if (coverage_fallback && box.width != coverage.width &&
+        points.col(0).maxCoeff() - points.col(0).minCoeff() < 0.4 * coverage.width)
+      points = refine(coverage);
     if (!flip) return points;
     // Test-time mirroring: the landmarks of the mirrored image on the mirrored box, mirrored back and relabelled
     // (left and right points swap), averaged with the direct ones.
