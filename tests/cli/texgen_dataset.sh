@@ -170,4 +170,34 @@ PY
 expect_failure 3 "0.png: no face found" "" -- "$bin" texgen make-dataset "$work/r" --model "$model" -o "$work/bad4" \
   --render-size 128 --fit-size 128 --input-res 64 --target-res 64 --hr-res 0 --split 1,0,0 --celebamask "$work/celeba"
 no_shard "$work/bad4"
+# CelebAMask-HQ's layout with a real photo (skimage's astronaut) and hand-made part masks: all skin, hair over the top
+# half; the fitted face's skin that the hair leaves uncovered becomes a mask sample of its own.
+mkdir -p "$work/celeba_ok/CelebA-HQ-img" "$work/celeba_ok/CelebAMask-HQ-mask-anno/0" "$work/r1"
+ln -s "$work/r/subject_0000" "$work/r1/subject_0000"
+$py - "$work/celeba_ok" <<'PY' || fail "CelebAMask folder"
+import shutil, sys
+import numpy as np
+from skimage import data, io
+d = sys.argv[1]
+io.imsave(d + "/CelebA-HQ-img/3.png", data.astronaut(), check_contrast=False)
+io.imsave(d + "/CelebAMask-HQ-mask-anno/0/00003_skin.png", np.full((512, 512), 255, np.uint8), check_contrast=False)
+hair = np.zeros((512, 512), np.uint8)
+hair[:120] = 255
+io.imsave(d + "/CelebAMask-HQ-mask-anno/0/00003_hair.png", hair, check_contrast=False)
+PY
+"$bin" texgen make-dataset -q --threads 2 "$work/r1" --model "$model" -o "$work/celeba_run" --render-size 128 \
+  --fit-size 128 --input-res 64 --target-res 64 --hr-res 0 --masks 0 --split 1,0,0 --celebamask "$work/celeba_ok" \
+  || fail "CelebAMask run"
+$py - "$work/celeba_run/masks" <<'PY' || fail "CelebAMask mask"
+import io, json, sys, tarfile
+import numpy as np
+from skimage import io as skio
+m = json.load(open(sys.argv[1] + "/manifest.json"))
+assert m["samples"] == 1, m
+with tarfile.open(sys.argv[1] + "/" + m["shards"][0]["name"]) as tar:
+    s = {x.name.split(".", 1)[1]: tar.extractfile(x).read() for x in tar.getmembers()}
+meta, mask = json.loads(s["json"]), skio.imread(io.BytesIO(s["mask.png"]))
+assert meta["source"] == "celebamask" and meta["photo"] == "3.png", meta
+assert mask.shape == (64, 64) and 0 < meta["texels"] == (mask > 0).sum() < 0.9 * 64 * 64, (meta, (mask > 0).sum())
+PY
 echo "texgen make-dataset: OK"
