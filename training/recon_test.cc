@@ -26,9 +26,23 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Folders under the system temp dir, removed when the test program ends.
+std::vector<fs::path>& temp_dirs() {
+  static std::vector<fs::path> dirs;
+  return dirs;
+}
+struct RemoveTempDirs : ::testing::Environment {
+  void TearDown() override {
+    std::error_code ec;
+    for (const fs::path& d : temp_dirs()) fs::remove_all(d, ec);
+  }
+};
+const auto* const kRemoveTempDirs = ::testing::AddGlobalTestEnvironment(new RemoveTempDirs);
+
 std::string temp_dir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("bareskin_recon_test_" + name + "_" + std::to_string(::getpid()));
   fs::create_directories(dir);
+  temp_dirs().push_back(dir);
   return dir.string();
 }
 
