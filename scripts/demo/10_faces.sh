@@ -4,19 +4,7 @@
 # Deep3DFaceRecon's 5 points and rendered by the canonical camera. A contact sheet of styles × lights × poses, one
 # sample's members, the makeup strength (CIELAB ΔE between makeup.png and before.png) per style, and the detector
 # check (face-api on the pre-alignment renders). Usage: bash scripts/demo/10_faces.sh <bin> <out>. Skips what exists.
-set -euo pipefail
-bin=${1:-build/bin}
-out=${2:-out/demo}
-bareskin="$bin/bareskin"
-py=/usr/bin/python3
-mkdir -p "$out/img" "$out/sections"
-timed() {
-  local name=$1 start=$EPOCHREALTIME
-  shift
-  "$@"
-  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
-    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
-}
+source "$(dirname "$0")/lib.sh"
 # Sizes (2 cores, ~90 s for the section): 256² samples as the networks take them; 560 samples from the 10 registered
 # subjects and 90 3DMM identities (splits by subject, 10% each for val and test: ~450/55/55), enough for the small
 # CPU trainings of recon and BareSkinNet after it. --align truth for those (the detector costs ~0.25 s a sample on 2

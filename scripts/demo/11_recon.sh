@@ -3,20 +3,9 @@
 # held-out faces of new identities (yaw up to 60°) against their truth and against mm-fit's landmark fitter
 # (bareskin recon --eval), and a real photo through detect → align → F → mm-fit refinement (bareskin recon).
 # Usage: bash scripts/demo/11_recon.sh <bin> <out>. Stages whose outputs exist are skipped.
-set -euo pipefail
-bin=${1:-build/bin}
-out=${2:-out/demo}
-bareskin="$bin/bareskin"
+source "$(dirname "$0")/lib.sh"
 dir="$out/recon"
-py=/usr/bin/python3
-mkdir -p "$out/img" "$out/sections" "$dir"
-timed() {
-  local name=$1 start=$EPOCHREALTIME
-  shift
-  "$@"
-  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
-    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
-}
+mkdir -p "$dir"
 model="$out/model/model.safetensors"
 # Sizes (2 cores, 150 s for the section): F is a ResNet-18 of width 16 (the paper's F: ResNet-50, width 64) trained at
 # 128² (the samples are 256²; the canonical camera scales with the size) for 300 steps of 8, supervised by the

@@ -3,20 +3,9 @@
 # the frozen teacher F through the 3DMM render) on the demo's face samples (§10) with the demo's F (§11), its
 # held-out evaluation (test split: unseen subjects and makeup styles), and `bareskin demakeup` on skimage's astronaut.
 # Usage: bash scripts/demo/12_bareskinnet.sh <bin> <out>. Stages whose outputs exist are skipped.
-set -euo pipefail
-bin=${1:-build/bin}
-out=${2:-out/demo}
-bareskin="$bin/bareskin"
-py=/usr/bin/python3
+source "$(dirname "$0")/lib.sh"
 dir="$out/bareskinnet"
-mkdir -p "$out/img" "$out/sections" "$dir"
-timed() {
-  local name=$1 start=$EPOCHREALTIME
-  shift
-  "$@"
-  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
-    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
-}
+mkdir -p "$dir"
 # Sizes (2 cores, 210 s for both stages, the evaluation and the photo): G at 64² (the 256² samples area-resized),
 # ngf 16 (the paper: 64 at 256²), PatchGAN ndf 16, student E a ResNet-18 of width 16, batch 4 (the paper's), LPIPS on
 # the vgg16-random trunk at 64²; stage 1 STEPS1 and stage 2 STEPS2 iterations (the paper: 10k + 30k). These show the

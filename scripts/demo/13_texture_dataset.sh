@@ -2,20 +2,8 @@
 # Demo §13: texgen make-dataset — the texture-inference training data (train/val/test texture shards and masks/) from
 # the registered demo subjects and the demo model; one sample's inputs next to its targets, and the fit and unwrap
 # errors over all subjects. Usage: bash scripts/demo/13_texture_dataset.sh <bin> <out>. Skipped when its output exists.
-set -euo pipefail
-bin=${1:-build/bin}
-out=${2:-out/demo}
-bareskin="$bin/bareskin"
+source "$(dirname "$0")/lib.sh"
 data="$out/texture_data"
-py=/usr/bin/python3
-mkdir -p "$out/img" "$out/sections"
-timed() {
-  local name=$1 start=$EPOCHREALTIME
-  shift
-  "$@"
-  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
-    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
-}
 # Sizes (2 cores, 60 s for the section): renders 512² (fit at 256², the canonical face), inputs and targets 256²,
 # high-res targets 1024² (the registered demo maps are 1024²). The paper's sizes are the defaults: renders and inputs
 # 1024², targets 1024² and 4096² (bench/BENCHMARKS.md has their cost).

@@ -2,22 +2,11 @@
 # Demo §14: texture inference — tiny pix2pixHD and SRGAN trainings on the texture shards of §10–13, the end-to-end
 # figure on a held-out face with makeup (with and without BareSkinNet), Table 1 at demo size, and `bareskin run` on a
 # real photo. Usage: bash scripts/demo/14_texture.sh <bin> <out>. Every stage is skipped when its output exists.
-set -euo pipefail
-bin=${1:-build/bin}
-out=${2:-out/demo}
-bareskin="$bin/bareskin"
+source "$(dirname "$0")/lib.sh"
 dir="$out/texture"
-py=/usr/bin/python3
 here=$(cd "$(dirname "$0")" && pwd)
-mkdir -p "$dir" "$out/img" "$out/sections"
+mkdir -p "$dir"
 stage() { echo "demo §14: $*" >&2; }
-timed() {
-  local name=$1 start=$EPOCHREALTIME
-  shift
-  "$@"
-  printf '%-12s %7.1f s\n' "$name" "$($py -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" \
-    "$start" "$EPOCHREALTIME")" >> "$out/timings.txt"
-}
 
 # Sizes (2 cores, 180 s for the whole section): nets at 64² maps (pix2pixHD ngf 16, 3 downsamplings, 3 blocks;
 # MSRResNet 16 features, 4 blocks), a few hundred steps, and no perceptual term (VGG16 on the four maps costs ~20x the
