@@ -9,7 +9,7 @@
 
 #include "apps/cli.h"
 #include "apps/detector.h"
-#include "apps/recon_eval.h"
+#include "training/recon_eval.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -175,7 +175,7 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     bool refine = false, keep_going = false;
     int refine_iterations = 30;
     recon::ConfidenceOptions confidence;
-    EvalOptions eval;
+    recon::EvalOptions eval;
   };
   auto o = std::make_shared<Options>();
   app.add_option("photo", o->input, "A photo (PNG, JPEG, TIFF) or a folder of photos");
@@ -220,12 +220,15 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
       if (model_path.empty()) throw InvalidInput(o->run, "names no model file", "give --model");
     }
     if (!o->eval.data.empty()) {
-      EvalOptions e = o->eval;
+      recon::EvalOptions e = o->eval;
       e.run = o->run;
       e.model = model_path;
       e.output = o->output;
       e.confidence = o->confidence;
-      evaluate_recon(e, globals);
+      auto bar = globals.progress("recon eval");
+      const nlohmann::json summary = recon::evaluate_recon(e, bar.callback());
+      bar.finish();
+      if (!globals.quiet()) std::cout << summary.dump(2) << "\n";
       return;
     }
     Context ctx;

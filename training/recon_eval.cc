@@ -1,7 +1,7 @@
 // bareskin recon --eval: a trained F/E on held-out face samples against their truth, side by side with mm-fit's
 // landmark fitter on the same faces (speed against accuracy), the failure curves over yaw and expression, and how well
 // the confidence flags bad answers. Writes metrics.json, faces.csv, speed.csv, charts (SVG) and heat-map strips.
-#include "apps/recon_eval.h"
+#include "training/recon_eval.h"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -22,7 +22,7 @@
 #include "morphable/model.h"
 #include "training/identity.h"
 
-namespace bareskin::cli {
+namespace bareskin::recon {
 namespace {
 
 namespace fs = std::filesystem;
@@ -102,7 +102,7 @@ std::string fmt(double v, int digits = 3) {
 
 }  // namespace
 
-void evaluate_recon(const EvalOptions& o, const Globals& globals) {
+nlohmann::json evaluate_recon(const EvalOptions& o, const ProgressCallback& progress) {
   const recon::FaceModel face_model = recon::FaceModel::load(o.model);
   const recon::TrainedRecon net = recon::load_recon(o.run, face_model, torch::kCPU);
   const MorphableModel geometry = read_model(o.model);
@@ -136,7 +136,6 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
   std::vector<Face> faces;
   std::vector<double> pooled, pooled_aligned;
   std::vector<torch::Tensor> strips;
-  auto progress = globals.progress("recon eval");
   for (int64_t i = 0; i < count; ++i) {
     const data::Batch batch = loader.next();
     const recon::ReconTargets t = recon::resized(recon::targets_from_batch(batch, face_model, o.input), S);
@@ -237,9 +236,8 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
       strips.push_back(torch::cat({image, r.overlay, heat}, 2));
     }
     faces.push_back(f);
-    progress.update(i + 1, count, f.key);
+    report(progress, i + 1, count, f.key);
   }
-  progress.finish();
   if (faces.empty()) throw InvalidInput(o.data, "holds no samples with truth coefficients", "give a split of 'texgen faces'");
 
   // Confidence against shape error > 3 mm: the flag's rates, and the best detection rate at ≤ 10% false alarms.
@@ -358,7 +356,7 @@ void evaluate_recon(const EvalOptions& o, const Globals& globals) {
   write_file_atomic(o.output + "/faces.csv", csv);
   if (!strips.empty()) write_image(o.output + "/img/heat_maps.png", to_image(torch::cat(strips, 1)));
   write_file_atomic(o.output + "/metrics.json", summary.dump(2) + "\n");
-  if (!globals.quiet()) std::cout << summary.dump(2) << "\n";
+  return summary;
 }
 
-}  // namespace bareskin::cli
+}  // namespace bareskin::recon
