@@ -50,7 +50,7 @@ if [ ! -f "$run/eval.json" ]; then
 fi
 photo=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
 if [ -n "$teacher" ] && [ -f "$photo" ] && [ ! -f "$dir/astronaut/coefficients.json" ]; then
-  timed "demakeup" "$bareskin" -q demakeup "$photo" --run "$run" -o "$dir/astronaut" --uv-size 512 || true
+  timed "demakeup" "$bareskin" -q demakeup "$photo" --run "$run" -o "$dir/astronaut" --uv-size 512
 fi
 
 $py - "$dir" "$out" "$SIZE" "$NGF" "$STEPS1" "$STEPS2" "${teacher:-none}" "$LR" > "$out/sections/12_bareskinnet.html" <<'PY'
