@@ -10,6 +10,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/png.h"
+#include "texgen/polygon.h"
 #include "texgen/shards.h"
 
 namespace bareskin::texgen {
@@ -18,24 +19,9 @@ namespace {
 
 using Vec2 = Eigen::Vector2d;
 
-// Even-odd fill of a polygon into a 1-channel mask (pixel centres at +0.5).
+// A landmark polygon into a 1-channel mask.
 void fill_polygon(Image& mask, const std::vector<Vec2>& poly, float value) {
-  std::vector<double> xs;
-  for (int y = 0; y < mask.height; ++y) {
-    const double yc = y + 0.5;
-    xs.clear();
-    for (size_t i = 0; i < poly.size(); ++i) {
-      const Vec2& a = poly[i];
-      const Vec2& b = poly[(i + 1) % poly.size()];
-      if ((a.y() <= yc) != (b.y() <= yc)) xs.push_back(a.x() + (yc - a.y()) / (b.y() - a.y()) * (b.x() - a.x()));
-    }
-    std::sort(xs.begin(), xs.end());
-    for (size_t k = 0; k + 1 < xs.size(); k += 2) {
-      const int x0 = std::max(0, int(std::ceil(xs[k] - 0.5))),
-                x1 = std::min(mask.width - 1, int(std::floor(xs[k + 1] - 0.5)));
-      for (int x = x0; x <= x1; ++x) mask.at(x, y) = value;
-    }
-  }
+  bareskin::fill_polygon(poly, mask.width, mask.height, [&](int x, int y) { mask.at(x, y) = value; });
 }
 
 void fill_band(Image& mask, const std::vector<Vec2>& line, double radius, float value) {

@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/mesh.h"
 #include "texgen/makeup.h"
+#include "texgen/polygon.h"
 
 namespace bareskin::makeup {
 namespace {
@@ -31,28 +32,8 @@ Range texel_range(int n, Vec2 lo, Vec2 hi, double margin) {
   return {clampi(lo.x() - margin), clampi(hi.x() + margin + 1), clampi(lo.y() - margin), clampi(hi.y() + margin + 1)};
 }
 
-// Even-odd scanline fill of a closed polygon (texel centres at +0.5).
 void fill_polygon(Mask& mask, const Curve& poly, bool value = true) {
-  if (poly.size() < 3) return;
-  double ylo = 1e30, yhi = -1e30;
-  for (const Vec2& p : poly) ylo = std::min(ylo, p.y()), yhi = std::max(yhi, p.y());
-  const int y0 = std::max(0, int(std::floor(ylo))), y1 = std::min(mask.n, int(std::ceil(yhi)) + 1);
-  std::vector<double> xs;
-  for (int y = y0; y < y1; ++y) {
-    const double yc = y + 0.5;
-    xs.clear();
-    for (size_t i = 0; i < poly.size(); ++i) {
-      const Vec2& a = poly[i];
-      const Vec2& b = poly[(i + 1) % poly.size()];
-      if ((a.y() <= yc) != (b.y() <= yc)) xs.push_back(a.x() + (yc - a.y()) / (b.y() - a.y()) * (b.x() - a.x()));
-    }
-    std::sort(xs.begin(), xs.end());
-    for (size_t k = 0; k + 1 < xs.size(); k += 2) {
-      const int xa = std::max(0, int(std::ceil(xs[k] - 0.5))),
-                xb = std::min(mask.n - 1, int(std::floor(xs[k + 1] - 0.5)));
-      for (int x = xa; x <= xb; ++x) mask.at(x, y) = value;
-    }
-  }
+  bareskin::fill_polygon(poly, mask.n, mask.n, [&](int x, int y) { mask.at(x, y) = value; });
 }
 
 // A capsule from a (radius ra) to b (radius rb), radii interpolated along the segment.
