@@ -27,3 +27,32 @@ error_ok() {
 expect_failure() {
   error_ok "$@" || fail "$* -> exit $error_code: $(cat "$work/err")"
 }
+
+# register_truth TEMPLATE_DIR SCANS_DIR OUT_DIR [MAPS...]: a registered folder without running `scan register`: per
+# synthetic scan, the template's OBJ with its vertices moved to the scan's true dense correspondence
+# (truth/correspondence.safetensors) as OUT_DIR/<id>/mesh.obj, and the named truth maps (default diffuse.png) copied.
+register_truth() {
+  local t=$1 scans=$2 out=$3 s id
+  shift 3
+  local maps=("$@")
+  [ ${#maps[@]} -eq 0 ] && maps=(diffuse.png)
+  for s in "$scans"/subject_*; do
+    id=$(basename "$s")
+    mkdir -p "$out/$id"
+    for m in "${maps[@]}"; do cp "$s/truth/maps/"$m "$out/$id/" || fail "copy $m"; done
+    $py - "$here/../python" "$t/face.obj" "$s/truth/correspondence.safetensors" "$out/$id/mesh.obj" <<'PY' || fail "truth mesh"
+import sys
+sys.path.insert(0, sys.argv[1])
+from safetensors_oracle import read_safetensors
+P = read_safetensors(sys.argv[3])[1]["template_to_scan_point"]
+out, k = [], 0
+for line in open(sys.argv[2]):
+    if line.startswith("vn "):
+        continue
+    if line.startswith("v "):
+        line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
+    out.append(line)
+open(sys.argv[4], "w").writelines(out)
+PY
+  done
+}

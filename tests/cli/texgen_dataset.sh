@@ -10,28 +10,7 @@
 source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 4 --vertices 6000 --res 64 --truth-res 128 -o "$work/s" || fail "synth"
-register_truth() {  # register_truth TEMPLATE SCANS OUT: truth meshes + truth maps as a registered folder
-  for s in "$2"/subject_*; do
-    id=$(basename "$s")
-    mkdir -p "$3/$id"
-    cp "$s"/truth/maps/*.png "$3/$id/"
-    $py - "$here/../python" "$1/face.obj" "$s/truth/correspondence.safetensors" "$3/$id/mesh.obj" <<'PY' || fail "truth mesh"
-import sys
-sys.path.insert(0, sys.argv[1])
-from safetensors_oracle import read_safetensors
-P = read_safetensors(sys.argv[3])[1]["template_to_scan_point"]
-out, k = [], 0
-for line in open(sys.argv[2]):
-    if line.startswith("vn "):
-        continue
-    if line.startswith("v "):
-        line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
-    out.append(line)
-open(sys.argv[4], "w").writelines(out)
-PY
-  done
-}
-register_truth "$work/t" "$work/s" "$work/r"
+register_truth "$work/t" "$work/s" "$work/r" "*.png"
 "$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r" -o "$work/m/model.safetensors" \
   || fail "mm-build"
 model="$work/m/model.safetensors"

@@ -9,25 +9,7 @@
 source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 3 --vertices 6000 --res 64 --truth-res 64 -o "$work/s" || fail "synth"
-for s in "$work"/s/subject_*; do
-  id=$(basename "$s")
-  mkdir -p "$work/r/$id"
-  cp "$s"/truth/maps/diffuse.png "$s"/truth/maps/roughness.png "$s"/truth/maps/specular.png "$work/r/$id/"
-  $py - "$here/../python" "$work/t/face.obj" "$s/truth/correspondence.safetensors" "$work/r/$id/mesh.obj" <<'PY' || fail "truth mesh"
-import sys
-sys.path.insert(0, sys.argv[1])
-from safetensors_oracle import read_safetensors
-P = read_safetensors(sys.argv[3])[1]["template_to_scan_point"]
-out, k = [], 0
-for line in open(sys.argv[2]):
-    if line.startswith("vn "):
-        continue
-    if line.startswith("v "):
-        line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
-    out.append(line)
-open(sys.argv[4], "w").writelines(out)
-PY
-done
+register_truth "$work/t" "$work/s" "$work/r" diffuse.png roughness.png specular.png
 "$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r" -o "$work/m/model.safetensors" \
   || fail "mm-build"
 model="$work/m/model.safetensors"
