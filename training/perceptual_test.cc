@@ -33,7 +33,7 @@ torch::Tensor picture(int64_t b, int64_t h, int64_t w) {
 class LpipsTrunks : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    if (GetParam() == "facenet" && !have_face_api()) GTEST_SKIP() << face_api() << " missing ('make deps')";
+    if (GetParam() == "facenet") ASSERT_TRUE(have_face_api()) << face_api() << " missing: run 'make deps'";
   }
   Lpips make() const { return Lpips(GetParam(), face_api()); }
 };
@@ -163,7 +163,7 @@ TEST(Lpips, CudaMatchesCpu) {
 }
 
 TEST(Identity, ZeroForIdenticalFacesAndGradientsInDouble) {
-  if (!have_face_api()) GTEST_SKIP() << face_api() << " missing ('make deps')";
+  ASSERT_TRUE(have_face_api()) << face_api() << " missing: run 'make deps'";
   detect::FaceRecognitionNet net(face_api());
   EXPECT_LT(identity_loss(net, picture(2, 40, 40), picture(2, 40, 40)).item<float>(), 1e-6);
   // Textured inputs in double: on smooth pictures many ReLUs sit near their kink, and central differences are noisy.
