@@ -10,7 +10,7 @@
 #include "core/error.h"
 #include "texgen/make_dataset.h"
 #ifdef BARESKIN_WITH_DETECT
-#include "detect/face_api.h"
+#include "detect/scan_landmarks.h"
 #endif
 
 namespace bareskin::cli {
@@ -18,18 +18,6 @@ namespace bareskin::cli {
 namespace {
 
 #ifdef BARESKIN_WITH_DETECT
-// face-api's boxes span about 1.22x the landmarks' extent, starting 0.14 (x) and 0.12 (y) of it before their minimum
-// (the proportions detect/scan_landmarks.cc measured): each refinement feeds the landmark network such a box.
-detect::Box box_around(const texgen::Landmarks68& p) {
-  const Eigen::Vector2d lo = p.colwise().minCoeff(), size = p.colwise().maxCoeff().transpose() - lo;
-  return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
-}
-
-// iBUG-68 under a left-right mirror: point k of the mirrored face is point kMirror68[k] of the face.
-constexpr int kMirror68[68] = {16, 15, 14, 13, 12, 11, 10, 9,  8,  7,  6,  5,  4,  3,  2,  1,  0,  26, 25, 24, 23, 22, 21,
-                               20, 19, 18, 17, 27, 28, 29, 30, 35, 34, 33, 32, 31, 45, 44, 43, 42, 47, 46, 39, 38, 37, 36,
-                               41, 40, 54, 53, 52, 51, 50, 49, 48, 59, 58, 57, 56, 55, 64, 63, 62, 61, 60, 67, 66, 65};
-
 // The detectors make-dataset uses. Photos: face-api's detector box, then the landmark network; nothing when no face
 // scores above min_score. Renders (a face on black): the same, but when the detector's classifier rejects the
 // render (flat synthetic faces filling the frame) or its box overlaps the face's pixels by less than 30 % (IoU), the
@@ -40,49 +28,13 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
                                                                                          bool flip) {
   set_torch_threads(globals);
   auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) -> std::optional<texgen::Landmarks68> {
-    const torch::Tensor photo = detect::photo_tensor(image, "image");
-    detect::DetectOptions options;
-    options.input_size = input_size;
-    options.max_faces = 1;
-    options.min_score = 0.3;
-    const auto faces = net->detect(photo, options);
-    if (faces.empty() && !coverage_fallback) return std::nullopt;
-    detect::Box box = faces.empty() ? detect::Box{} : faces[0].box, coverage;
-    if (coverage_fallback) {
-      int x0 = image.width, y0 = image.height, x1 = -1, y1 = -1;
-      for (int y = 0; y < image.height; ++y)
-        for (int x = 0; x < image.width; ++x)
-          if (image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2) > 0)
-            x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-      if (x1 < 0) return std::nullopt;
-      coverage = {double(x0), double(y0), double(x1 - x0 + 1), double(y1 - y0 + 1)};
-      // A detection that hardly overlaps the face's pixels found something else: the coverage box instead.
-      const double ix = std::max(0.0, std::min(box.x + box.width, coverage.x + coverage.width) - std::max(box.x, coverage.x));
-      const double iy = std::max(0.0, std::min(box.y + box.height, coverage.y + coverage.height) - std::max(box.y, coverage.y));
-      const double inter = ix * iy, uni = box.width * box.height + coverage.width * coverage.height - inter;
-      if (faces.empty() || inter < 0.3 * uni) box = coverage;
-    }
-    auto refine = [&](const detect::Box& start) {
-      texgen::Landmarks68 p = net->landmarks(photo, {start})[0];
-      for (int pass = 0; pass < refinements; ++pass) p = net->landmarks(photo, {box_around(p)})[0];
-      return p;
-    };
-    texgen::Landmarks68 points = refine(box);
-    // Points that collapsed into a small part of the face (the refinements shrank onto a feature): again from the
-    // face's pixels.
-    if (coverage_fallback && box.width != coverage.width &&
-        points.col(0).maxCoeff() - points.col(0).minCoeff() < 0.4 * coverage.width)
-      points = refine(coverage);
-    if (!flip) return points;
-    // Test-time mirroring: the landmarks of the mirrored image on the mirrored box, mirrored back and relabelled
-    // (left and right points swap), averaged with the direct ones.
-    const detect::Box b = box_around(points);
-    const double W = image.width;
-    const texgen::Landmarks68 mirrored = net->landmarks(photo.flip({1}).contiguous(), {{W - b.x - b.width, b.y, b.width, b.height}})[0];
-    texgen::Landmarks68 back;
-    for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kMirror68[k], 0), mirrored(kMirror68[k], 1));
-    return texgen::Landmarks68((points + back) / 2);
+  auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) {
+    detect::ImageLandmarkOptions o;
+    o.input_size = input_size;
+    o.refinements = refinements;
+    o.flip = flip;
+    o.coverage_fallback = coverage_fallback;
+    return detect::find_image_landmarks(*net, image, o);
   };
   return {[find](const Image& image) { return find(image, true); }, [find](const Image& image) { return find(image, false); }};
 }

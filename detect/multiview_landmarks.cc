@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "detect/scan_landmarks.h"
 #include "render/preview.h"
 #include "render/shade.h"
 
@@ -17,12 +18,6 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// face-api's detector boxes span about 1.22× the landmarks' extent (detect/scan_landmarks.cc): the box the landmark
-// network expects around points it found before.
-Box box_around(const Eigen::Matrix<double, 68, 2>& p) {
-  const Eigen::Vector2d lo = p.colwise().minCoeff(), size = p.colwise().maxCoeff().transpose() - lo;
-  return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
-}
 
 }  // namespace
 

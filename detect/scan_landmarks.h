@@ -3,6 +3,7 @@
 // rasterizer's triangle and barycentrics at that pixel. So `scan register` needs no landmarks.json.
 #pragma once
 #include <Eigen/Core>
+#include <optional>
 
 #include "core/image.h"
 #include "core/landmarks.h"
@@ -30,5 +31,23 @@ struct ScanLandmarks {
 // surface.
 ScanLandmarks detect_scan_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
                                     const ScanLandmarkOptions& options = {});
+
+// face-api's detector boxes span about 1.22× the landmarks' extent, starting 0.14 (x) and 0.12 (y) of it before their
+// minimum (measured on astronaut.png): the box the landmark network expects around points it found before.
+Box box_around(const Eigen::Matrix<double, 68, 2>& points);
+
+// Landmarks in a photo or a render, as `texgen make-dataset` finds them (no truth used): face-api's detector box
+// (scores above 0.3), then `refinements` landmark passes on the box the previous points imply, and with `flip` the
+// average with the mirrored image's landmarks. With `coverage_fallback` (renders: a face on black) a rejected or
+// misplaced detection (IoU with the non-black pixels' box < 0.3) is replaced by that box, and points that collapse
+// onto a small part of the face are found again from it. Nothing when no face is found.
+struct ImageLandmarkOptions {
+  int input_size = 416;
+  int refinements = 2;
+  bool flip = true;
+  bool coverage_fallback = false;
+};
+std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
+                                                                 const ImageLandmarkOptions& options);
 
 }  // namespace bareskin::detect
