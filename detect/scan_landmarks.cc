@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/ibug68.h"
 #include "render/rasterize.h"
 #include "render/shade.h"
 
@@ -79,11 +80,6 @@ Box box_around(const Eigen::Matrix<double, 68, 2>& p) {
   return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
 }
 
-// iBUG-68 under a left-right mirror: point k of the mirrored face is point kMirror68[k] of the face.
-constexpr int kMirror68[68] = {16, 15, 14, 13, 12, 11, 10, 9,  8,  7,  6,  5,  4,  3,  2,  1,  0,  26, 25, 24, 23, 22, 21,
-                               20, 19, 18, 17, 27, 28, 29, 30, 35, 34, 33, 32, 31, 45, 44, 43, 42, 47, 46, 39, 38, 37, 36,
-                               41, 40, 54, 53, 52, 51, 50, 49, 48, 59, 58, 57, 56, 55, 64, 63, 62, 61, 60, 67, 66, 65};
-
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options) {
   const torch::Tensor photo = photo_tensor(image, "image");
@@ -126,7 +122,7 @@ std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& 
   const double W = image.width;
   const Eigen::Matrix<double, 68, 2> mirrored = net.landmarks(photo.flip({1}).contiguous(), {{W - b.x - b.width, b.y, b.width, b.height}})[0];
   Eigen::Matrix<double, 68, 2> back;
-  for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kMirror68[k], 0), mirrored(kMirror68[k], 1));
+  for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kIbug68Mirror[k], 0), mirrored(kIbug68Mirror[k], 1));
   return Eigen::Matrix<double, 68, 2>((points + back) / 2);
 }
 

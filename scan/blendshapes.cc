@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/ibug68.h"
 #include "core/files.h"
 #include "core/safetensors.h"
 
@@ -22,14 +23,6 @@ struct Local {
   Eigen::Vector3d move;      // mm
   bool sided;
 };
-
-// iBUG-68 left/right twins (subject's left = +x = iBUG's "right side of the image" points 9..16, 22..26, 42..47, ...).
-int mirror_landmark(int i) {
-  static const int table[68] = {16, 15, 14, 13, 12, 11, 10, 9,  8,  7,  6,  5,  4,  3,  2,  1,  0,  26, 25, 24, 23, 22, 21,
-                                20, 19, 18, 17, 27, 28, 29, 30, 35, 34, 33, 32, 31, 45, 44, 43, 42, 47, 46, 39, 38, 37, 36,
-                                41, 40, 54, 53, 52, 51, 50, 49, 48, 59, 58, 57, 56, 55, 64, 63, 62, 61, 60, 67, 66, 65};
-  return table[i];
-}
 
 const std::vector<Local>& locals() {
   // Anchors are given on the subject's left: brow 22-26, eye 42-47, mouth corner 54, nostril 35, cheek 13-14.
@@ -105,7 +98,7 @@ std::vector<Blendshape> make_blendshapes(const TemplateFace& face) {
     }
     add_local(std::string(l.name) + "_L", l.anchors, l.radius, l.move);
     std::vector<int> mirrored;
-    for (int a : l.anchors) mirrored.push_back(mirror_landmark(a));
+    for (int a : l.anchors) mirrored.push_back(kIbug68Mirror[a]);
     add_local(std::string(l.name) + "_R", mirrored, l.radius, Eigen::Vector3d(-l.move.x(), l.move.y(), l.move.z()));
   }
 

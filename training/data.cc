@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/ibug68.h"
 #include "core/png.h"
 #include "texgen/shards.h"
 
@@ -109,18 +110,7 @@ Example decode_sample(const std::string& key, const std::map<std::string, std::s
 }
 
 const std::vector<int64_t>& ibug68_mirror() {
-  static const std::vector<int64_t> mirror = [] {
-    std::vector<int64_t> m(68);
-    for (int i = 0; i < 68; ++i) m[i] = i;
-    auto pair = [&](int a, int b) { m[a] = b, m[b] = a; };
-    for (int i = 0; i < 8; ++i) pair(i, 16 - i);              // jaw
-    for (int i = 0; i < 5; ++i) pair(17 + i, 26 - i);         // brows
-    pair(31, 35), pair(32, 34);                               // nostrils (27-30, 33: the midline)
-    pair(36, 45), pair(37, 44), pair(38, 43), pair(39, 42), pair(40, 47), pair(41, 46);  // eyes
-    pair(48, 54), pair(49, 53), pair(50, 52), pair(55, 59), pair(56, 58);                // outer lips
-    pair(60, 64), pair(61, 63), pair(65, 67);                                            // inner lips
-    return m;
-  }();
+  static const std::vector<int64_t> mirror(kIbug68Mirror.begin(), kIbug68Mirror.end());
   return mirror;
 }
 
