@@ -13,22 +13,10 @@
 #include <vector>
 
 #include "detect/face_api.h"
+#include "render/torch/bench_util.h"
 
 using namespace bareskin::detect;
-
-double median_ms(const std::function<void()>& work, int repeats, bool cuda) {
-  for (int i = 0; i < 3; ++i) work();
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    if (cuda) torch::cuda::synchronize();
-    const auto t0 = std::chrono::steady_clock::now();
-    work();
-    if (cuda) torch::cuda::synchronize();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-  return ms[ms.size() / 2];
-}
+using bareskin::bench::median_ms;
 
 int main(int argc, char** argv) {
   mallopt(M_MMAP_MAX, 0);  // as the CLI: page faults are expensive on our VMs

@@ -17,23 +17,10 @@
 #include "detect/face_api.h"
 #include "training/identity.h"
 #include "training/lpips.h"
+#include "render/torch/bench_util.h"
 #include "training/ssim.h"
 
 using namespace bareskin;
-
-double median_ms(const std::function<void()>& work, int repeats, bool cuda) {
-  work();
-  std::vector<double> ms;
-  for (int i = 0; i < repeats; ++i) {
-    if (cuda) torch::cuda::synchronize();
-    const auto t0 = std::chrono::steady_clock::now();
-    work();
-    if (cuda) torch::cuda::synchronize();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::nth_element(ms.begin(), ms.begin() + ms.size() / 2, ms.end());
-  return ms[ms.size() / 2];
-}
 
 int main(int argc, char** argv) {
   mallopt(M_MMAP_MAX, 0);  // as the CLI: page faults are expensive on our VMs
@@ -47,7 +34,7 @@ int main(int argc, char** argv) {
   torch::manual_seed(1);
   const torch::Tensor a = torch::rand({4, 3, 256, 256}, device), b = torch::rand({4, 3, 256, 256}, device);
   auto timed = [&](const std::function<torch::Tensor(const torch::Tensor&)>& loss) {
-    return median_ms(
+    return bench::median_ms(
         [&] {
           const torch::Tensor x = a.clone().requires_grad_(true);
           loss(x).backward();

@@ -19,24 +19,16 @@
 #include "core/png.h"
 #include "texgen/shards.h"
 #include "training/data.h"
+#include "render/torch/bench_util.h"
+#include "render/torch/ops.h"
 #include "training/lpips.h"
 #include "training/losses.h"
 #include "training/nets/zoo.h"
-#include "render/torch/ops.h"
 
 using namespace bareskin;
 namespace fs = std::filesystem;
 
 namespace {
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 // 64 samples like texgen faces writes: makeup, before (RGB 256²), skin mask (grey), JSON with 68 landmarks.
 std::string write_dataset() {
@@ -80,9 +72,7 @@ void loader_throughput() {
       data::ShardLoader loader(o);
       loader.next();  // warm-up
       const int batches = 48;
-      const double t0 = now_ms();
-      for (int b = 0; b < batches; ++b) loader.next();
-      const double ms = (now_ms() - t0) / batches;
+      const double ms = bench::time_ms([&] { for (int b = 0; b < batches; ++b) loader.next(); }, false) / batches;
       std::printf("%-8d %-8s %12.1f %14.2f\n", threads, augment ? "yes" : "no", 4000.0 / ms, ms);
     }
   fs::remove_all(dir);
@@ -101,15 +91,6 @@ std::pair<torch::Tensor, torch::Tensor> grid_mesh(int64_t n) {
       tri.insert(tri.end(), {a, a + n, a + 1, a + 1, a + n, a + n + 1});
     }
   return {verts, torch::tensor(tri).view({-1, 3})};
-}
-
-torch::Tensor vertex_normals(const torch::Tensor& pos, const torch::Tensor& tri) {
-  auto a = pos.index_select(1, tri.select(1, 0)), b = pos.index_select(1, tri.select(1, 1)),
-       c = pos.index_select(1, tri.select(1, 2));
-  auto fn = torch::cross(b - a, c - a, 2);
-  auto n = torch::zeros_like(pos);
-  for (int k = 0; k < 3; ++k) n = n.index_add(1, tri.select(1, k), fn);
-  return n;
 }
 
 struct Size {
@@ -149,7 +130,7 @@ void bareskinnet_step(const Size& size, torch::Device device, int steps) {
     const double f = 1015.0 * 256 / 224;
     auto pos = torch::stack({128 + f * world.select(2, 0) / depth, 128 - f * world.select(2, 1) / depth, depth}, 2);
     auto raster = render_torch::rasterize(pos.detach(), tri, 256, 256, true);
-    auto attr = render_torch::interpolate(torch::cat({albedo.expand({B, V, 3}), vertex_normals(world, tri)}, 2), pos, tri, raster);
+    auto attr = render_torch::interpolate(torch::cat({albedo.expand({B, V, 3}), bench::vertex_normals(world, tri)}, 2), pos, tri, raster);
     auto image = lit ? render_torch::sh_shade(attr.narrow(3, 0, 3), attr.narrow(3, 3, 3), gamma) : attr.narrow(3, 0, 3);
     return std::make_pair(image.permute({0, 3, 1, 2}), (raster.triangle >= 0).unsqueeze(1).to(image.dtype()));
   };
@@ -180,18 +161,12 @@ void bareskinnet_step(const Size& size, torch::Device device, int steps) {
     opt_ge.step();
     if (device.is_cuda()) torch::cuda::synchronize();
   };
-  step();  // warm-up
-  std::vector<double> times;
-  for (int i = 0; i < steps; ++i) {
-    const double t0 = now_ms();
-    step();
-    times.push_back(now_ms() - t0);
-  }
+  const double step_ms = bench::median_ms(step, steps, device.is_cuda());
   int64_t params = 0;
   for (auto* net : {&G, &D, &E, &F})
     for (const auto& p : (*net)->parameters()) params += p.numel();
   std::printf("%-6s %-6s %12.1f %10lld %12.1f\n", device.is_cuda() ? "cuda" : "cpu", size.name, params / 1e6,
-              (long long)V, median(times));
+              (long long)V, step_ms);
 }
 
 }  // namespace

@@ -16,55 +16,16 @@
 #include <vector>
 
 #include "core/safetensors.h"
+#include "render/torch/bench_util.h"
 #include "render/torch/ops.h"
 
-#ifdef BARESKIN_TORCH_CUDA
-#include <c10/cuda/CUDAStream.h>
-#include <cuda_runtime.h>
-#endif
 
 using namespace bareskin;
+using bench::median;
+using bench::time_ms;
+using bench::vertex_normals;
 
 namespace {
-
-// Milliseconds of one call of `work`: CUDA events around it on a GPU, the steady clock on the CPU.
-double time_ms(const std::function<void()>& work, bool cuda) {
-#ifdef BARESKIN_TORCH_CUDA
-  if (cuda) {
-    cudaEvent_t start, stop;
-    cudaEventCreate(&start);
-    cudaEventCreate(&stop);
-    const cudaStream_t stream = c10::cuda::getCurrentCUDAStream().stream();
-    cudaEventRecord(start, stream);
-    work();
-    cudaEventRecord(stop, stream);
-    cudaEventSynchronize(stop);
-    float ms = 0;
-    cudaEventElapsedTime(&ms, start, stop);
-    cudaEventDestroy(start);
-    cudaEventDestroy(stop);
-    return ms;
-  }
-#endif
-  const auto t0 = std::chrono::steady_clock::now();
-  work();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
-// Per-vertex normals (area-weighted sum of face normals) of [B, V, 3] positions, differentiable.
-torch::Tensor vertex_normals(const torch::Tensor& pos, const torch::Tensor& tri) {
-  const torch::Tensor a = pos.index_select(1, tri.select(1, 0)), b = pos.index_select(1, tri.select(1, 1)),
-                      c = pos.index_select(1, tri.select(1, 2));
-  const torch::Tensor fn = torch::cross(b - a, c - a, 2);
-  torch::Tensor n = torch::zeros_like(pos);
-  for (int k = 0; k < 3; ++k) n = n.index_add(1, tri.select(1, k), fn);
-  return n;
-}
 
 }  // namespace
 
