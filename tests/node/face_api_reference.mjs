@@ -4,7 +4,7 @@
 // IMAGE is a binary PPM (P6, 8-bit), which needs no decoder. For each face: score, box [x, y, w, h], and the 68
 // points shifted by the crop's integer origin (where the landmark network looked; face-api itself shifts by the
 // unrounded box, also given as points_face_api).
-import fs from 'fs';
+import { importFaceApi, loadWeights } from './face_api.mjs';
 import { readPpm } from './ppm.mjs';
 
 const [folder, image, inputSize, minScore] = process.argv.slice(2);
@@ -12,22 +12,10 @@ if (!minScore) {
   console.error('usage: node face_api_reference.mjs FACE_API_FOLDER IMAGE.ppm INPUT_SIZE MIN_SCORE');
   process.exit(2);
 }
-// The bundle's node platform needs require('util'), which an ES module lacks; its browser platform works in node.
-globalThis.window = globalThis;
-globalThis.document = {};
-const faceapi = await import(`${folder}/dist/face-api.esm.js`);
+const faceapi = await importFaceApi(folder);
 const tf = faceapi.tf;
-await tf.setBackend('cpu');
-await tf.ready();
-
-function load(net, name) {
-  const manifest = JSON.parse(fs.readFileSync(`${folder}/${name}-weights_manifest.json`));
-  const bin = fs.readFileSync(`${folder}/${manifest[0].paths[0]}`);
-  const buffer = bin.buffer.slice(bin.byteOffset, bin.byteOffset + bin.length);
-  net.loadFromWeightMap(tf.io.decodeWeights(buffer, manifest[0].weights));
-}
-load(faceapi.nets.tinyFaceDetector, 'tiny_face_detector_model');
-load(faceapi.nets.faceLandmark68Net, 'face_landmark_68_model');
+loadWeights(tf, faceapi.nets.tinyFaceDetector, folder, 'tiny_face_detector_model');
+loadWeights(tf, faceapi.nets.faceLandmark68Net, folder, 'face_landmark_68_model');
 
 const img = readPpm(tf, image);
 const options = new faceapi.TinyFaceDetectorOptions({ inputSize: Number(inputSize), scoreThreshold: Number(minScore) });

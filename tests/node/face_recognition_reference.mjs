@@ -3,7 +3,7 @@
 //   node face_recognition_reference.mjs ASSETS/face_api IMAGE.ppm... > reference.json
 // Prints {"tfjs": version, "descriptors": [[128 numbers] per image]}: FaceRecognitionNet.computeFaceDescriptor of
 // each whole image (face-api pads it to a centred square and resizes it to 150² itself).
-import fs from 'fs';
+import { importFaceApi, loadWeights } from './face_api.mjs';
 import { readPpm } from './ppm.mjs';
 
 const [folder, ...images] = process.argv.slice(2);
@@ -11,18 +11,10 @@ if (images.length === 0) {
   console.error('usage: node face_recognition_reference.mjs FACE_API_FOLDER IMAGE.ppm...');
   process.exit(2);
 }
-// The bundle's node platform needs require('util'), which an ES module lacks; its browser platform works in node.
-globalThis.window = globalThis;
-globalThis.document = {};
-const faceapi = await import(`${folder}/dist/face-api.esm.js`);
+const faceapi = await importFaceApi(folder);
 const tf = faceapi.tf;
-await tf.setBackend('cpu');
-await tf.ready();
 
-const manifest = JSON.parse(fs.readFileSync(`${folder}/face_recognition_model-weights_manifest.json`));
-const bin = fs.readFileSync(`${folder}/${manifest[0].paths[0]}`);
-const buffer = bin.buffer.slice(bin.byteOffset, bin.byteOffset + bin.length);
-faceapi.nets.faceRecognitionNet.loadFromWeightMap(tf.io.decodeWeights(buffer, manifest[0].weights));
+loadWeights(tf, faceapi.nets.faceRecognitionNet, folder, 'face_recognition_model');
 
 const descriptors = [];
 for (const image of images) {
