@@ -20,6 +20,7 @@
 #include "detect/face_api.h"
 #include "detect/multiview_landmarks.h"
 #include "detect/scan_landmarks.h"
+#include "scan/capture.h"
 #include "scan/colmap.h"
 #include "render/preview.h"
 
@@ -89,15 +90,16 @@ Mesh read_textured_scan(const std::string& scan, const std::string& texture_give
   return mesh;
 }
 
-// The views as a capture folder: view_NN.png (sRGB) and cameras.json (docs/file_formats.md).
-void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
+// A capture folder: the pictures as NAME_NN.png (sRGB) and their cameras in cameras.json (docs/file_formats.md).
+void write_capture(const std::string& dir, const std::string& stem, const std::vector<Image>& pictures,
+                   const std::vector<Camera>& cameras) {
   std::filesystem::create_directories(dir);
   nlohmann::json cams = nlohmann::json::array();
-  for (size_t v = 0; v < m.pictures.size(); ++v) {
-    char name[32];
-    std::snprintf(name, sizeof name, "view_%02zu.png", v);
-    write_image(dir + "/" + name, m.pictures[v]);
-    const Camera& c = m.views[v].camera;
+  for (size_t v = 0; v < pictures.size(); ++v) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%02zu.png", stem.c_str(), v);
+    write_image(dir + "/" + name, pictures[v]);
+    const Camera& c = cameras[v];
     nlohmann::json R = nlohmann::json::array();
     for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
     cams.push_back({{"image", name}, {"width", c.width}, {"height", c.height}, {"focal", c.focal}, {"cx", c.cx},
@@ -107,13 +109,33 @@ void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m)
                                                           {"cameras", cams}}.dump(1) + "\n");
 }
 
+void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
+  std::vector<Camera> cameras;
+  for (const auto& v : m.views) cameras.push_back(v.camera);
+  write_capture(dir, "view", m.pictures, cameras);
+}
+
+// landmarks capture: a synthetic rig capture of a scan (scan/capture.h), photo_NN.png + cameras.json.
+void run_synthetic_capture(const Mesh& mesh, const Image* diffuse, const std::string& dir, const CaptureOptions& o) {
+  const Eigen::Vector3d target = (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose() / 2;
+  const std::vector<Camera> cameras = capture_cameras(o, target);
+  std::vector<Image> photos;
+  const auto start = std::chrono::steady_clock::now();
+  for (size_t k = 0; k < cameras.size(); ++k)
+    photos.push_back(render_capture_photo(mesh, diffuse, cameras[k], target, o, int(k)));
+  write_capture(dir, "photo", photos, cameras);
+  spdlog::info("landmarks capture: {} photos of {}² px ({}x supersampled{}) in {:.1f} s -> {}", photos.size(), o.size,
+               o.supersample, o.backdrop ? ", speckle backdrop" : "",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), dir);
+}
+
 // --capture: the photos' cameras from COLMAP (or --sparse), brought onto the scan (a similarity from the landmarks
 // triangulated in both frames, then ICP of the model's points against the mesh), and the landmarks triangulated on
 // the photos; m.result is replaced. When COLMAP cannot reconstruct the folder, one warning names the fallback (the
 // virtual views already in m) and null is returned.
 nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, detect::MultiviewScanLandmarks& m,
                                  const std::string& capture, const std::string& sparse,
-                                 const detect::MultiviewOptions& options, int threads) {
+                                 const detect::MultiviewOptions& options, const ColmapOptions& colmap) {
   if (!std::filesystem::is_directory(capture)) throw InvalidInput(capture, "is not a folder", "pass the photos' folder");
   int photos = 0;
   for (const auto& e : std::filesystem::directory_iterator(capture)) {
@@ -129,8 +151,7 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
                                  .string();
     std::filesystem::remove_all(work);
     try {
-      model = run_colmap(capture, work, threads > 0 ? threads : int(std::thread::hardware_concurrency()),
-                         work + ".log");
+      model = run_colmap(capture, work, colmap, work + ".log");
     } catch (const Error& e) {
       spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), options.views);
       return nullptr;
@@ -146,8 +167,15 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
   in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
   Similarity S;
   double rms = 0;
+  Eigen::Index on_head = 0;
   try {
-    S = align_points_to_mesh(model.points, mesh, similarity_from_points(in_model, on_scan), 100, 0.2, &rms);
+    S = similarity_from_points(in_model, on_scan);
+    // ICP on the head's points only: those on a backdrop, floor or rig are dropped by their distance to the mesh
+    // after the landmark start (a tenth of the scan's size: the start is good to a few mm).
+    const double size = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
+    const Eigen::MatrixX3d head = points_near_mesh(model.points, mesh, S, 0.1 * size);
+    on_head = head.rows();
+    S = align_points_to_mesh(head, mesh, S, 100, 0.2, &rms);
   } catch (const InvalidInput&) {
     spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back to "
                  "the {} virtual views of the scan", capture, options.views);
@@ -165,10 +193,12 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
   m.result = triangulate_landmarks(mesh, views, options.triangulate);
   m.views = views;
   m.pictures.clear();
-  spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points; aligned to the scan (scale {:.4g}, "
-               "ICP RMS {:.2f} mm over the best 80%)", capture, model.images.size(), photos, model.points.rows(), S.s, rms);
+  spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points ({} on the head), reprojection "
+               "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%)", capture,
+               model.images.size(), photos, model.points.rows(), on_head, model.reprojection_px, S.s, rms);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
-          {"scale", S.s}, {"icp_rms_mm", rms}, {"cameras", cams}};
+          {"points_on_head", on_head}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
+          {"icp_rms_mm", rms}, {"cameras", cams}};
 }
 
 void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
@@ -235,6 +265,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     detect::MultiviewOptions multiview;
     bool no_jaw = false;
     std::string calibration, uncalibrated, save_views, capture, sparse;
+    ColmapOptions colmap;
   };
   auto sc = std::make_shared<ScanOptions>();
   sc->multiview.views = 1;
@@ -262,6 +293,12 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                                           "landmarks triangulated on the photos (fallback: the virtual views)");
   s->add_option("--sparse", sc->sparse, "With --capture: an existing COLMAP TXT model of the photos instead of running "
                                         "COLMAP");
+  s->add_option("--colmap-features", sc->colmap.max_features, "With --capture: SIFT features per photo")
+      ->capture_default_str()->check(CLI::Range(100, 100000))->group("COLMAP");
+  s->add_option("--colmap-peak", sc->colmap.peak_threshold, "With --capture: SIFT peak threshold (lower: more "
+                                                            "features on faint texture)")
+      ->capture_default_str()->check(CLI::Range(0.0001, 0.1))->group("COLMAP");
+  s->add_flag("--colmap-dsp", sc->colmap.domain_size_pooling, "With --capture: DSP-SIFT descriptors")->group("COLMAP");
   s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
                                                 "this folder: a synthetic capture");
 
@@ -281,8 +318,38 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   c->add_option("--view-size", ca->multiview.size, "Render size per view")->capture_default_str()->check(CLI::Range(128, 4096));
   c->add_option("--weights", ca->weights, "Folder with face-api's tfjs models (default: face_api/ in the assets)");
 
-  return [opt, sc, s, ca, c, &globals] {
+  struct SyntheticCaptureOptions {
+    std::string scan, texture, output;
+    CaptureOptions capture;
+    bool no_backdrop = false;
+  };
+  auto cp = std::make_shared<SyntheticCaptureOptions>();
+  CLI::App* p = app.add_subcommand("capture", "Render a synthetic rig capture of a textured scan (photos from rows of "
+                                              "cameras, speckle backdrop) for `landmarks scan --capture`");
+  p->add_option("scan", cp->scan, "Scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file")->required();
+  p->add_option("--texture", cp->texture, "Diffuse map, when the scan is a mesh file (else: grey)");
+  p->add_option("-o,--output", cp->output, "Folder for photo_NN.png and cameras.json (the true cameras)")->required();
+  p->add_option("--photos", cp->capture.photos, "Cameras (3 rows from 12 on)")->capture_default_str();
+  p->add_option("--size", cp->capture.size, "Photo size, px")->capture_default_str();
+  p->add_option("--field", cp->capture.field_mm, "Width seen at the face, mm")->capture_default_str();
+  p->add_option("--max-yaw", cp->capture.max_yaw_deg, "Rows span yaw in [-max, max] degrees")->capture_default_str();
+  p->add_option("--max-pitch", cp->capture.max_pitch_deg, "Rows at pitch -max, 0, max degrees")->capture_default_str();
+  p->add_option("--supersample", cp->capture.supersample, "Render at this multiple, then box-filter")->capture_default_str();
+  p->add_option("--noise", cp->capture.noise, "Sensor noise sigma (linear)")->capture_default_str();
+  p->add_option("--seed", cp->capture.seed, "Backdrop pattern and noise")->capture_default_str();
+  p->add_flag("--no-backdrop", cp->no_backdrop, "Black behind the head instead of the speckle backdrop");
+
+  return [opt, sc, s, ca, c, cp, p, &globals] {
     set_torch_threads(globals);
+    if (p->parsed()) {
+      cp->capture.backdrop = !cp->no_backdrop;
+      cp->capture.check();
+      std::string mesh_path;
+      std::optional<Image> diffuse;
+      const Mesh mesh = read_textured_scan(cp->scan, cp->texture, mesh_path, diffuse);
+      run_synthetic_capture(mesh, diffuse ? &*diffuse : nullptr, cp->output, cp->capture);
+      return;
+    }
     if (c->parsed()) {
       run_landmarks_calibrate(ca->scans, ca->output, ca->count, ca->multiview,
                               ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
@@ -294,8 +361,11 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       std::optional<Image> diffuse;
       const Mesh mesh = read_textured_scan(sc->scan, sc->texture, mesh_path, diffuse);
       detect::FaceApi net(sc->weights);
-      if (sc->multiview.views == 1 && !(sc->calibration.empty() && sc->save_views.empty()))
-        throw InvalidInput("--views", "--calibration and --save-views need several views", "pass --views 16");
+      if (sc->multiview.views == 1 && !(sc->calibration.empty() && sc->save_views.empty() && sc->capture.empty()))
+        throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
+      if (!sc->sparse.empty() && sc->capture.empty())
+        throw InvalidInput("--sparse", "needs --capture (the photos the model was made from)", "pass --capture DIR");
+      sc->colmap.threads = globals.threads;
       if (sc->multiview.views > 1) {
         sc->multiview.triangulate.jaw = !sc->no_jaw;
         sc->multiview.refinements = sc->detect.refinements;
@@ -306,7 +376,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
         if (!sc->save_views.empty()) save_views(sc->save_views, m);
         nlohmann::json capture_info;
         if (!sc->capture.empty())
-          capture_info = capture_landmarks(net, mesh, m, sc->capture, sc->sparse, sc->multiview, globals.threads);
+          capture_info = capture_landmarks(net, mesh, m, sc->capture, sc->sparse, sc->multiview, sc->colmap);
         if (!sc->uncalibrated.empty()) write_file_atomic(sc->uncalibrated, multiview_landmarks_json(m.result));
         if (calibration) apply_calibration(mesh, *calibration, m.result);
         if (!sc->draw.empty() && !m.pictures.empty()) write_image(sc->draw, detect::draw_multiview(m));

@@ -109,6 +109,8 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
   synth->add_option("--translation-jitter", opt->synth.translation_jitter_mm, "Random shift up to this many mm per axis")
       ->capture_default_str()->group("Realism");
   synth->add_flag("--holes", opt->synth.holes, "Cut the nostrils open, as scanners leave them")->group("Realism");
+  synth->add_option("--skin-detail", opt->synth.skin_detail, "Skin micro-detail 0..1 (pigment speckle, freckles, moles, "
+                    "darker pores: what a synthetic capture's photos need for COLMAP)")->capture_default_str()->group("Realism");
   synth->add_option("--res", opt->synth.maps.resolution, "Map resolution in the scan's atlas (0: no maps; 16384 works)")
       ->capture_default_str()->group("Maps");
   synth->add_option("--map-format", opt->map_format, "png (16-bit, sRGB diffuse), tif (16-bit) or exr (half, linear)")

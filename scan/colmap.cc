@@ -7,6 +7,8 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
+#include <cstdio>
 
 #include "core/error.h"
 #include "template/surface.h"
@@ -82,31 +84,40 @@ ColmapModel read_colmap_text_model(const std::string& dir) {
   for (size_t k = 0; k < pts.size(); ++k) {
     std::istringstream s(pts[k]);
     long id;
-    double x, y, z;
+    double x, y, z, error = 0;
+    int r, g, b;
     if (!(s >> id >> x >> y >> z)) throw InvalidInput(dir + "/points3D.txt", "has a malformed line", "re-export it");
+    if (s >> r >> g >> b >> error) m.reprojection_px += error / double(pts.size());
     m.points.row(Eigen::Index(k)) << x, y, z;
   }
   if (m.images.empty()) throw InvalidInput(dir + "/images.txt", "holds no registered image", "check the model");
   return m;
 }
 
-ColmapModel run_colmap(const std::string& images, const std::string& work, int threads, const std::string& log) {
+ColmapModel run_colmap(const std::string& images, const std::string& work, const ColmapOptions& o,
+                       const std::string& log) {
   if (std::system("command -v colmap > /dev/null 2>&1") != 0)
     throw IoError("colmap", "is not installed", "install Debian's colmap package (make deps)");
   fs::create_directories(work + "/sparse");
   const std::string db = shell_quote(work + "/database.db"), img = shell_quote(images), out = " >> " + shell_quote(log) + " 2>&1";
-  const std::string t = std::to_string(std::max(1, threads));
+  const std::string t = std::to_string(o.threads > 0 ? o.threads : std::max(1u, std::thread::hardware_concurrency()));
+  std::ostringstream sift;
+  sift << " --SiftExtraction.max_num_features " << o.max_features << " --SiftExtraction.max_image_size "
+       << o.max_image_size << " --SiftExtraction.peak_threshold " << o.peak_threshold
+       << " --SiftExtraction.domain_size_pooling " << int(o.domain_size_pooling);
   const std::vector<std::string> steps = {
       "colmap feature_extractor --database_path " + db + " --image_path " + img +
           " --ImageReader.camera_model SIMPLE_PINHOLE --ImageReader.single_camera 1 --SiftExtraction.use_gpu 0"
-          " --SiftExtraction.num_threads " + t,
+          " --SiftExtraction.num_threads " + t + sift.str(),
       "colmap exhaustive_matcher --database_path " + db + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + t,
       "colmap mapper --database_path " + db + " --image_path " + img + " --output_path " +
-          shell_quote(work + "/sparse") + " --Mapper.num_threads " + t,
+          shell_quote(work + "/sparse") + " --Mapper.num_threads " + t + " --Mapper.init_min_num_inliers " +
+          std::to_string(o.init_min_inliers),
   };
   for (const std::string& step : steps)
     if (std::system((step + out).c_str()) != 0)
-      throw InvalidInput(images, "COLMAP failed at '" + step.substr(7, step.find(' ', 7) - 7) + "'", "see " + log);
+      throw InvalidInput(images, "COLMAP failed at '" + step.substr(7, step.find(' ', 7) - 7) + "'" +
+                                     colmap_database_summary(work), "see " + log);
   // The largest model (most registered images).
   ColmapModel best;
   for (const auto& e : fs::directory_iterator(work + "/sparse")) {
@@ -119,8 +130,33 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, int t
     ColmapModel m = read_colmap_text_model(txt);
     if (m.images.size() > best.images.size()) best = std::move(m);
   }
-  if (best.images.empty()) throw InvalidInput(images, "COLMAP reconstructed no model from these photos", "see " + log);
+  if (best.images.empty())
+    throw InvalidInput(images, "COLMAP reconstructed no model from these photos" + colmap_database_summary(work),
+                       "see " + log);
   return best;
+}
+
+std::string colmap_database_summary(const std::string& work) {
+  const std::string db = work + "/database.db";
+  if (!fs::exists(db) || std::system("command -v sqlite3 > /dev/null 2>&1") != 0) return "";
+  // Features per image, then the pairs whose two-view geometry kept 15 or more inliers.
+  const std::string cmd = "sqlite3 -batch " + shell_quote(db) +
+                          " 'select rows from keypoints order by rows; select -1; "
+                          "select count(*) from two_view_geometries where rows >= 15;' 2> /dev/null";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return "";
+  std::vector<long> features;
+  long pairs = -1;
+  bool after = false;
+  for (long v; std::fscanf(pipe, "%ld", &v) == 1;) {
+    if (v == -1 && !after) after = true;
+    else if (after) pairs = v;
+    else features.push_back(v);
+  }
+  pclose(pipe);
+  if (features.empty() || pairs < 0) return "";
+  return " (median " + std::to_string(features[features.size() / 2]) + " SIFT features per photo, " +
+         std::to_string(pairs) + " photo pairs with 15+ verified matches)";
 }
 
 Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to) {
@@ -162,6 +198,19 @@ Similarity align_points_to_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh
   }
   if (rms_mm) *rms_mm = rms;
   return S;
+}
+
+Eigen::MatrixX3d points_near_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh, const Similarity& S,
+                                  double max_mm) {
+  const SurfaceLocator locator(mesh.V, mesh.F);
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    const Eigen::Vector3d x = S.apply(points.row(i).transpose());
+    if ((locator.locate(x).point - x).norm() <= max_mm) keep.push_back(i);
+  }
+  Eigen::MatrixX3d out(Eigen::Index(keep.size()), 3);
+  for (size_t k = 0; k < keep.size(); ++k) out.row(Eigen::Index(k)) = points.row(keep[k]);
+  return out;
 }
 
 Camera transform_camera(const Camera& c, const Similarity& S) {

@@ -21,6 +21,17 @@ struct ColmapImage {
 struct ColmapModel {
   std::vector<ColmapImage> images;  // registered images only
   Eigen::MatrixX3d points;          // the sparse 3D points
+  double reprojection_px = 0;       // mean of the points' reprojection errors (points3D.txt's ERROR)
+};
+
+// How COLMAP is run (defaults: COLMAP's own, CPU). Exhaustive matching: every pair, fine up to a few hundred photos.
+struct ColmapOptions {
+  int threads = 0;                     // 0: every core
+  int max_features = 8192;             // SIFT features per photo
+  int max_image_size = 3200;           // photos are downscaled to this longest side for SIFT
+  double peak_threshold = 0.02 / 3;    // SIFT's contrast threshold (lower: more features on faint texture)
+  bool domain_size_pooling = false;    // DSP-SIFT descriptors (better matches across scale, slower)
+  int init_min_inliers = 100;          // inliers the mapper's first image pair needs
 };
 
 // Reads cameras.txt, images.txt and points3D.txt of a TXT model. Pinhole models (SIMPLE_PINHOLE, PINHOLE) are read
@@ -32,7 +43,12 @@ ColmapModel read_colmap_text_model(const std::string& dir);
 // Runs colmap on the photos in `images` (CPU SIFT, one shared SIMPLE_PINHOLE camera, exhaustive matching, mapper) in
 // `work` and reads the largest model. `log` gets COLMAP's output. IoError when colmap is missing; InvalidInput naming
 // the folder when it reconstructs nothing.
-ColmapModel run_colmap(const std::string& images, const std::string& work, int threads, const std::string& log);
+ColmapModel run_colmap(const std::string& images, const std::string& work, const ColmapOptions& options,
+                       const std::string& log);
+
+// What COLMAP's database in `work` holds: SIFT features per photo and the pairs with a verified two-view geometry
+// (inlier matches), read with python3's sqlite3. For the log when the mapper fails; empty when it cannot be read.
+std::string colmap_database_summary(const std::string& work);
 
 // x_scan = s R x_model + t.
 struct Similarity {
@@ -49,6 +65,11 @@ Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::Mat
 // out each round, `iterations` rounds. rms_mm: the kept points' RMS distance at the end.
 Similarity align_points_to_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh, Similarity start, int iterations,
                                 double trim, double* rms_mm = nullptr);
+
+// The rows of `points` within `max_mm` of the mesh once moved by `model_to_scan`: the model's points on the head,
+// without those on a backdrop, floor or rig.
+Eigen::MatrixX3d points_near_mesh(const Eigen::MatrixX3d& points, const Mesh& mesh, const Similarity& model_to_scan,
+                                  double max_mm);
 
 // A camera of the model's frame in the scan's frame (same pixels for corresponding points).
 Camera transform_camera(const Camera& camera, const Similarity& model_to_scan);

@@ -11,9 +11,11 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <set>
 
 #include "core/error.h"
 #include "core/test_util.h"
+#include "scan/capture.h"
 #include "scan/colmap.h"
 #include "template/surface.h"
 
@@ -239,10 +241,20 @@ TEST(Multiview, ColmapModelIsReadAndAlignedToTheScan) {
     const Eigen::Vector3d m = frame.s * frame.R * s.mesh.V.row(i).transpose() + frame.t;
     points << i << " " << m.x() << " " << m.y() << " " << m.z() << " 1 2 3 0.1\n";
   }
+  // And a backdrop: 200 points 1-2 m from the face, which ICP must not see.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d x = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized() * (1500 + 500 * u(rng));
+    const Eigen::Vector3d m = frame.s * frame.R * x + frame.t;
+    points << 100000 + i << " " << m.x() << " " << m.y() << " " << m.z() << " 1 2 3 0.4\n";
+  }
   points.close();
   const ColmapModel model = read_colmap_text_model(dir);
   ASSERT_EQ(model.images.size(), truth_cams.size());
   EXPECT_EQ(model.images[2].name, "view_2.png");
+  const Eigen::Index on_surface = model.points.rows() - 200;
+  EXPECT_NEAR(model.reprojection_px, (0.1 * double(on_surface) + 0.4 * 200) / double(model.points.rows()), 1e-9);
   // Start 2° and 3% off the inverse with a 2 mm shift, as the landmark-based start leaves it; ICP with scale
   // recovers it (on this smooth, nearly symmetric surface from much farther it slides).
   Similarity start;
@@ -250,7 +262,9 @@ TEST(Multiview, ColmapModelIsReadAndAlignedToTheScan) {
   start.R = Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitY()).toRotationMatrix() * frame.R.transpose();
   start.t = -start.s * start.R * frame.t + Eigen::Vector3d(1, -1, 1.4);
   double rms = 1;
-  const Similarity S = align_points_to_mesh(model.points, s.mesh, start, 300, 0.1, &rms);
+  const Eigen::MatrixX3d head = points_near_mesh(model.points, s.mesh, start, 20);
+  EXPECT_EQ(head.rows(), on_surface) << "the backdrop's points are dropped, the surface's kept";
+  const Similarity S = align_points_to_mesh(head, s.mesh, start, 300, 0.1, &rms);
   EXPECT_LT(rms, 0.05);
   EXPECT_NEAR(S.s * frame.s, 1, 1e-3);
   for (size_t k = 0; k < truth_cams.size(); ++k) {
@@ -262,6 +276,62 @@ TEST(Multiview, ColmapModelIsReadAndAlignedToTheScan) {
   }
   std::filesystem::remove_all(dir);
   EXPECT_THROW(read_colmap_text_model(dir), IoError);
+}
+
+// The synthetic capture: rows of cameras around the target, each looking at it from the rig's distance; a photo
+// shows the scan where it covers and, elsewhere, the backdrop sphere's pattern at the point the pixel's ray meets
+// (found here by bisection along the ray, not by the renderer's closed form).
+TEST(Capture, CamerasRingTheTargetAndPhotosShowTheBackdropBehindTheScan) {
+  const Scene& s = scene();
+  CaptureOptions o;
+  o.photos = 24, o.size = 64, o.supersample = 1, o.noise = 0, o.field_mm = 400;
+  const Eigen::Vector3d target(0, 0, 0);
+  const std::vector<Camera> cams = capture_cameras(o, target);
+  ASSERT_EQ(cams.size(), 24u);
+  std::set<long> heights;
+  double min_x = 0, max_x = 0;
+  for (const Camera& c : cams) {
+    const Eigen::Vector3d eye = -c.R.transpose() * c.t;
+    EXPECT_NEAR((eye - target).norm(), o.distance, 1e-9);
+    EXPECT_LT((c.project(target).head<2>() - Eigen::Vector2d(32, 32)).norm(), 1e-9);
+    heights.insert(std::lround(eye.y()));
+    min_x = std::min(min_x, eye.x()), max_x = std::max(max_x, eye.x());
+  }
+  EXPECT_EQ(heights.size(), 3u);
+  EXPECT_NEAR(max_x, -min_x, 1e-6);
+  EXPECT_GT(max_x, 0.85 * o.distance * std::sin(o.max_yaw_deg * M_PI / 180));
+  const Camera& c = cams[7];
+  const Image photo = render_capture_photo(s.mesh, nullptr, c, target, o, 7);
+  ASSERT_EQ(photo.width, 64);
+  const Eigen::Vector3d eye = -c.R.transpose() * c.t;
+  int backdrop = 0, face = 0;
+  for (int y = 0; y < 64; y += 3)
+    for (int x = 0; x < 64; x += 3) {
+      const Eigen::Vector3d d =
+          (c.R.transpose() * Eigen::Vector3d((x + 0.5 - c.cx) / c.focal, -(y + 0.5 - c.cy) / c.focal, -1)).normalized();
+      double lo = 0, hi = 10 * o.distance;  // |eye + s d - target| crosses 2.5 * distance once for s > 0
+      for (int it = 0; it < 100; ++it) ((eye + (lo + hi) / 2 * d - target).norm() < 2.5 * o.distance ? lo : hi) = (lo + hi) / 2;
+      const float want = linear_to_srgb(backdrop_albedo(eye + lo * d, o.seed));
+      // The ray's closest approach to the ellipsoid's centre: within 40 mm it hits the ellipsoid (semi-axes 60-95),
+      // beyond 100 mm it misses it.
+      const double closest = (eye + std::max(0.0, -eye.dot(d)) * d).norm();
+      if (closest < 40) {
+        EXPECT_GT(photo.at(x, y, 0), 0.3f) << "grey shaded surface, not the pattern";
+        ++face;
+      } else if (closest > 100) {
+        EXPECT_NEAR(photo.at(x, y, 0), want, 2e-3) << x << " " << y;
+        EXPECT_EQ(photo.at(x, y, 0), photo.at(x, y, 2));
+        ++backdrop;
+      }
+    }
+  EXPECT_GT(backdrop, 200);
+  EXPECT_GT(face, 10);
+  // The pattern has contrast at every scale SIFT looks at: not one flat grey.
+  std::vector<float> g;
+  for (int i = 0; i < 2000; ++i) g.push_back(backdrop_albedo(Eigen::Vector3d(2500, i * 2.0, 0), 1));
+  const auto [lo, hi] = std::minmax_element(g.begin(), g.end());
+  EXPECT_GT(*hi - *lo, 0.5f);
+  EXPECT_THROW(capture_cameras(CaptureOptions{1}, target), InvalidInput);
 }
 
 TEST(Multiview, FreeTriangulationWithoutAMesh) {

@@ -120,11 +120,13 @@ float polygon_signed_distance(const std::vector<Vec2>& poly, const Vec2& q) {
 }  // namespace
 
 std::map<std::string, double> Appearance::to_map() const {
-  return {{"melanin", melanin},       {"haemoglobin", haemoglobin}, {"freckles", freckles},
+  std::map<std::string, double> m{{"melanin", melanin},       {"haemoglobin", haemoglobin}, {"freckles", freckles},
           {"blush", blush},           {"lip_redness", lip_redness}, {"oiliness", oiliness},
           {"pore_scale", pore_scale}, {"wrinkles", wrinkles},       {"hair_r", hair.x()},
           {"hair_g", hair.y()},       {"hair_b", hair.z()},         {"iris_r", iris.x()},
           {"iris_g", iris.y()},       {"iris_b", iris.z()}};
+  if (detail > 0) m["detail"] = detail;  // written only when used: scans without it keep their identity files
+  return m;
 }
 
 Appearance sample_appearance(uint64_t seed) {
@@ -298,13 +300,22 @@ SkinSample SkinModel::sample(const Vec3& p, const Vec2& uv, float footprint) con
   float melanin = float(a.melanin) * std::exp(0.25f * fbm(p, 20.0f, 3, footprint, seed_ ^ 1u));
   const float freckle_mask = 0.3f + 0.7f * std::min(1.0f, nose_mask + cheek);
   melanin *= 1 + 1.6f * spots(p, 2.5f, 0.8f, float(a.freckles) * freckle_mask, footprint, seed_ ^ 2u);
+  // Micro-detail (Appearance::detail): what a rig's photos of real skin show at 0.1-0.3 mm per pixel and smooth
+  // synthetic skin lacks — uneven pigment at 1-2 mm (solar lentigines), small ephelides on every complexion, a few
+  // moles (naevi, 1-2.5 mm across, dark brown) and pores darkened by their pits' shadow (below).
+  const float detail = float(a.detail) * (1 - lip) * (1 - brow);
+  if (detail > 0) {
+    melanin *= std::exp(0.45f * detail * fbm(p, 2.0f, 3, footprint, seed_ ^ 7u));
+    melanin *= 1 + 1.3f * detail * spots(p, 1.6f, 0.35f, 0.3f * freckle_mask, footprint, seed_ ^ 8u);
+    melanin *= 1 + 6.0f * detail * spots(p, 18.0f, 1.25f, 0.35f, footprint, seed_ ^ 9u);
+  }
   melanin *= 1 - 0.1f * lip;
   float blood = float(a.haemoglobin) * std::exp(0.3f * fbm(p, 8.0f, 2, footprint, seed_ ^ 3u));
   blood *= 1 + float(a.blush) * (0.9f * cheek + 0.6f * nose_tip) + 4.0f * float(a.lip_redness) * lip;
   blood += 0.12f * spots(p, 14.0f, 1.2f, 0.15f, footprint, seed_ ^ 4u);  // blemishes
 
   Vec3 albedo = (kBase.array() * (-(melanin * kMelanin + blood * kHaemoglobin)).array().exp()).matrix();
-  albedo *= 1 - 0.12f * std::min(1.0f, pore.value) * (1 - lip);
+  albedo *= 1 - (0.12f + 0.3f * detail) * std::min(1.0f, pore.value) * (1 - lip);
   // Brow hair: strands across the brow (noise stretched along x), coverage fading at the edges.
   // Strands are 0.25 mm across: they fade out when a texel is wider (low-pass, like every other component).
   const float strand_keep = smoothstep(1.0f, 0.25f, footprint / 0.25f);

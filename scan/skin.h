@@ -34,6 +34,7 @@ struct Appearance {
   double oiliness = 0.5;     // T-zone: lower roughness, higher specular
   double pore_scale = 1;     // pore size and spacing multiplier
   double wrinkles = 0.3;     // forehead wrinkle depth 0..1 (age)
+  double detail = 0;         // skin micro-detail 0..1: pigment speckle, ephelides, moles, darker pores (0: off)
   Eigen::Vector3d hair = {0.05, 0.03, 0.02};  // eyebrow colour, linear RGB
   Eigen::Vector3d iris = {0.06, 0.03, 0.015};  // linear RGB
   std::map<std::string, double> to_map() const;  // for truth/identity.json

@@ -71,6 +71,54 @@ TEST(SkinModel, ToneSpansLightToDarkAndRegionsAreWhereTheFaceHasThem) {
   EXPECT_LT(double(inversions) / pairs, 0.05);
 }
 
+// Skin micro-detail (Appearance::detail, for synthetic captures): on the cheek it adds high-frequency albedo
+// variation at a 0.1 mm texel (what SIFT needs) while the tone stays put; it is low-passed away at a 2 mm texel, and
+// lips and brows are left as they were.
+TEST(SkinModel, DetailAddsFineAlbedoVariationKeepsTheToneAndSparesLipsAndBrows) {
+  const TemplateFace& face = test_template();
+  Eigen::MatrixX2d uv;
+  ASSERT_TRUE(per_vertex_uv(face.mesh, uv));
+  const auto landmark = [&](int k) { return Eigen::Vector3d(face.mesh.V.row(face.landmark_vertices[size_t(k)])); };
+  const int cheek = nearest_vertex(face, (landmark(2) + landmark(31) + landmark(41)) / 3);
+  const int lip = nearest_vertex(face, (landmark(51) + landmark(62)) / 2);
+  const int brow = nearest_vertex(face, landmark(19) + Eigen::Vector3d(0, -1.5, 0));
+  Appearance plain = sample_appearance(subject_seed(11, 3));
+  plain.freckles = 0;
+  Appearance detailed = plain;
+  detailed.detail = 1;
+  const SkinModel a(face, plain), b(face, detailed);
+  // A 40 x 40 mm patch around the cheek vertex at 0.1 mm steps (every 40th step sampled), then its neighbour steps.
+  const Eigen::Vector3f c = face.mesh.V.row(cheek).cast<float>();
+  const Eigen::Vector2f c_uv = uv.row(cheek).cast<float>();
+  const auto fine_variation = [&](const SkinModel& m, float footprint, double* mean) {
+    double sum = 0, diff2 = 0;
+    int n = 0;
+    for (int i = -20; i < 20; ++i)
+      for (int j = -20; j < 20; ++j) {
+        const Eigen::Vector3f p = c + Eigen::Vector3f(float(i), float(j), 0);
+        const float l0 = luminance(m.sample(p, c_uv, footprint).material.diffuse);
+        const float l1 = luminance(m.sample(p + Eigen::Vector3f(footprint, 0, 0), c_uv, footprint).material.diffuse);
+        sum += l0, diff2 += double(l1 - l0) * (l1 - l0), ++n;
+      }
+    *mean = sum / n;
+    return std::sqrt(diff2 / n);
+  };
+  double mean_a, mean_b;
+  const double fine_a = fine_variation(a, 0.1f, &mean_a), fine_b = fine_variation(b, 0.1f, &mean_b);
+  EXPECT_GT(fine_b, 2 * fine_a) << "neighbouring 0.1 mm texels differ more with detail";
+  EXPECT_NEAR(mean_b / mean_a, 1.0, 0.1) << "the tone stays";
+  double coarse_mean;
+  const double coarse_a = fine_variation(a, 2.0f, &coarse_mean), coarse_b = fine_variation(b, 2.0f, &coarse_mean);
+  EXPECT_LT(coarse_b - coarse_a, 0.25 * (fine_b - fine_a)) << "low-passed at a 2 mm texel";
+  for (const int v : {lip, brow}) {
+    const SkinMaterial m0 = a.sample(face.mesh.V.row(v).cast<float>(), uv.row(v).cast<float>(), 0.1f).material;
+    const SkinMaterial m1 = b.sample(face.mesh.V.row(v).cast<float>(), uv.row(v).cast<float>(), 0.1f).material;
+    EXPECT_LT((m1.diffuse - m0.diffuse).norm(), 0.02f * m0.diffuse.norm()) << "vertex " << v;
+  }
+  EXPECT_EQ(detailed.to_map().at("detail"), 1);
+  EXPECT_EQ(plain.to_map().count("detail"), 0u) << "scans without detail keep their identity files";
+}
+
 // Returns the face of `mesh` whose atlas triangle contains uv (or -1) and the barycentrics there.
 int find_uv_face(const Mesh& mesh, const Eigen::Vector2d& uv, Eigen::Vector3f& bary) {
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f) {

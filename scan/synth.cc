@@ -23,6 +23,7 @@ void SynthOptions::check() const {
   if (!(scale_jitter >= 0 && scale_jitter < 0.5)) throw InvalidInput("", "--scale-jitter must lie in [0, 0.5)", "");
   if (!(rotation_jitter_deg >= 0 && rotation_jitter_deg <= 180)) throw InvalidInput("", "--rotation-jitter must lie in [0, 180] degrees", "");
   if (!(translation_jitter_mm >= 0 && translation_jitter_mm <= 1000)) throw InvalidInput("", "--translation-jitter must lie in [0, 1000] mm", "");
+  if (!(skin_detail >= 0 && skin_detail <= 1)) throw InvalidInput("", "--skin-detail must lie in [0, 1]", "");
   if (maps.resolution != 0) maps.check();
   if (truth_resolution != 0 && (truth_resolution < 16 || truth_resolution > 32768)) {
     throw InvalidInput("", "--truth-res must be 0 (none) or lie in [16, 32768]", "");
@@ -226,6 +227,7 @@ SyntheticScan synthesize_scan(const TemplateFace& face, int index, const SynthOp
   }, 1024);
   make_atlas(scan.mesh, scan.surface.template_uv, subject_seed(options.seed ^ 0xa71a5ull, index));
   scan.appearance = sample_appearance(subject_seed(options.seed ^ 0x5c1full, index));
+  scan.appearance.detail = options.skin_detail;
   scan.surface.mesh = scan.mesh;
 
   // Realism knobs, from a stream of their own so that turning them on leaves the identity unchanged.

@@ -34,6 +34,7 @@ struct SynthOptions {
   double rotation_jitter_deg = 0;
   double translation_jitter_mm = 0;
   bool holes = false;             // cut the nostrils open, as structured-light scanners leave them
+  double skin_detail = 0;         // Appearance::detail of every subject (0..1; on for synthetic captures)
   // Maps in each scan's atlas (resolution 0: none) and, optionally, the truth maps in the template UV.
   BakeOptions maps;
   int truth_resolution = 0;
