@@ -16,40 +16,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Image to_image(const torch::Tensor& chw) {
-  auto hwc = chw.detach().to(torch::kCPU, torch::kFloat).clamp(0, 1).permute({1, 2, 0}).contiguous();
-  Image image(int(hwc.size(1)), int(hwc.size(0)), int(hwc.size(2)), ColorSpace::sRGB);
-  std::memcpy(image.pixels.data(), hwc.data_ptr<float>(), image.pixels.size() * sizeof(float));
-  return image;
-}
-
-void write_png(const std::string& path, const torch::Tensor& chw) { write_file_atomic(path, encode_png(to_image(chw))); }
-
 bool is_photo(const fs::path& p) {
   std::string ext = p.extension().string();
   for (auto& c : ext) c = char(std::tolower(c));
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
-}
-
-// Every output of one photo, each written atomically into `dir` (made only once the photo has succeeded).
-void write_result(const bsn::DemakeupResult& r, const bsn::Demakeup& d, const std::string& dir, const std::string& photo) {
-  make_directories(dir);
-  write_png(dir + "/aligned.png", r.aligned);
-  write_png(dir + "/bare.png", r.bare);
-  write_png(dir + "/unlit.png", r.unlit * r.mask);
-  write_png(dir + "/uv.png", r.uv);
-  write_png(dir + "/uv_mask.png", r.uv_mask);
-  nlohmann::json j = recon::coefficients_to_json(r.coefficients.to(torch::kCPU), d.model->layout(true));
-  nlohmann::json lm = nlohmann::json::array();
-  for (int i = 0; i < 68; ++i) lm.push_back({r.landmarks(i, 0), r.landmarks(i, 1)});
-  j["photo"] = photo;
-  j["detector_score"] = r.score;
-  j["photo_landmarks"] = lm;
-  j["align"] = {{"similarity", {{r.similarity(0, 0), r.similarity(0, 1), r.similarity(0, 2)},
-                                {r.similarity(1, 0), r.similarity(1, 1), r.similarity(1, 2)}}},
-                {"source", "detector"}};
-  j["camera"] = {{"focal", 1015.0 * 256 / 224}, {"cx", 128}, {"cy", 128}, {"width", 256}, {"height", 256}};
-  write_file_atomic(dir + "/coefficients.json", j.dump(2) + "\n");
 }
 
 }  // namespace
@@ -59,7 +29,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
     std::string input, output, run, teacher, model, device = "cpu";
     int64_t uv_size = 1024;
     int detector_size = 416;
-    bool keep_going = false;
+    bool keep_going = false, aligned = false, without_g = false;
   };
   auto o = std::make_shared<Options>();
   app.add_option("input", o->input, "A photo (PNG/JPEG/TIFF) or a folder of photos")->required();
@@ -70,6 +40,9 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
   app.add_option("--uv-size", o->uv_size, "Side of the UV map the bare skin is unwrapped into")->capture_default_str();
   app.add_option("--detector-size", o->detector_size, "Face detector input (multiple of 32)")->capture_default_str();
   app.add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  app.add_flag("--aligned", o->aligned, "The inputs are aligned 256² faces (texgen faces' makeup.png): no detection");
+  app.add_flag("--without-g", o->without_g, "Skip G (the baseline: F's fit and the unwrap of the input itself, through "
+               "G's resize round trip)");
   app.add_flag("--keep-going", o->keep_going, "With a folder: skip photos that fail and list them at the end");
   app.footer("Outputs: aligned.png (the 256² input G saw), bare.png (bare skin), unlit.png (the fit's albedo render), "
              "coefficients.json (F's fit: the coefficient file), uv.png + uv_mask.png (bare skin in the template UV).\n"
@@ -90,22 +63,37 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
       photos.push_back(o->input);
     }
     const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
-    const detect::PhotoDetector detector = photo_detector(globals, o->detector_size);
-    if (!folder) {  // a photo without a face fails before the networks load
+    const detect::PhotoDetector detector = o->aligned ? detect::PhotoDetector() : photo_detector(globals, o->detector_size);
+    auto read_aligned = [](const std::string& photo) {
+      Image image = read_image(photo);
+      if (image.channels < 3) throw InvalidInput(photo, "is not an RGB photo", "give a colour photo");
+      if (image.width != detect::kAlignedSize || image.height != detect::kAlignedSize)
+        throw InvalidInput(photo, "is " + std::to_string(image.width) + "×" + std::to_string(image.height) + ", not an aligned " +
+                                      std::to_string(detect::kAlignedSize) + "² face", "drop --aligned for photos");
+      return image;
+    };
+    if (o->aligned && !folder) read_aligned(photos[0].string());  // a wrong size fails before the networks load
+    if (!folder && !o->aligned) {  // a photo without a face fails before the networks load
       Image image = read_image(photos[0].string());
       if (image.channels < 3) throw InvalidInput(photos[0].string(), "is not an RGB photo", "give a colour photo");
       if (detector(image).empty()) throw InvalidInput(photos[0].string(), "no face was found", "give a photo with a face of at least ~80 px");
     }
-    const bsn::Demakeup d = bsn::Demakeup::load(o->run, o->teacher, o->model, device);
+    bsn::Demakeup d = bsn::Demakeup::load(o->run, o->teacher, o->model, device);
+    d.skip_g = o->without_g;
     std::vector<std::string> failed;
     auto bar = globals.progress("demakeup");
     for (size_t i = 0; i < photos.size(); ++i) {
       const std::string photo = photos[i].string();
       try {
-        Image image = read_image(photo);
-        if (image.channels < 3) throw InvalidInput(photo, "is not an RGB photo", "give a colour photo");
-        const auto r = bsn::demakeup(d, image, detector, o->uv_size, photo);
-        write_result(r, d, folder ? o->output + "/" + photos[i].stem().string() : o->output, photo);
+        const std::string dir = folder ? o->output + "/" + photos[i].stem().string() : o->output;
+        if (o->aligned) {
+          const Image image = read_aligned(photo);
+          bsn::write_demakeup(bsn::demakeup_aligned(d, bsn::image_tensor(image), o->uv_size), d, dir, photo, false);
+        } else {
+          Image image = read_image(photo);
+          if (image.channels < 3) throw InvalidInput(photo, "is not an RGB photo", "give a colour photo");
+          bsn::write_demakeup(bsn::demakeup(d, image, detector, o->uv_size, photo), d, dir, photo);
+        }
       } catch (const Error& e) {
         if (!o->keep_going || !folder) throw;
         failed.push_back(e.what());

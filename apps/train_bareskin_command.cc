@@ -44,7 +44,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     int64_t steps1 = 10000, steps2 = 30000, batch = 4, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
             sample_every = 1000;
     uint64_t seed = 0;
-    bool resume = false, evaluate = false;
+    bool resume = false, evaluate = false, paper_g = false;
     int64_t eval_samples = 0;
   };
   auto o = std::make_shared<Options>();
@@ -61,6 +61,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
       ->check(CLI::IsMember({"before", "bare"}))->capture_default_str();
   app->add_option("--ablation", o->ablation, "A row of the paper's Fig. 7: b (L1+GAN), c (+LPIPS), d (+frozen F), "
                   "e (+fine-tuned F), f (+E without L_light), g (full)")->check(CLI::IsMember({"b", "c", "d", "e", "f", "g"}));
+  app->add_flag("--paper-g", o->paper_g, "G outputs the image itself (the paper) instead of input + Δ with Δ starting "
+                "at zero (ours, the default: G starts as the identity)");
   app->add_option("--lpips", o->task.lpips_trunk, "LPIPS trunk: vgg16-random or facenet (cheap on the CPU)")
       ->check(CLI::IsMember({"vgg16-random", "facenet"}))->capture_default_str();
   app->add_option("--g-options", o->g, "G (unet256) options over the defaults, JSON, e.g. '{\"ngf\": 16}'");
@@ -84,6 +86,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     set_torch_threads(globals);
     const auto data_splits = splits(o->data);
     bsn::Options task = o->task;
+    task.residual = !o->paper_g;
     task.g = json_option(o->g, "--g-options");
     task.d = json_option(o->d, "--d-options");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);

@@ -22,6 +22,7 @@
 #include "detect/align.h"
 #include "training/face_model.h"
 #include "training/losses.h"
+#include "training/nets/unet.h"
 #include "training/trainer.h"
 
 namespace bareskin::bsn {
@@ -54,6 +55,10 @@ FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model);
 struct Options {
   int stage = 1;                  // 1: G alone (L_DD); 2: + L_FR through the reconstruction
   std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth)
+  // Ours, not the paper's: G predicts a change of its input (output = input + Δ, Δ = the U-Net's Tanh output in
+  // [0, 1] units) and its last layer starts at zero, so G starts as the identity and training is judged by what it
+  // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false.
+  bool residual = true;
   int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
   nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
   nlohmann::json d = nlohmann::json::object();  // patchgan options
@@ -181,6 +186,8 @@ std::vector<std::string> required_members(const Options& o);
 struct Demakeup {
   std::shared_ptr<torch::nn::Module> G;  // nets::UNetImpl
   int64_t size = 256;                    // G's training resolution
+  bool residual = false;                 // G's output is input + Δ (Options::residual of its run)
+  bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
   torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex
@@ -213,6 +220,19 @@ torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned);
 DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::PhotoDetector& detector,
                         int64_t uv_size = 1024, const std::string& source = "photo");
 
+// An image (values in [0, 1]) as a [C, H, W] float tensor.
+torch::Tensor image_tensor(const Image& image);
+
+// The same from an already aligned face [3, 256, 256] sRGB (a texgen faces sample, or a photo aligned elsewhere):
+// score 0, no landmarks, the identity similarity.
+DemakeupResult demakeup_aligned(const Demakeup& d, const torch::Tensor& aligned, int64_t uv_size = 1024);
+
+// One result as files in `dir` (made here), each written atomically: aligned.png, bare.png, unlit.png (the fit's
+// albedo render on its coverage), uv.png + uv_mask.png, coefficients.json (the coefficient file with the photo, the
+// alignment, the camera; `detected`: the detector's score and landmarks).
+void write_demakeup(const DemakeupResult& r, const Demakeup& d, const std::string& dir, const std::string& photo,
+                    bool detected = true);
+
 // An image [B, 3, S, S] into the model's UV through the coefficients (canonical camera at S): per texel the image at
 // the projected surface point where that point is the nearest surface along its ray (depth within
 // `depth_tolerance` mm) and faces the camera. Returns the UV image [B, 3, R, R] and the seen mask [B, 1, R, R].
@@ -242,6 +262,12 @@ void to_json(nlohmann::json& j, const EvalResult& r);
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
 // G alone from a run (stage2, else stage1): the Demakeup evaluate_generator takes.
 Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
+
+// G's image from the U-Net's output: input + Δ (residual) or the U-Net's Tanh image, both in [0, 1] units; `images`
+// [B, 3, S, S] in [0, 1]. Not clamped (training sees the raw value; inference clamps).
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual);
+// Zeroes the U-Net's last layer (weights and bias): with `residual`, G is then exactly the identity.
+void zero_last_layer(nets::UNetImpl& G);
 
 // The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
 nlohmann::json generator_options(const nlohmann::json& g, int64_t size);

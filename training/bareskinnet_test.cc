@@ -184,6 +184,46 @@ class FixedSource : public data::DataSource {
   data::Batch batch_;
 };
 
+TEST(BareSkinNet, ResidualGStartsAsTheIdentityAndLearns) {
+  torch::manual_seed(0);
+  Options o = small_options(1);
+  ASSERT_TRUE(o.residual);  // ours is the default
+  BareSkinTask task(o);
+  auto x = torch::rand({2, 3, kSize, kSize});
+  // Step 0: G's output is its input, bit for bit, in training (batch statistics) and in inference.
+  EXPECT_TRUE(torch::equal(task.generate(x), x));
+  Demakeup d;
+  d.G = task.generator();
+  d.size = kSize;
+  d.residual = true;
+  d.G->eval();
+  EXPECT_TRUE(torch::equal(run_generator(d, x), x));
+  d.G->train();
+  // ... and it is not stuck there: an L1 step towards another image reaches the last layer and moves the output.
+  auto target = (x * 0.5 + 0.2).detach();
+  torch::optim::Adam adam(task.generator()->parameters(), torch::optim::AdamOptions(1e-3));
+  for (int i = 0; i < 20; ++i) {
+    adam.zero_grad();
+    (task.generate(x) - target).abs().mean().backward();
+    adam.step();
+  }
+  const double before = (x - target).abs().mean().item<double>();
+  const double after = (task.generate(x) - target).abs().mean().item<double>();
+  EXPECT_LT(after, 0.9 * before) << before << " -> " << after;
+  // The paper's G (an image from the Tanh) starts far from its input.
+  o.residual = false;
+  torch::manual_seed(0);
+  BareSkinTask paper(o);
+  EXPECT_GT((paper.generate(x) - x).abs().mean().item<double>(), 0.05);
+  // Runs written before the option are the paper's G; a residual run keeps its flag through the configuration.
+  Options read;
+  from_json(nlohmann::json::object(), read);
+  EXPECT_FALSE(read.residual);
+  nlohmann::json j = small_options(1);
+  from_json(j, read);
+  EXPECT_TRUE(read.residual);
+}
+
 TEST(BareSkinNet, LossFallsOnAFixedBatch) {
   const auto dir = write_faces(4, 2);
   torch::manual_seed(0);
