@@ -11,7 +11,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string model, texture, bareskin, device = "cpu";
+    std::string model, texture, bareskin, teacher, device = "cpu";
     std::vector<std::string> upscale;
     texture::EvaluateOptions evaluate;
   };
@@ -26,6 +26,8 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
   app.add_option("--texture", opt->texture, "pix2pixHD run (bareskin train texture)")->required();
   app.add_option("--upscale", opt->upscale, "SRGAN runs; the diffuse one is compared with bicubic")->expected(0, -1);
   app.add_option("--bareskin", opt->bareskin, "BareSkinNet run: the 'with' column")->required();
+  app.add_option("--teacher", opt->teacher, "Reconstruction net F (bareskin train recon run) for the coefficients; "
+                                            "without it mm-fit");
   app.add_option("--max-samples", opt->evaluate.max_samples, "At most this many samples (0: all)")
       ->capture_default_str();
   app.add_option("--input-res", opt->evaluate.avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
@@ -36,7 +38,7 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
   return [opt, &globals] {
     set_torch_threads(globals);
     const MorphableModel model = read_model(opt->model);
-    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device);
+    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);
     const auto G = texture::load_demakeup(opt->bareskin, opt->device);
     const auto summary = texture::evaluate_table1(opt->evaluate, model, nets, G);
     if (!globals.quiet())

@@ -1,9 +1,7 @@
-// bareskin recon: a photo → face-api's 68 landmarks → Deep3DFaceRecon's 5-point alignment (detect/align.h) → the net
-// F or E of a `bareskin train recon` run → coefficient file, posed mesh (OBJ), overlay picture, landmarks, and a
-// confidence; --refine continues with mm-fit's fitters (morphable/fit.h) from the net's answer. docs/cli.md.
+// bareskin recon: a photo → face-api's 68 landmarks → training/recon_photo.h (Deep3DFaceRecon's 5-point alignment, the
+// net F or E of a `bareskin train recon` run, --refine: mm-fit's fitters from the net's answer) → coefficient file,
+// posed mesh (OBJ), overlay picture, landmarks, and a confidence. This file parses flags and writes files. docs/cli.md.
 #include <algorithm>
-#include <chrono>
-#include <cstring>
 #include <filesystem>
 #include <iostream>
 
@@ -15,55 +13,23 @@
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "core/mesh_io.h"
-#include "detect/align.h"
 #include "detect/face_api.h"
 #include "morphable/coefficients.h"
-#include "morphable/fit.h"
 #include "morphable/model.h"
 #include "training/checkpoint.h"
 #include "training/recon.h"
+#include "training/recon_photo.h"
 
 namespace bareskin::cli {
 namespace {
 
 namespace fs = std::filesystem;
 
-torch::Tensor to_chw(const Image& img) {
-  BS_CHECK(img.channels >= 3, "an RGB image");
-  torch::Tensor t = torch::from_blob(const_cast<float*>(img.pixels.data()), {img.height, img.width, img.channels},
-                                     torch::kFloat);
-  return t.narrow(2, 0, 3).permute({2, 0, 1}).contiguous().clone();
-}
-
-Image to_image(const torch::Tensor& chw, ColorSpace space) {
-  const torch::Tensor t = chw.detach().to(torch::kCPU, torch::kFloat).clamp(0, 1).permute({1, 2, 0}).contiguous();
-  Image img(int(t.size(1)), int(t.size(0)), int(t.size(2)), space);
-  std::memcpy(img.pixels.data(), t.data_ptr<float>(), img.pixels.size() * sizeof(float));
-  return img;
-}
-
-Coefficients to_coefficients(const torch::Tensor& row, const recon::CoefficientLayout& l) {
-  const nlohmann::json j = recon::coefficients_to_json(row, l);
-  Coefficients c;
-  const auto vec = [&](const char* k) {
-    const std::vector<double> v = j.at(k).get<std::vector<double>>();
-    return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
-  };
-  c.alpha = vec("alpha"), c.beta = vec("beta"), c.delta = vec("delta");
-  c.rotation = vec("rotation"), c.translation = vec("translation");
-  std::array<double, 27> g{};
-  for (size_t k = 0; k < 27; ++k) g[k] = j.at("gamma")[k].get<double>();
-  c.gamma = g;
-  return c;
-}
-
 struct Context {
   recon::TrainedRecon net;
   MorphableModel geometry;  // for --refine and the OBJ
   std::shared_ptr<const detect::FaceApi> detector;
-  recon::ConfidenceOptions confidence;
-  bool refine = false;
-  int refine_iterations = 30;
+  recon::PhotoReconOptions options;
 };
 
 // Everything about one photo, computed before anything is written: a failure leaves no output.
@@ -72,92 +38,25 @@ void reconstruct_photo(const Context& ctx, const std::string& photo_path, const 
   if (photo.channels < 3) throw InvalidInput(photo_path, "is not an RGB image", "give a colour photo");
   const std::vector<detect::Face> faces = ctx.detector->detect(detect::photo_tensor(photo, photo_path));
   if (faces.empty()) throw InvalidInput(photo_path, "no face was found", "give a photo with a face of at least ~80 px");
-  const detect::Landmarks68 detected = faces.front().points;
-  // The 256² aligned frame scaled to the net's size.
-  const int S = int(ctx.net.image_size);
-  detect::Similarity sim = detect::alignment(detected);
-  sim.scale *= S / double(detect::kAlignedSize);
-  sim.translation *= S / double(detect::kAlignedSize);
-  const Image aligned = detect::warp_aligned(photo, sim, S);
-  const detect::Landmarks68 lm_aligned = detect::transform(sim, detected);
-  torch::Tensor lm = torch::empty({68, 2}, torch::kDouble);
-  for (int k = 0; k < 68; ++k) lm[k][0] = lm_aligned(k, 0), lm[k][1] = lm_aligned(k, 1);
-  const recon::Reconstruction r = recon::reconstruct(ctx.net, to_chw(aligned), lm, ctx.confidence);
-  const recon::CoefficientLayout layout = ctx.net.model.layout(true);
-  Coefficients c = to_coefficients(r.coefficients, layout);
-  nlohmann::json extra = {{"source", "bareskin recon"},
-                          {"photo", photo_path},
-                          {"net", ctx.net.module},
-                          {"forward_ms", r.milliseconds},
-                          {"confidence", r.confidence},
-                          {"flagged", r.flagged},
-                          {"landmark_residual_px", r.landmark_residual_px},
-                          {"psnr_db", r.psnr_db},
-                          {"detector_score", faces.front().score},
-                          {"align", {{"similarity", {{sim.scale, 0, sim.translation.x()}, {0, sim.scale, sim.translation.y()}}},
-                                     {"size", S},
-                                     {"frame", "coefficients are seen by the canonical camera in the aligned frame"}}}};
-  const Camera aligned_cam = recon::canonical_camera(S);
-  if (ctx.refine) {
-    const auto t0 = std::chrono::steady_clock::now();
-    LandmarkFit start;
-    start.alpha = c.alpha, start.beta = c.beta, start.rotation = c.rotation, start.translation = c.translation;
-    LandmarkFitOptions lo;
-    lo.shape_components = int(c.alpha.size());
-    lo.expression_components = int(c.beta.size());
-    lo.iterations = ctx.refine_iterations;
-    lo.start = &start;
-    const LandmarkFit fit = fit_landmarks(ctx.geometry, lm_aligned, aligned_cam, lo);
-    c.alpha = fit.alpha, c.beta = fit.beta, c.rotation = fit.rotation, c.translation = fit.translation;
-    Image linear = aligned;
-    for (float& v : linear.pixels) v = srgb_to_linear(v);
-    linear.color_space = ColorSpace::Linear;
-    PhotometricFitOptions po;
-    po.appearance_components = int(c.delta.size());
-    const PhotometricFit pf = fit_photometric(ctx.geometry, posed_mesh(ctx.geometry, c), aligned_cam, linear, po);
-    c.delta = pf.delta;
-    c.gamma = pf.gamma;
-    extra["refine"] = {{"landmark_rms_px", fit.rms_px}, {"landmark_iterations", fit.iterations},
-                       {"psnr_db", pf.psnr_db},
-                       {"ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()}};
-  }
-  c.extra = extra;
-  // The overlay at the photo's size: the aligned frame's camera mapped back through the similarity.
-  Camera photo_cam = aligned_cam;
-  photo_cam.width = photo.width;
-  photo_cam.height = photo.height;
-  photo_cam.focal = aligned_cam.focal / sim.scale;
-  photo_cam.cx = (aligned_cam.cx - sim.translation.x()) / sim.scale;
-  photo_cam.cy = (aligned_cam.cy - sim.translation.y()) / sim.scale;
-  torch::Tensor row;
-  {
-    const nlohmann::json cj = {{"alpha", std::vector<double>(c.alpha.data(), c.alpha.data() + c.alpha.size())},
-                               {"beta", std::vector<double>(c.beta.data(), c.beta.data() + c.beta.size())},
-                               {"delta", std::vector<double>(c.delta.data(), c.delta.data() + c.delta.size())},
-                               {"rotation", {c.rotation.x(), c.rotation.y(), c.rotation.z()}},
-                               {"translation", {c.translation.x(), c.translation.y(), c.translation.z()}},
-                               {"gamma", *c.gamma}};
-    row = recon::coefficients_from_json(cj, layout).unsqueeze(0).to(ctx.net.device);
-  }
-  const recon::FaceRender f = ctx.net.model.render(row, photo_cam);
-  const torch::Tensor photo_t = to_chw(photo).unsqueeze(0).to(ctx.net.device);
-  const torch::Tensor over = recon::linear_to_srgb(f.colour.clamp(0, 1)) * f.mask + photo_t * (1 - f.mask);
+  recon::PhotoReconstruction r = recon::reconstruct_photo(ctx.net, ctx.geometry, photo, faces.front().points, ctx.options);
+  Coefficients& c = r.coefficients;
+  c.extra.update({{"source", "bareskin recon"}, {"photo", photo_path}, {"detector_score", faces.front().score}});
+  const auto [overlay, projected] = recon::photo_overlay(ctx.net, c, r.similarity, photo);
   Landmarks out_lm;
   out_lm.units = "px";
-  out_lm.points = Eigen::MatrixXd(68, 2);
-  const torch::Tensor plm = f.landmarks[0].to(torch::kCPU, torch::kDouble).contiguous();
-  for (int k = 0; k < 68; ++k) out_lm.points(k, 0) = plm[k][0].item<double>(), out_lm.points(k, 1) = plm[k][1].item<double>();
+  out_lm.points = projected;
   const Mesh mesh = posed_mesh(ctx.geometry, c);
   // Written only now, each file atomically.
   fs::create_directories(out_dir);
   write_coefficients(out_dir + "/coefficients.json", c);
   write_mesh(out_dir + "/mesh.obj", mesh);
-  write_image(out_dir + "/overlay.png", to_image(over[0], ColorSpace::sRGB));
-  write_image(out_dir + "/aligned.png", aligned);
+  write_image(out_dir + "/overlay.png", overlay);
+  write_image(out_dir + "/aligned.png", r.aligned);
   write_landmarks(out_dir + "/landmarks.json", out_lm);
   if (!quiet) {
-    std::cerr << photo_path << ": confidence " << r.confidence << (r.flagged ? " (FLAGGED)" : "") << ", landmarks "
-              << r.landmark_residual_px << " px, PSNR " << r.psnr_db << " dB → " << out_dir << "\n";
+    std::cerr << photo_path << ": confidence " << r.answer.confidence << (r.answer.flagged ? " (FLAGGED)" : "")
+              << ", landmarks " << r.answer.landmark_residual_px << " px, PSNR " << r.answer.psnr_db << " dB → "
+              << out_dir << "\n";
   }
 }
 
@@ -235,9 +134,9 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     ctx.net = recon::load_recon(o->run, recon::FaceModel::load(model_path), device);
     ctx.geometry = read_model(model_path);
     ctx.detector = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-    ctx.confidence = o->confidence;
-    ctx.refine = o->refine;
-    ctx.refine_iterations = o->refine_iterations;
+    ctx.options.confidence = o->confidence;
+    ctx.options.refine = o->refine;
+    ctx.options.refine_iterations = o->refine_iterations;
     if (!fs::is_directory(o->input)) {
       reconstruct_photo(ctx, o->input, o->output, globals.quiet());
       return;

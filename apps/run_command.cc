@@ -15,7 +15,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string photo, output, model, texture, bareskin, device = "cpu", weights, landmarks;
+    std::string photo, output, model, texture, bareskin, teacher, device = "cpu", weights, landmarks;
     std::vector<std::string> upscale;
     bool no_bareskin = false, no_upscale = false;
     texture::AvatarOptions avatar;
@@ -29,6 +29,8 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
                                             "upscaled bicubically")
       ->expected(0, -1);
   app.add_option("--bareskin", opt->bareskin, "BareSkinNet run (bareskin train bareskin): G before reconstruction");
+  app.add_option("--teacher", opt->teacher, "Reconstruction net F (bareskin train recon run): the 3DMM coefficients "
+                                            "from G's image; without it mm-fit's landmark and photometric fits");
   app.add_flag("--no-bareskin", opt->no_bareskin, "Skip G: the photo itself is reconstructed and unwrapped");
   app.add_flag("--no-upscale", opt->no_upscale, "Maps at the texture net's size only");
   app.add_option("--input-res", opt->avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
@@ -39,7 +41,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
                  "The photo's 68 landmarks (a landmark file, px): used instead of the detector (e.g. for aligned shards)");
   app.add_option("--weights", opt->weights, "face-api's tfjs models (default: face_api/ in the assets)");
   app.footer("Example: bareskin run photo.png -o avatar/ --model model.safetensors --texture runs/tex "
-             "--upscale runs/up_diffuse --bareskin runs/bsn\nExit 3 (nothing written) for a photo without a face "
+             "--upscale runs/up_diffuse --bareskin runs/bsn --teacher runs/F\nExit 3 (nothing written) for a photo without a face "
              "or runs that do not fit each other or the model.");
   return [opt, &globals] {
     set_torch_threads(globals);
@@ -47,7 +49,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
     const auto t0 = std::chrono::steady_clock::now();
     const MorphableModel model = read_model(opt->model);
-    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device);
+    const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);
     const texture::Demakeup G = opt->no_bareskin ? texture::Demakeup{} : texture::load_demakeup(opt->bareskin, opt->device);
     const Image photo = read_image(opt->photo);
     texture::FaceFinder detector;
@@ -70,12 +72,12 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     opt->avatar.upscale = !opt->no_upscale;
     const auto t1 = std::chrono::steady_clock::now();
-    const texture::Avatar avatar = texture::avatar_from_photo(photo, opt->photo, detector, model, nets.texture,
-                                                              nets.upscalers, G, opt->avatar);
+    const texture::Avatar avatar = texture::avatar_from_photo(photo, opt->photo, detector, model, nets, G, opt->avatar);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     texture::write_avatar(opt->output, avatar,
                           {{"photo", opt->photo}, {"model", opt->model}, {"texture", opt->texture},
                            {"upscale", opt->upscale}, {"bareskin", opt->no_bareskin ? "" : opt->bareskin},
+                           {"teacher", opt->teacher},
                            {"device", opt->device}, {"load_seconds", load_seconds}, {"pipeline_seconds", seconds}});
     if (!globals.quiet())
       std::cerr << "wrote " << opt->output << " (" << fmt::format("{:.1f}", seconds) << " s; upscaled with "

@@ -82,9 +82,17 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   CLI::App* u = train.add_subcommand("upscale", "SRGAN x4 (MSRResNet) for one map type: 1K -> 4K");
   add_common(u, *up);
   u->add_option("--map", up_model->map, "diffuse, normal, roughness or specular")->capture_default_str();
-  u->add_option("--phase", up_model->phase, "l1 (pre-training) or gan (from --init)")->capture_default_str();
+  u->add_option("--phase", up_model->phase, "l1 (pre-training with the pixel loss) or gan (from --init)")
+      ->capture_default_str();
   u->add_option("--init", up->run.init, "GAN phase: the L1 run whose generator it starts from");
   u->add_option("--patch", up_model->patch, "High-resolution crop (128 or 256)")->capture_default_str();
+  u->add_option("--pixel-loss", up_model->pixel_loss, "Pre-training loss: mse (SRGAN's SRResNet) or l1 (BasicSR)")
+      ->capture_default_str();
+  u->add_option("--base", up_model->base, "The upsampling the net adds its output to: bicubic (ours) or bilinear "
+                                          "(BasicSR)")->capture_default_str();
+  u->add_option("--pool", up->run.pool, "Decoded maps kept for cropping")->capture_default_str();
+  u->add_option("--crops-per-map", up->run.crops_per_map, "Crops drawn per decoded map before it is replaced")
+      ->capture_default_str();
   u->add_option("--lambda-gan", up_model->lambda_gan, "Adversarial weight")->capture_default_str();
   u->add_option("--lambda-perceptual", up_model->lambda_perceptual, "VGG loss weight")->capture_default_str();
   u->add_option("--lr", up_model->lr, "Adam learning rate")->capture_default_str();

@@ -2,9 +2,11 @@
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <set>
 
 #include "core/error.h"
@@ -12,6 +14,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/mesh_io.h"
+#include "core/png.h"
 #include "core/svg_chart.h"
 #include "render/camera.h"
 #include "render/shade.h"
@@ -29,6 +32,20 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double cpu_now() { return double(std::clock()) / CLOCKS_PER_SEC; }  // the process's CPU time, all threads
+
+// Wall and CPU seconds of one stage into the avatar's tables (CPU time reads true on a shared machine).
+struct StageTimer {
+  Avatar& a;
+  Clock::time_point wall = Clock::now();
+  double cpu = cpu_now();
+  void stop(const std::string& stage) {
+    a.seconds[stage] = since(wall);
+    a.cpu_seconds[stage] = cpu_now() - cpu;
+    wall = Clock::now();
+    cpu = cpu_now();
+  }
+};
 
 constexpr uint64_t kPreviewLightSeed = 2022;  // preview lights: texgen's lights 0–2 of this seed
 
@@ -79,64 +96,55 @@ Demakeup load_demakeup(const std::string& run, const std::string& device) {
   if (meta.value("task", "") != bsn::kTaskName)
     throw InvalidInput(file, "is a '" + meta.value("task", std::string("?")) + "' checkpoint, not BareSkinNet's",
                        "give the run of 'bareskin train bareskin' as --bareskin, or --no-bareskin");
-  bsn::Options o;
-  bsn::from_json(meta.at("config").at("task"), o);
-  o.stage = 1;  // G alone: no teacher, student or renderer needed for inference
-  o.w3 = 0;     // no LPIPS trunk
-  auto task = std::make_shared<bsn::BareSkinTask>(o);
-  train::load_module_weights(file, "G", *task->generator());
-  task->generator()->to(torch::Device(device));
-  task->generator()->eval();
-  const int64_t size = o.size;
-  return [task, size](const Image& aligned) {
-    torch::NoGradGuard no_grad;
-    namespace F = torch::nn::functional;
-    const auto device = task->generator()->parameters().front().device();
-    auto x = image_tensor(aligned).slice(1, 0, 3).to(device);
-    const int64_t side = x.size(2);
-    if (side != size)
-      x = F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{size, size}).mode(torch::kArea));
-    auto y = task->generate(x).clamp(0, 1);
-    if (side != size)
-      y = F::interpolate(y, F::InterpolateFuncOptions()
-                                .size(std::vector<int64_t>{side, side})
-                                .mode(torch::kBilinear)
-                                .align_corners(false));
+  // G alone (its weights and options); the teacher, student, discriminator and LPIPS trunk are not built.
+  auto d = std::make_shared<bsn::Demakeup>(bsn::load_generator(file, torch::Device(device)));
+  return [d](const Image& aligned) {
+    auto y = bsn::run_generator(*d, image_tensor(aligned).slice(1, 0, 3));
     return tensor_image(y, ColorSpace::sRGB);
   };
 }
 
 Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& landmarks, const MorphableModel& model,
-                           const TextureNet& net, const std::map<std::string, Upscaler>& upscalers, const Demakeup& G,
-                           const AvatarOptions& options) {
+                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options) {
+  const TextureNet& net = nets.texture;
+  const std::map<std::string, Upscaler>& upscalers = nets.upscalers;
   Avatar a;
   a.aligned = as_srgb(aligned_in);
   if (a.aligned.width != detect::kAlignedSize || a.aligned.height != detect::kAlignedSize)
     throw InvalidInput("aligned face", "is not 256²", "align photos with detect/align.h first");
   a.landmarks = landmarks;
-  auto t = Clock::now();
+  StageTimer t{a};
   a.bare = G ? as_srgb(G(a.aligned)) : a.aligned;
-  a.seconds["bareskin"] = since(t);
+  t.stop("bareskin");
 
-  // 3DMM coefficients: landmark fit (pose, α, β) on the detected points, photometric fit (δ, γ) on the bare image.
-  t = Clock::now();
+  // 3DMM coefficients: F on the bare image, or mm-fit: landmark fit (pose, α, β) on the detected points, then
+  // photometric fit (δ, γ) on the bare image.
   const Camera camera = view_camera("front", detect::kAlignedSize, Eigen::Vector3d::Zero(), 1000);
-  const LandmarkFit lm = fit_landmarks(model, Eigen::MatrixX2d(landmarks), camera, options.landmark_fit);
   Coefficients& c = a.coefficients;
-  c.alpha = lm.alpha;
-  c.beta = lm.beta;
-  c.rotation = lm.rotation;
-  c.translation = lm.translation;
+  if (nets.F) {
+    c = recon::reconstruct_aligned(*nets.F, model, a.bare, landmarks).coefficients;
+    a.coefficients_from = "F";
+  } else {
+    const LandmarkFit lm = fit_landmarks(model, Eigen::MatrixX2d(landmarks), camera, options.landmark_fit);
+    c.alpha = lm.alpha;
+    c.beta = lm.beta;
+    c.rotation = lm.rotation;
+    c.translation = lm.translation;
+    const PhotometricFit photo = fit_photometric(model, posed_mesh(model, c), camera, to_linear(a.bare),
+                                                 options.photometric);
+    c.delta = photo.delta;
+    c.gamma = photo.gamma;
+    c.extra = {{"landmark_rms_px", lm.rms_px}, {"photometric_psnr_db", photo.psnr_db}};
+    a.coefficients_from = "mm-fit";
+  }
+  c.extra["camera"] = "front 256 1000";
+  c.extra["coefficients_from"] = a.coefficients_from;
   const Mesh posed = posed_mesh(model, c);
-  const PhotometricFit photo = fit_photometric(model, posed, camera, to_linear(a.bare), options.photometric);
-  c.delta = photo.delta;
-  c.gamma = photo.gamma;
-  c.extra = {{"landmark_rms_px", lm.rms_px}, {"photometric_psnr_db", photo.psnr_db}, {"camera", "front 256 1000"}};
   {
     const Image albedo = appearance_image(model, c);
     ShadeOptions so;
     so.texture = albedo.empty() ? nullptr : &albedo;
-    so.gamma = photo.gamma;
+    so.gamma = *c.gamma;
     so.cull_back_faces = true;
     const Frame frame = render_frame(posed, camera, so);
     a.fit = a.aligned;
@@ -149,10 +157,9 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   a.mesh = model.topology;
   a.mesh.V = model.shape(c.alpha, c.beta);
   a.mesh.N = vertex_normals(a.mesh.V, a.mesh.F);
-  a.seconds["coefficients"] = since(t);
+  t.stop("coefficients");
 
   // The network's inputs in the template UV, as texgen make-dataset makes them.
-  t = Clock::now();
   const int res = options.input_res > 0 ? options.input_res : int(net.options.res);
   UnwarpOptions uo;
   uo.size = res;
@@ -160,17 +167,15 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   a.unwrap = to_srgb(uw.colour);
   a.confidence = uw.confidence;
   const texgen::ModelUvMaps mm = texgen::model_uv_maps(model, c, res);
-  a.seconds["unwrap"] = since(t);
+  t.stop("unwrap");
 
-  t = Clock::now();
   std::map<std::string, torch::Tensor> inputs = {{"unwrap", image_tensor(a.unwrap)},
                                                  {"confidence", image_tensor(a.confidence)},
                                                  {"mm_albedo", image_tensor(to_srgb(mm.albedo))},
                                                  {"mm_normal", image_tensor(mm.normal)},
                                                  {"mm_position", image_tensor(mm.position)}};
   const auto maps = net.infer(inputs);
-  a.seconds["pix2pixhd"] = since(t);
-  t = Clock::now();
+  t.stop("pix2pixhd");
   for (const auto& m : output_maps()) {
     const ColorSpace space = m.name == "diffuse" ? ColorSpace::sRGB : ColorSpace::Data;
     a.maps[m.name] = tensor_image(maps.at(m.name), space);
@@ -181,10 +186,9 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
     a.upscaled_with += (a.upscaled_with.empty() ? "" : ", ") + m.name + ": " +
                        (it != upscalers.end() ? "srgan" : "bicubic");
   }
-  a.seconds["upscale"] = since(t);
+  t.stop("upscale");
 
   // Relit previews: the diffuse map under three lights on the avatar's mesh, front view.
-  t = Clock::now();
   const Image diffuse_linear = to_linear(a.maps.at("diffuse"));
   const Camera preview = view_camera("front", options.preview_size, Eigen::Vector3d::Zero(), 1000);
   for (int l = 1; l <= 3; ++l) {
@@ -194,28 +198,30 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
     so.cull_back_faces = true;
     a.previews.push_back(to_srgb(render_frame(a.mesh, preview, so).colour));
   }
-  a.seconds["previews"] = since(t);
+  t.stop("previews");
   return a;
 }
 
 Avatar avatar_from_photo(const Image& photo, const std::string& source, const FaceFinder& detector,
-                         const MorphableModel& model, const TextureNet& net,
-                         const std::map<std::string, Upscaler>& upscalers, const Demakeup& G,
+                         const MorphableModel& model, const AvatarNets& nets, const Demakeup& G,
                          const AvatarOptions& options) {
   const auto t = Clock::now();
+  const double cpu = cpu_now();
   const Image srgb = as_srgb(photo);
   const auto faces = detector(srgb);
   if (faces.empty()) throw InvalidInput(source, "has no face the detector finds", "give a photo with a visible face");
   const detect::Similarity similarity = detect::alignment(faces.front());
   const Image aligned = detect::warp_aligned(srgb, similarity, detect::kAlignedSize);
-  const double detect_seconds = since(t);
-  Avatar a = avatar_from_aligned(aligned, detect::transform(similarity, faces.front()), model, net, upscalers,
-                                 G, options);
+  const double detect_seconds = since(t), detect_cpu = cpu_now() - cpu;
+  Avatar a = avatar_from_aligned(aligned, detect::transform(similarity, faces.front()), model, nets, G, options);
   a.seconds["detect_align"] = detect_seconds;
+  a.cpu_seconds["detect_align"] = detect_cpu;
   return a;
 }
 
 void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json& report) {
+  const auto t0 = Clock::now();
+  const double cpu0 = cpu_now();
   AtomicDirectory out(dir);
   const std::string d = out.path();
   make_directories(d + "/maps");
@@ -226,16 +232,35 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   write_image(d + "/confidence.png", a.confidence);
   write_coefficients(d + "/coefficients.json", a.coefficients);
   write_mesh(d + "/mesh.obj", a.mesh);
-  for (const auto& [name, image] : a.maps) write_image(d + "/maps/" + name + ".png", image);
-  for (const auto& [name, image] : a.maps_hr) write_image(d + "/maps/" + name + "_hr.png", image);
+  // The maps' PNGs (libpng at level 3, as the shards) and the GLB are encoded concurrently: at 4K they are most of
+  // the folder's writing time. Every job is waited for before the folder is committed (or removed on an error).
+  std::vector<std::future<void>> jobs;
+  auto png = [&jobs](const std::string& path, const Image& image) {
+    jobs.push_back(std::async(std::launch::async, [path, &image] { write_file_atomic(path, encode_png(image, 8)); }));
+  };
+  for (const auto& [name, image] : a.maps) png(d + "/maps/" + name + ".png", image);
+  for (const auto& [name, image] : a.maps_hr) png(d + "/maps/" + name + "_hr.png", image);
   const auto& glb_maps = a.maps_hr.empty() ? a.maps : a.maps_hr;
-  write_glb(d + "/avatar.glb", a.mesh,
-            {glb_maps.at("diffuse"), glb_maps.at("normal"), glb_maps.at("roughness"), glb_maps.at("specular")});
+  jobs.push_back(std::async(std::launch::async, [&] {
+    write_glb(d + "/avatar.glb", a.mesh,
+              {glb_maps.at("diffuse"), glb_maps.at("normal"), glb_maps.at("roughness"), glb_maps.at("specular")});
+  }));
+  std::exception_ptr failed;
+  for (auto& job : jobs) try {
+      job.get();
+    } catch (...) {
+      if (!failed) failed = std::current_exception();
+    }
+  if (failed) std::rethrow_exception(failed);
   for (size_t i = 0; i < a.previews.size(); ++i)
     write_image(d + "/preview_light" + std::to_string(i + 1) + ".png", a.previews[i]);
   nlohmann::json r = report;
   r["seconds"] = a.seconds;
+  r["seconds"]["write"] = since(t0);  // every file but this report
+  r["cpu_seconds"] = a.cpu_seconds;
+  r["cpu_seconds"]["write"] = cpu_now() - cpu0;
   r["upscaled_with"] = a.upscaled_with;
+  r["coefficients_from"] = a.coefficients_from;
   r["sizes"] = {{"aligned", a.aligned.width}, {"maps", a.maps.at("diffuse").width},
                 {"maps_hr", a.maps_hr.empty() ? 0 : a.maps_hr.at("diffuse").width}};
   write_file_atomic(d + "/report.json", r.dump(2) + "\n");
@@ -243,7 +268,8 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
 }
 
 AvatarNets load_avatar_nets(const std::string& model_path, const std::string& texture_run,
-                            const std::vector<std::string>& upscale_runs, const std::string& device) {
+                            const std::vector<std::string>& upscale_runs, const std::string& device,
+                            const std::string& teacher_run) {
   const uint32_t model_crc = shards::file_crc32(model_path);
   auto check_model = [&](const nlohmann::json& config, const std::string& run) {
     if (!config.contains("model_crc32") || config["model_crc32"].is_null()) return;
@@ -265,6 +291,9 @@ AvatarNets load_avatar_nets(const std::string& model_path, const std::string& te
                          "give one upscale run per map type");
     nets.upscalers.emplace(map, std::move(up));
   }
+  if (!teacher_run.empty())
+    nets.F = std::make_shared<const recon::TrainedRecon>(
+        recon::load_recon(teacher_run, recon::FaceModel::load(model_path), torch::Device(device)));
   return nets;
 }
 
@@ -367,9 +396,9 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     const auto lm = landmarks_of(b);
     const Image makeup = tensor_image(b.at("makeup"), ColorSpace::sRGB);
     const Image before = tensor_image(b.at("before"), ColorSpace::sRGB);
-    const auto ref = as_tensors(avatar_from_aligned(before, lm, model, nets.texture, {}, {}, ao).maps);
-    const auto without = as_tensors(avatar_from_aligned(makeup, lm, model, nets.texture, {}, {}, ao).maps);
-    const auto with = as_tensors(avatar_from_aligned(makeup, lm, model, nets.texture, {}, G, ao).maps);
+    const auto ref = as_tensors(avatar_from_aligned(before, lm, model, nets, {}, ao).maps);
+    const auto without = as_tensors(avatar_from_aligned(makeup, lm, model, nets, {}, ao).maps);
+    const auto with = as_tensors(avatar_from_aligned(makeup, lm, model, nets, G, ao).maps);
     for (const auto& [condition, maps] : {std::pair{"without", &without}, std::pair{"with", &with}}) {
       for (const auto& m : output_maps()) {
         const Scores s = compare(maps->at(m.name), ref.at(m.name), layout);
@@ -409,11 +438,14 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     for (double x : v) s += x;
     return v.empty() ? std::nan("") : s / double(v.size());
   };
-  nlohmann::json summary = {{"samples", n}, {"maps_size", res}, {"subjects_with_truth", truth.size()}};
+  const std::string coefficients_from = nets.F ? "F" : "mm-fit";
+  nlohmann::json summary = {{"samples", n}, {"maps_size", res}, {"subjects_with_truth", truth.size()},
+                            {"coefficients_from", coefficients_from}};
   std::string md = fmt::format(
-      "Table 1 protocol on {} held-out samples, maps {}² (RMSE on the 0–255 scale, PSNR dB, SSIM; over the UV "
-      "layout).\n\n| metric | against | w/o BareSkinNet | w/ BareSkinNet | better |\n|---|---|---|---|---|\n",
-      n, res);
+      "Table 1 protocol on {} held-out samples, maps {}², coefficients by {} (RMSE on the 0–255 scale, PSNR dB, "
+      "SSIM; over the UV layout).\n\n| metric | against | w/o BareSkinNet | w/ BareSkinNet | better |\n"
+      "|---|---|---|---|---|\n",
+      n, res, coefficients_from == "F" ? "the network F" : "mm-fit");
   std::string csv = "metric,map,against,without,with\n";
   int improved = 0, total = 0;
   for (const auto& [metric, field, higher] :

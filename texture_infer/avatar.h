@@ -1,5 +1,5 @@
 // `bareskin run`: a face photo → a relightable avatar (BareSkinNet §5, Fig. 1): detect → align (5 points, 256²) →
-// G (bare skin; skipped with --no-bareskin) → 3DMM coefficients → mesh → unwrap into the template UV → pix2pixHD (the
+// G (bare skin; skipped with --no-bareskin) → F (3DMM coefficients; mm-fit's fitters when no F is given) → mesh → unwrap into the template UV → pix2pixHD (the
 // four maps) → SRGAN ×4 → an avatar folder (OBJ + GLB, maps at both sizes, bare-skin image, coefficients, relit
 // previews). Also `bareskin evaluate`, the paper's Table 1 protocol. Geometry side (model, unwrap, fit, rendering)
 // plus the texture nets; not built on the Torch-only GPU machine. docs/texture.md.
@@ -16,6 +16,7 @@
 #include "morphable/fit.h"
 #include "morphable/model.h"
 #include "texture_infer/tasks.h"
+#include "training/recon_photo.h"
 
 namespace bareskin::texture {
 
@@ -27,7 +28,8 @@ using FaceFinder = std::function<std::vector<detect::Landmarks68>(const Image& s
 using Demakeup = std::function<Image(const Image& aligned)>;
 
 // G of a BareSkinNet run (`bareskin train bareskin`: the run folder — its stage2/, else stage1/ — or a checkpoint),
-// on `device`. InvalidInput naming the file when it is not a BareSkinNet checkpoint.
+// on `device`; only G's weights are read (training/bareskinnet.h's load_generator). InvalidInput naming the file when
+// it is not a BareSkinNet checkpoint.
 Demakeup load_demakeup(const std::string& run, const std::string& device);
 
 struct AvatarOptions {
@@ -49,34 +51,38 @@ struct Avatar {
   std::map<std::string, Image> maps;    // the four maps at the net's size (diffuse sRGB, the others data)
   std::map<std::string, Image> maps_hr; // ×4
   std::vector<Image> previews;          // relit under three lights (sRGB)
-  std::map<std::string, double> seconds;  // per stage
+  std::map<std::string, double> seconds;      // per stage, wall clock
+  std::map<std::string, double> cpu_seconds;  // per stage, the process's CPU time (all threads)
   std::string upscaled_with;            // per map: "srgan" | "bicubic"
+  std::string coefficients_from;        // "F" (the reconstruction net) | "mm-fit" (landmark + photometric fits)
 };
 
+// The nets of a run command, checked against each other and the model: InvalidInput naming the files when the
+// texture run was trained for another model file (its recorded CRC-32), an upscaler is for an unknown map, two
+// upscalers claim the same map, an upscaler came from another model's dataset, or F is not a recon run of this
+// model's sizes.
+struct AvatarNets {
+  TextureNet texture;
+  std::map<std::string, Upscaler> upscalers;  // by map
+  std::shared_ptr<const recon::TrainedRecon> F;  // the coefficients' net; null: mm-fit
+};
+AvatarNets load_avatar_nets(const std::string& model_path, const std::string& texture_run,
+                            const std::vector<std::string>& upscale_runs, const std::string& device,
+                            const std::string& teacher_run = "");
+
 // The whole pipeline on an already aligned 256² face with its 68 landmarks (aligned pixels); `G` may be empty
-// (--no-bareskin). Deterministic.
+// (--no-bareskin). The coefficients come from nets.F on G's image (the aligned face without G) when it is given,
+// else from mm-fit's landmark fit on the landmarks and photometric fit on G's image. Deterministic.
 Avatar avatar_from_aligned(const Image& aligned, const detect::Landmarks68& landmarks, const MorphableModel& model,
-                           const TextureNet& net, const std::map<std::string, Upscaler>& upscalers,
-                           const Demakeup& G, const AvatarOptions& options);
+                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options);
 
 // The pipeline on a photo: the best face of `detector`, aligned; InvalidInput naming `source` when there is none.
 Avatar avatar_from_photo(const Image& photo, const std::string& source, const FaceFinder& detector,
-                         const MorphableModel& model, const TextureNet& net,
-                         const std::map<std::string, Upscaler>& upscalers, const Demakeup& G,
+                         const MorphableModel& model, const AvatarNets& nets, const Demakeup& G,
                          const AvatarOptions& options);
 
 // Writes the avatar folder atomically (AtomicDirectory: all or nothing).
 void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::json& report);
-
-// The nets of a run command, checked against each other and the model: InvalidInput naming the files when the
-// texture run was trained for another model file (its recorded CRC-32), an upscaler is for an unknown map, two
-// upscalers claim the same map, or an upscaler came from another model's dataset.
-struct AvatarNets {
-  TextureNet texture;
-  std::map<std::string, Upscaler> upscalers;  // by map
-};
-AvatarNets load_avatar_nets(const std::string& model_path, const std::string& texture_run,
-                            const std::vector<std::string>& upscale_runs, const std::string& device);
 
 // Torch tensors ↔ images ([1, C, H, W] or [C, H, W] in [0, 1]).
 Image tensor_image(const torch::Tensor& t, ColorSpace space);

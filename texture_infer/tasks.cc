@@ -237,6 +237,8 @@ void from_json(const nlohmann::json& j, TextureNetOptions& o) {
 void to_json(nlohmann::json& j, const UpscaleOptions& o) {
   j = {{"map", o.map},
        {"phase", o.phase},
+       {"pixel_loss", o.pixel_loss},
+       {"base", o.base},
        {"generator_options", o.generator_options},
        {"discriminator_options", o.discriminator_options},
        {"patch", o.patch},
@@ -251,10 +253,13 @@ void to_json(nlohmann::json& j, const UpscaleOptions& o) {
 void from_json(const nlohmann::json& j, UpscaleOptions& o) {
   const std::string what = "upscale model";
   nets::check_keys(j, what,
-                   {"map", "phase", "generator_options", "discriminator_options", "patch", "lambda_l1",
-                    "lambda_perceptual", "lambda_gan", "lr", "beta1", "beta2"});
+                   {"map", "phase", "pixel_loss", "base", "generator_options", "discriminator_options", "patch",
+                    "lambda_l1", "lambda_perceptual", "lambda_gan", "lr", "beta1", "beta2"});
   nets::read_key(j, what, "map", o.map);
   nets::read_key(j, what, "phase", o.phase);
+  // Runs written before these keys existed trained BasicSR's net (bilinear base) with L1.
+  o.pixel_loss = j.contains("pixel_loss") ? j.at("pixel_loss").get<std::string>() : "l1";
+  o.base = j.contains("base") ? j.at("base").get<std::string>() : "bilinear";
   if (j.contains("generator_options")) o.generator_options = j.at("generator_options");
   if (j.contains("discriminator_options")) o.discriminator_options = j.at("discriminator_options");
   nets::read_key(j, what, "patch", o.patch);
@@ -266,6 +271,10 @@ void from_json(const nlohmann::json& j, UpscaleOptions& o) {
   nets::read_key(j, what, "beta2", o.beta2);
   find_map(o.map);
   nets::require(o.phase == "l1" || o.phase == "gan", what, "phase must be l1 or gan", "pre-train with l1, then gan");
+  nets::require(o.pixel_loss == "mse" || o.pixel_loss == "l1", what, "pixel_loss must be mse or l1",
+                "use mse (SRGAN's SRResNet) or l1 (BasicSR)");
+  nets::require(o.base == "bicubic" || o.base == "bilinear", what, "base must be bicubic or bilinear",
+                "use bicubic (ours) or bilinear (BasicSR)");
   nets::require(o.patch == 128 || o.patch == 256, what, "patch must be 128 or 256",
                 "the SRGAN discriminator's head takes 128² or 256²");
 }
@@ -401,13 +410,16 @@ nets::MSRResNet make_upscaler(const UpscaleOptions& options) {
   j["num_in_ch"] = channels;
   j["num_out_ch"] = channels;
   j["upscale"] = 4;
+  j["base"] = options.base;
   nets::MSRResNetOptions o;
   nets::from_json(j, o);
   return nets::MSRResNet(o);
 }
 
-std::pair<torch::Tensor, torch::Tensor> upscale_pair(const data::Batch& batch, const std::string& map, int64_t patch,
-                                                     bool crop) {
+namespace {
+
+// The high-resolution member of a batch ("<map>_hr", else "<map>"), its channels, cropped to a multiple of 4.
+std::pair<std::string, torch::Tensor> hr_member(const data::Batch& batch, const std::string& map) {
   const int channels = find_map(map).channels;
   auto it = batch.tensors.find(map + "_hr");
   if (it == batch.tensors.end()) it = batch.tensors.find(map);
@@ -415,11 +427,18 @@ std::pair<torch::Tensor, torch::Tensor> upscale_pair(const data::Batch& batch, c
     throw InvalidInput("texture sample", "has neither '" + map + "_hr.png' nor '" + map + ".png'",
                        "make the dataset with --hr-res, or train on the 1K maps");
   auto hr = it->second.slice(1, 0, channels);
-  const int64_t h = hr.size(2) / 4 * 4, w = hr.size(3) / 4 * 4;
-  hr = hr.slice(2, 0, h).slice(3, 0, w);
+  return {it->first, hr.slice(2, 0, hr.size(2) / 4 * 4).slice(3, 0, hr.size(3) / 4 * 4)};
+}
+
+}  // namespace
+
+std::pair<torch::Tensor, torch::Tensor> upscale_pair(const data::Batch& batch, const std::string& map, int64_t patch,
+                                                     bool crop) {
+  auto [name, hr] = hr_member(batch, map);
+  const int64_t h = hr.size(2), w = hr.size(3);
   if (crop) {
     if (h < patch || w < patch)
-      throw InvalidInput("texture sample member '" + it->first + ".png'",
+      throw InvalidInput("texture sample member '" + name + ".png'",
                          "is " + std::to_string(w) + "² , smaller than the patch " + std::to_string(patch),
                          "use a smaller --patch or larger maps");
     std::vector<torch::Tensor> crops;
@@ -462,6 +481,58 @@ torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, cons
   return map == "normal" ? renormalise_normals(out) : out;
 }
 
+PatchSource::PatchSource(std::unique_ptr<data::DataSource> samples, std::string map, int64_t patch, int64_t batch,
+                         int64_t pool, int64_t crops_per_map)
+    : samples_(std::move(samples)), map_(std::move(map)), patch_(patch), batch_(batch),
+      pool_(std::max<int64_t>(1, std::min(pool, samples_->epoch_size()))),
+      crops_per_map_(std::max<int64_t>(1, crops_per_map)) {}
+
+void PatchSource::seek(const data::Cursor& cursor) {
+  samples_->seek(cursor);
+  entries_.clear();
+  crops_ = 0;
+}
+
+void PatchSource::refill() {
+  // One new map per crops_per_map crops drawn, and the pool filled at the start.
+  while (int64_t(entries_.size()) < pool_ || crops_ >= crops_per_map_) {
+    if (int64_t(entries_.size()) >= pool_) {
+      entries_.erase(entries_.begin());
+      crops_ -= crops_per_map_;
+    }
+    data::Batch b = samples_->next();
+    for (int64_t i = 0; i < b.size(); ++i) {
+      data::Batch one;
+      one.keys = {b.keys[i]};
+      for (const auto& [name, t] : b.tensors) one.tensors[name] = t.slice(0, i, i + 1);  // views, no copies
+      const torch::Tensor hr = hr_member(one, map_).second;
+      if (hr.size(2) < patch_ || hr.size(3) < patch_)
+        throw InvalidInput("texture sample '" + b.keys[i] + "'", "has a " + map_ + " map smaller than the patch " +
+                                                                    std::to_string(patch_),
+                           "use a smaller --patch or larger maps");
+      entries_.push_back({b.keys[i], hr[0].contiguous()});
+    }
+  }
+}
+
+data::Batch PatchSource::next() {
+  data::Batch out;
+  std::vector<torch::Tensor> crops;
+  for (int64_t k = 0; k < batch_; ++k) {
+    refill();
+    const int64_t i = torch::randint(int64_t(entries_.size()), {1}, torch::kLong).item<int64_t>();
+    const torch::Tensor& m = entries_[i].map;
+    const int64_t y = torch::randint((m.size(1) - patch_) / 4 + 1, {1}, torch::kLong).item<int64_t>() * 4;
+    const int64_t x = torch::randint((m.size(2) - patch_) / 4 + 1, {1}, torch::kLong).item<int64_t>() * 4;
+    crops.push_back(m.slice(1, y, y + patch_).slice(2, x, x + patch_));
+    out.keys.push_back(entries_[i].key + "@" + std::to_string(y) + "," + std::to_string(x));
+    out.meta.push_back(nlohmann::json::object());
+    ++crops_;
+  }
+  out.tensors[map_ + "_hr"] = torch::stack(crops).contiguous();
+  return out;
+}
+
 SrganTask::SrganTask(UpscaleOptions options) : options_(std::move(options)) {
   G_ = make_upscaler(options_);
   if (options_.phase == "gan") {
@@ -498,7 +569,10 @@ train::Losses SrganTask::loss(size_t phase, const data::Batch& batch) {
   }
   if (phase == 0) {
     auto fake = G_->forward(cached_lr_);
-    if (options_.phase == "l1") return {{"l1", losses::l1(fake, cached_hr_)}};
+    if (options_.phase == "l1") {
+      if (options_.pixel_loss == "mse") return {{"mse", (fake - cached_hr_).pow(2).mean()}};
+      return {{"l1", losses::l1(fake, cached_hr_)}};
+    }
     train::Losses out;
     out["l1"] = options_.lambda_l1 * losses::l1(fake, cached_hr_);
     if (options_.lambda_perceptual > 0) out["vgg"] = options_.lambda_perceptual * vgg_loss(vgg_, fake, cached_hr_);
@@ -602,6 +676,7 @@ train::TrainerOptions trainer_options(const TrainRunOptions& run, const nlohmann
   o.config = run.extra;
   o.config.update({{"data", run.data},         {"val", run.val},       {"masks", run.masks},
                    {"init", run.init},         {"steps", run.steps},   {"batch", run.batch},
+                   {"pool", run.pool},         {"crops_per_map", run.crops_per_map},
                    {"seed", run.seed},         {"model", model},       {"log_every", run.log_every},
                    {"checkpoint_every", run.checkpoint_every},         {"eval_every", run.eval_every},
                    {"sample_every", run.sample_every},                 {"resume", run.resume},
@@ -664,7 +739,10 @@ train::TrainResult train_upscale(const TrainRunOptions& run, UpscaleOptions mode
                          "is " + std::to_string(hr.size(3)) + " texels wide, smaller than the patch " + std::to_string(model.patch),
                          "use --patch 128 or larger maps");
   }
-  data::ShardLoader train_data(loader(run.data, run, {model.map + ".png"}, true));
+  TrainRunOptions one = run;
+  one.batch = 1;
+  PatchSource train_data(std::make_unique<data::ShardLoader>(loader(run.data, one, {model.map + ".png"}, true)),
+                         model.map, model.patch, run.batch, run.pool, run.crops_per_map);
   std::unique_ptr<data::ShardLoader> val;
   if (!run.val.empty()) val = std::make_unique<data::ShardLoader>(loader(run.val, run, {model.map + ".png"}, false));
   train::seed_everything(run.seed);

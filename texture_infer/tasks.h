@@ -116,7 +116,9 @@ class Pix2PixHDTask : public train::Task {
 // ---- SRGAN ×4 ----
 struct UpscaleOptions {
   std::string map = "diffuse";  // which output map this upscaler is for (channels follow)
-  std::string phase = "gan";    // "l1": MSRResNet pre-training with L1 only; "gan": L1 + perceptual + adversarial
+  std::string phase = "gan";    // "l1": MSRResNet pre-training with the pixel loss only; "gan": L1 + perceptual + adversarial
+  std::string pixel_loss = "mse";  // the pre-training loss: "mse" (SRGAN's SRResNet) | "l1" (BasicSR's MSRResNet)
+  std::string base = "bicubic";    // MSRResNet's output is a residual over this upsampling (ours; BasicSR: bilinear)
   nlohmann::json generator_options = nlohmann::json::object();  // msrresnet options (num_feat, num_block)
   nlohmann::json discriminator_options = nlohmann::json::object();  // srgan_d options (num_feat)
   int64_t patch = 128;          // high-resolution crop side (the discriminator's input size: 128 or 256)
@@ -129,6 +131,32 @@ void to_json(nlohmann::json& j, const UpscaleOptions& o);
 void from_json(const nlohmann::json& j, UpscaleOptions& o);
 
 nets::MSRResNet make_upscaler(const UpscaleOptions& options);
+
+// SRGAN's training crops from few decoded maps: decoding a texture sample (every member, the 4K maps included) costs
+// far more than a step on a crop, so each decoded "<map>_hr" (else "<map>") map stays in a pool of `pool` maps and
+// serves `crops_per_map` random crops (positions on the 4-texel grid) before the oldest is replaced by the loader's
+// next sample. Batches hold tensors["<map>_hr"] of [batch, C, patch, patch] and keys "<sample>@<y>,<x>". The crop
+// draws use LibTorch's default generator; a resumed run continues from the loader's position with a fresh pool.
+class PatchSource : public data::DataSource {
+ public:
+  PatchSource(std::unique_ptr<data::DataSource> samples, std::string map, int64_t patch, int64_t batch,
+              int64_t pool = 8, int64_t crops_per_map = 64);
+  data::Batch next() override;
+  data::Cursor cursor() const override { return samples_->cursor(); }
+  void seek(const data::Cursor& cursor) override;
+  int64_t epoch_size() const override { return samples_->epoch_size(); }
+
+ private:
+  struct Entry {
+    std::string key;
+    torch::Tensor map;  // [C, H, W]
+  };
+  void refill();
+  std::unique_ptr<data::DataSource> samples_;
+  std::string map_;
+  int64_t patch_, batch_, pool_, crops_per_map_, crops_ = 0;
+  std::vector<Entry> entries_;
+};
 
 // The ×4 pair of a batch: random aligned crops of "<map>_hr" (patch²) and their 4×4 box-filtered low-resolution
 // versions, both in [0, 1]. With `crop` false, the whole maps.
@@ -184,6 +212,7 @@ struct TrainRunOptions {
   std::string output;  // run folder
   std::string masks;   // optional masks/ shard set for the occlusion (texture only); synthetic occluders otherwise
   std::string init;    // upscale, GAN phase: the L1 run whose G starts it ("" = from scratch)
+  int64_t pool = 8, crops_per_map = 64;  // upscale: PatchSource's pool of decoded maps and crops per map
   int64_t steps = 1000, batch = 1, log_every = 10, checkpoint_every = 500, eval_every = 500, sample_every = 500;
   uint64_t seed = 0;
   int decode_threads = 2;

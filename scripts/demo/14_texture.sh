@@ -14,7 +14,8 @@ stage() { echo "demo §14: $*" >&2; }
 # that 200 steps converge at all; the paper's nets and recipe are the defaults at 1K and 4K.
 RES=${DEMO_TEX_RES:-64}
 STEPS=${DEMO_TEX_STEPS:-200}
-UP_STEPS=${DEMO_UP_STEPS:-80}
+UP_STEPS=${DEMO_UP_STEPS:-300}
+UP_GAN_STEPS=${DEMO_UP_GAN_STEPS:-40}
 SAMPLES=${DEMO_TABLE1_SAMPLES:-3}
 THREADS=${DEMO_THREADS:-2}
 export OMP_WAIT_POLICY=PASSIVE
@@ -33,21 +34,23 @@ if [ ! -f "$dir/tex/checkpoint.safetensors" ]; then
     --generator '{"ngf": 16, "n_downsampling": 3, "n_blocks": 3}' --discriminator '{"ndf": 16, "n_layers": 2}' \
     --lambda-perceptual 0 --lambda-l1 10 --lr 5e-4 --log-every 10 --eval-every 100 --sample-every 100 --checkpoint-every 100
 fi
-# 2. SRGAN x4 on the diffuse: L1 pre-training, then the GAN phase ---------------------------------------------------
+# 2. SRGAN x4 on the diffuse: pixel-loss pre-training (MSE, bicubic base: docs/texture.md), then the GAN phase -------
 if [ ! -f "$dir/up/checkpoint.safetensors" ]; then
-  stage "SRGAN x4 (diffuse), $UP_STEPS + $((UP_STEPS / 2)) steps"
+  stage "SRGAN x4 (diffuse), $UP_STEPS + $UP_GAN_STEPS steps"
   gen='{"num_feat": 16, "num_block": 4}'
   timed "up l1" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase l1 --data "$TEX_TRAIN" \
-    ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up_l1" --steps "$UP_STEPS" --batch 4 --generator "$gen" --lr 1e-3 \
-    --log-every 10 --eval-every "$UP_STEPS" --sample-every "$UP_STEPS" --checkpoint-every "$UP_STEPS"
+    ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up_l1" --steps "$UP_STEPS" --batch 2 --generator "$gen" --lr 2e-3 \
+    --log-every 20 --eval-every "$UP_STEPS" --sample-every "$UP_STEPS" --checkpoint-every "$UP_STEPS"
   timed "up gan" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase gan --init "$dir/up_l1" \
-    --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up" --steps $((UP_STEPS / 2)) --batch 4 \
+    --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up" --steps "$UP_GAN_STEPS" --batch 2 \
     --generator "$gen" --discriminator '{"num_feat": 16}' --lambda-perceptual 0 --log-every 10 \
-    --eval-every $((UP_STEPS / 2)) --sample-every $((UP_STEPS / 2)) --checkpoint-every $((UP_STEPS / 2))
+    --eval-every "$UP_GAN_STEPS" --sample-every "$UP_GAN_STEPS" --checkpoint-every "$UP_GAN_STEPS"
 fi
 # 3. End to end on a held-out face with makeup, with and without BareSkinNet; bareskin run on a real photo ----------
 bsn=(); [ -n "${BSN_RUN:-}" ] && bsn=(--bareskin "$BSN_RUN")
-common=(--model "$model" --texture "$dir/tex" --upscale "$dir/up" --preview-size 256)
+# The coefficients by the reconstruction net F of §11 when there is one (else mm-fit's fits).
+teacher=(); [ -n "${RECON_RUN:-}" ] && teacher=(--teacher "$RECON_RUN")
+common=(--model "$model" --texture "$dir/tex" --upscale "$dir/up" --preview-size 256 "${teacher[@]}")
 if [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/heldout_lm.json" ]; then
   $py "$here/14_texture_find.py" --extract "$FACES_TEST" "$dir/heldout.png"
 fi
@@ -70,8 +73,9 @@ if [ -n "${BSN_RUN:-}" ] && [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/table1/tabl
   stage "Table 1 on $SAMPLES held-out samples"
   timed "table 1" "$bareskin" -q --threads "$THREADS" evaluate --faces "$FACES_TEST" ${TEX_TEST:+--textures "$TEX_TEST"} \
     --model "$model" --texture "$dir/tex" --upscale "$dir/up" --bareskin "$BSN_RUN" --max-samples "$SAMPLES" \
-    -o "$dir/table1"
+    "${teacher[@]}" -o "$dir/table1"
 fi
 # 5. Figures and the report fragment -------------------------------------------------------------------------------
-$py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" > "$out/sections/14_texture.html"
+$py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" "$UP_GAN_STEPS" \
+  > "$out/sections/14_texture.html"
 stage "wrote $out/sections/14_texture.html"

@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """Helpers of demo §14 (scripts/demo/14_texture.sh).
-  14_texture_find.py OUT                      shell assignments: the texture splits, masks, held-out faces and the
-                                              BareSkinNet run under OUT, found by manifest kind/split and checkpoint task
+  14_texture_find.py OUT                      shell assignments: the texture splits, masks, held-out faces, the
+                                              BareSkinNet run and the reconstruction run F under OUT, found by manifest
+                                              kind/split and checkpoint task
   14_texture_find.py --extract FACES PNG      the first sample's makeup.png of a faces split
-  14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES   figures into OUT/img, the HTML fragment on stdout"""
+  14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES UP_GAN_STEPS   figures into OUT/img, the HTML
+                                              fragment on stdout"""
 import csv
 import glob
 import html
@@ -42,7 +44,10 @@ def find(out):
         elif split == "test" and os.path.basename(os.path.dirname(folder)).startswith("faces"):
             found.setdefault("FACES_TEST", folder)
     for ckpt in sorted(glob.glob(os.path.join(out, "**", "checkpoint.safetensors"), recursive=True)):
-        if checkpoint_task(ckpt) == "bareskinnet":
+        task = checkpoint_task(ckpt)
+        if task == "recon":
+            found.setdefault("RECON_RUN", os.path.dirname(ckpt))
+        if task == "bareskinnet":
             run = os.path.dirname(ckpt)
             if os.path.basename(run) in ("stage1", "stage2"):
                 run = os.path.dirname(run)
@@ -116,18 +121,17 @@ def md_table_to_html(md):
     return out + "</table>" + "".join(f"<p>{html.escape(t)}</p>" for t in text)
 
 
-def report(out, d, res, steps, up_steps, samples):
+def report(out, d, res, steps, up_steps, samples, up_gan_steps):
     img = os.path.join(out, "img")
     rel = os.path.relpath(d, out)
     parts = [f"<h2>14. Texture inference: pix2pixHD, SRGAN ×4, <code>bareskin run</code>, Table 1</h2>",
              f"<p>Demo sizes, chosen to fit 180 s on 2 cores: pix2pixHD at {res}² maps (GlobalGenerator ngf 16, 3 "
              f"downsamplings, 3 residual blocks; 2-scale discriminator ndf 16), {steps} steps of batch 2; SRGAN ×4 on "
-             f"the diffuse (MSRResNet 16 features, 4 blocks) {up_steps} L1 steps then {int(up_steps) // 2} GAN steps "
-             "on 128² crops. The paper's nets are the zoo defaults at 1K → 4K (<code>train --list-models</code>). "
+             f"the diffuse (MSRResNet 16 features, 4 blocks, a residual over bicubic that starts at bicubic) {up_steps} "
+             f"MSE pre-training steps at Adam 2e-3, then {up_gan_steps} GAN steps, on 128² crops of batch 2. The paper's nets are the zoo defaults at 1K → 4K (<code>train --list-models</code>). "
              "The perceptual terms (VGG16 with seeded random weights, vgg16-random: no ImageNet weights ship here) are off "
              "at this size: on the four maps they cost about 20 times the tiny generator's step; the tests train with "
-             "them. Instead, an L1 term ×10 (not in pix2pixHD) and Adam 5e-4 let 200 steps converge at all; SRGAN's L1 "
-             "phase runs at 1e-3. "
+             "them. Instead, an L1 term ×10 (not in pix2pixHD) and Adam 5e-4 let 200 steps converge at all. "
              "At these sizes the maps are blurry: the figures show the pipeline working end to end, not the paper's "
              "quality.</p>"]
     tex = os.path.join(d, "tex")
@@ -146,10 +150,13 @@ def report(out, d, res, steps, up_steps, samples):
     up = last_eval(os.path.join(d, "up"))
     parts.append(f"<figure><img src='{rel}/up/losses.svg' style='width:420px'><figcaption>SRGAN GAN phase losses"
                  "</figcaption></figure>")
+    pre = last_eval(os.path.join(d, "up_l1"))
     if up:
-        parts.append(f"<p>SRGAN ×4 on the held-out diffuse maps (box-filtered ×4 down, then up): SRGAN "
-                     f"{up.get('psnr_srgan', float('nan')):.2f} dB, bicubic {up.get('psnr_bicubic', float('nan')):.2f}"
-                     " dB.</p>")
+        parts.append(f"<p>SRGAN ×4 on the held-out (val) diffuse map, 1024² from its 256² box-filtered version: bicubic "
+                     f"{up.get('psnr_bicubic', float('nan')):.2f} dB, after the MSE pre-training "
+                     f"{pre.get('psnr_srgan', float('nan')):.2f} dB, after the GAN phase "
+                     f"{up.get('psnr_srgan', float('nan')):.2f} dB (the largest maps the demo data has; the paper's are 4K)."
+                     "</p>")
     rows = []
     for variant in ("with", "without"):
         a = os.path.join(d, f"avatar_heldout_{variant}")
@@ -174,7 +181,8 @@ def report(out, d, res, steps, up_steps, samples):
         strip(avatar_columns(a), target)
         rep = json.load(open(os.path.join(a, "report.json")))
         parts.append("<p><code>bareskin run astronaut.png -o avatar/</code> (scikit-image's astronaut; "
-                     f"{'with' if rep.get('bareskin') else 'without'} BareSkinNet): "
+                     f"{'with' if rep.get('bareskin') else 'without'} BareSkinNet, coefficients by "
+                     f"{'the network F' if rep.get('coefficients_from') == 'F' else 'mm-fit'}): "
                      f"{rep['pipeline_seconds']:.1f} s for the pipeline after loading ({rep['load_seconds']:.1f} s), "
                      f"maps {rep['sizes']['maps']}² and {rep['sizes']['maps_hr']}² ({html.escape(rep['upscaled_with'])})"
                      "; the folder holds mesh.obj, avatar.glb (PBR, KHR_materials_specular), the maps, bare.png, "
@@ -187,6 +195,6 @@ if __name__ == "__main__":
     if sys.argv[1] == "--extract":
         extract(sys.argv[2], sys.argv[3])
     elif sys.argv[1] == "--report":
-        report(*sys.argv[2:8])
+        report(*sys.argv[2:9])
     else:
         find(sys.argv[1])

@@ -25,7 +25,7 @@ expect_failure 3 "smaller than the patch" "$work/u3" -- "$bin" -q train upscale 
 expect_failure 3 "not srgan-normal" "" -- "$bin" -q train upscale --map normal --phase gan --init "$work/up" \
   --data "$work/shards" -o "$work/u4" --steps 1
 
-# run: every refusal leaves no avatar folder.
+# run: every refusal leaves no avatar folder (a texture run given as the reconstruction net F included).
 run() { "$bin" -q run "$@" -o "$work/avatar"; }
 $py -c "import numpy as np; from PIL import Image; Image.fromarray(np.full((256, 256, 3), 128, np.uint8)).save('$work/grey.png')"
 echo "not an image" > "$work/corrupt.png"
@@ -39,6 +39,8 @@ expect_failure 3 "as another --upscale run" "$work/avatar" -- run "$astronaut" -
   --texture "$work/tex" --upscale "$work/up" "$work/up" --no-bareskin
 expect_failure 3 "not BareSkinNet" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
   --texture "$work/tex" --bareskin "$work/tex"
+expect_failure 3 "not a checkpoint of 'bareskin train recon'" "$work/avatar" -- run "$astronaut" \
+  --model "$work/a.safetensors" --texture "$work/tex" --no-bareskin --teacher "$work/tex"
 error_ok 3 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$work/a.safetensors" --texture "$work/tex" \
   --no-bareskin || error_ok 4 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$work/a.safetensors" \
   --texture "$work/tex" --no-bareskin || fail "corrupt photo -> exit $error_code: $(cat "$work/err")"

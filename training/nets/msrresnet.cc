@@ -35,17 +35,19 @@ void to_json(nlohmann::json& j, const MSRResNetOptions& o) {
        {"num_out_ch", o.num_out_ch},
        {"num_feat", o.num_feat},
        {"num_block", o.num_block},
-       {"upscale", o.upscale}};
+       {"upscale", o.upscale},
+       {"base", o.base}};
 }
 
 void from_json(const nlohmann::json& j, MSRResNetOptions& o) {
   const std::string w = "msrresnet";
-  check_keys(j, w, {"num_in_ch", "num_out_ch", "num_feat", "num_block", "upscale"});
+  check_keys(j, w, {"num_in_ch", "num_out_ch", "num_feat", "num_block", "upscale", "base"});
   read_key(j, w, "num_in_ch", o.num_in_ch);
   read_key(j, w, "num_out_ch", o.num_out_ch);
   read_key(j, w, "num_feat", o.num_feat);
   read_key(j, w, "num_block", o.num_block);
   read_key(j, w, "upscale", o.upscale);
+  read_key(j, w, "base", o.base);
 }
 
 void to_json(nlohmann::json& j, const VGGStyleDiscriminatorOptions& o) {
@@ -77,6 +79,7 @@ MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
           "the output is added to the upsampled input; give both the same channel count");
   require(o.upscale >= 2 && o.upscale <= 4, w, "upscale " + std::to_string(o.upscale) + " is not built",
           "use 2, 3 or 4");
+  require(o.base == "bilinear" || o.base == "bicubic", w, "base '" + o.base + "' is not built", "use bilinear or bicubic");
   conv_first_ = register_module("conv_first", conv(o.num_in_ch, o.num_feat, 3, 1));
   body_ = nn::Sequential();
   for (int i = 0; i < o.num_block; ++i) body_->push_back(ResidualBlockNoBN(o.num_feat));
@@ -86,8 +89,16 @@ MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
   if (o.upscale == 4) upconv2_ = register_module("upconv2", conv(o.num_feat, o.num_feat * 4, 3, 1));
   conv_hr_ = register_module("conv_hr", conv(o.num_feat, o.num_feat, 3, 1));
   conv_last_ = register_module("conv_last", conv(o.num_feat, o.num_out_ch, 3, 1));
-  for (auto* c : {&conv_first_, &upconv1_, &conv_hr_, &conv_last_}) init_scaled(*c, 0.1);
-  if (upconv2_) init_scaled(upconv2_, 0.1);
+  if (o.base == "bicubic") {
+    // Ours: the untrained net is exactly bicubic (conv_last zero) and the convolutions before it keep He normal's
+    // full scale, so the residual's gradient is not damped by five ×0.1 layers (the blocks keep BasicSR's ×0.1).
+    for (auto* c : {&conv_first_, &upconv1_, &conv_hr_}) init_scaled(*c, 1.0);
+    if (upconv2_) init_scaled(upconv2_, 1.0);
+    init_scaled(conv_last_, 0.0);
+  } else {
+    for (auto* c : {&conv_first_, &upconv1_, &conv_hr_, &conv_last_}) init_scaled(*c, 0.1);
+    if (upconv2_) init_scaled(upconv2_, 0.1);
+  }
 }
 
 torch::Tensor MSRResNetImpl::forward(torch::Tensor x) {
@@ -97,10 +108,12 @@ torch::Tensor MSRResNetImpl::forward(torch::Tensor x) {
   if (upconv2_) out = lrelu(torch::pixel_shuffle(upconv2_(out), 2), 0.1);
   out = conv_last_(lrelu(conv_hr_(out), 0.1));
   const double s = options_.upscale;
-  return out + F::interpolate(x, F::InterpolateFuncOptions()
-                                     .scale_factor(std::vector<double>{s, s})
-                                     .mode(torch::kBilinear)
-                                     .align_corners(false));
+  auto up = F::InterpolateFuncOptions().scale_factor(std::vector<double>{s, s}).align_corners(false);
+  if (options_.base == "bicubic")
+    up.mode(torch::kBicubic);
+  else
+    up.mode(torch::kBilinear);
+  return out + F::interpolate(x, up);
 }
 
 VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminatorOptions& o) : options_(o) {

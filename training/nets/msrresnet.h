@@ -2,7 +2,9 @@
 // - MSRResNet (BasicSR's "modified SRResNet": SRResNet without batch norm): conv_first, body (num_block residual
 //   blocks conv1 → ReLU → conv2, no BN), upconv1 (+ upconv2 for ×4) each followed by a ×2 pixel shuffle and
 //   LeakyReLU 0.1, conv_hr, conv_last; the output is added to the bilinearly upsampled input. Weights start as
-//   BasicSR's (He normal ×0.1, biases 0).
+//   BasicSR's (He normal ×0.1, biases 0). Ours: `base` "bicubic" adds the output to the bicubically upsampled
+//   input instead and starts conv_last at zero (the convolutions outside the residual blocks at He normal's full
+//   scale), so the untrained net is exactly bicubic and learns the residual over it.
 // - VGGStyleDiscriminator (SRGAN's discriminator as BasicSR builds it for 128² or 256² inputs): pairs conv{k}_0
 //   (3×3, stride 1) / conv{k}_1 (4×4, stride 2) with batch norms bn{k}_{0,1} (none after conv0_0, which has the only
 //   bias), LeakyReLU 0.2, then linear1 (→100) and linear2 (→1).
@@ -10,6 +12,7 @@
 #include <torch/nn.h>
 
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 namespace bareskin::nets {
@@ -20,6 +23,7 @@ struct MSRResNetOptions {
   int num_feat = 64;
   int num_block = 16;
   int upscale = 4;  // 2 | 3 | 4
+  std::string base = "bilinear";  // the upsampling the output is a residual over: bilinear (BasicSR) | bicubic
 };
 void to_json(nlohmann::json& j, const MSRResNetOptions& o);
 void from_json(const nlohmann::json& j, MSRResNetOptions& o);
