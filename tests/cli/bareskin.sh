@@ -74,5 +74,7 @@ expect_failure 3 "train/manifest.json" "$work/bsn4" -- "$bin" train bareskin --d
 import numpy as np, skimage.io
 skimage.io.imsave('$work/grey.png', np.full((160, 160, 3), 128, np.uint8), check_contrast=False)"
 expect_failure 3 "no face was found" "$work/out" -- "$bin" demakeup "$work/grey.png" --run "$work/bsn" -o "$work/out" -q
+# --aligned takes aligned 256² faces only: a 160² image is refused before the networks load.
+expect_failure 3 "not an aligned 256" "$work/out" -- "$bin" demakeup "$work/grey.png" --aligned --run "$work/bsn" -o "$work/out" -q
 expect_failure 4 "nothing" "$work/out" -- "$bin" demakeup "$work/nothing.png" --run "$work/bsn" -o "$work/out" -q
 echo "bareskin CLI: ok"
