@@ -8,6 +8,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"  // set_torch_threads
 #include "core/error.h"
+#include "scan/multiview.h"
 #include "texgen/make_dataset.h"
 #ifdef BARESKIN_WITH_DETECT
 #include "detect/scan_landmarks.h"
@@ -55,6 +56,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     std::vector<double> split = {0.8, 0.1, 0.1};
     int detector_size = 416, refinements = 2;
     bool no_flip = false;
+    std::string calibration;
   };
   auto opt = std::make_shared<Options>();
   texgen::TextureDatasetOptions& o = opt->o;
@@ -84,6 +86,13 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
   app->add_option("--fitter", o.fitter, "mm-fit (detected landmarks, then the photometric fit); recon (the network F) "
                                         "once it exists")
       ->capture_default_str()->check(CLI::IsMember({"mm-fit", "recon"}))->group("Fit");
+  app->add_option("--landmark-fit", o.sample.landmark_fit_mode, "shared-shape (one shape for the views, a pose per "
+                                                                 "view), rigid (one shape and head pose, the views' "
+                                                                 "known rotations) or per-view (independent fits)")
+      ->capture_default_str()->check(CLI::IsMember({"shared-shape", "rigid", "per-view"}))->group("Fit");
+  app->add_option("--landmark-calibration", opt->calibration, "The detector's landmark convention (`landmarks "
+                                                              "calibrate`), applied to the model's landmarks in the fits")
+      ->check(CLI::ExistingFile)->group("Fit");
   app->add_option("--fit-size", o.sample.fit_size, "Image size of the photometric fit")->capture_default_str()->group("Fit");
   app->add_option("--shape-components", o.sample.landmark_fit.shape_components, "Identity components fitted")
       ->capture_default_str()->group("Fit");
@@ -131,6 +140,10 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       const char* count = std::getenv("SLURM_ARRAY_TASK_COUNT");
       o.shard = std::atoi(id) - (min && *min ? std::atoi(min) : 0);
       if (shards->count() == 0 && count && *count) o.shards = std::atoi(count);
+    }
+    if (!opt->calibration.empty()) {
+      const LandmarkCalibration c = read_landmark_calibration(opt->calibration);
+      o.landmark_calibration = texgen::TextureDatasetOptions::LandmarkCalibration{opt->calibration, c.reference, c.offset};
     }
     o.check();
     const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, !opt->no_flip);

@@ -1,9 +1,12 @@
 #include "texgen/make_dataset.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <random>
 
 #include "core/error.h"
@@ -11,6 +14,7 @@
 #include "core/image_io.h"
 #include "core/log.h"
 #include "core/png.h"
+#include "texgen/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
 #include "texgen/shards.h"
 #include "uvtools/bake.h"
@@ -107,26 +111,44 @@ std::array<std::vector<int>, 3> split_subjects(int n, const std::array<double, 3
   return out;
 }
 
-// The subject's four maps baked to the target sizes, as 8-bit PNG members.
-std::map<std::string, std::string> target_members(const Subject& s, const MorphableModel& model,
-                                                  const TextureDatasetOptions& o, const std::string& scratch) {
+// The template layout's island rasters, one per registered-map size, built at the first subject of that size and
+// shared by every later one (the layout half of a bake does not depend on the subject).
+class LayoutRasters {
+ public:
+  explicit LayoutRasters(const Mesh& layout) : layout_(layout) {}
+  const UvIslands& at(int size) {
+    auto& r = rasters_[size];
+    if (!r) r = std::make_unique<UvIslands>(layout_, size);
+    return *r;
+  }
+
+ private:
+  const Mesh& layout_;
+  std::map<int, std::unique_ptr<UvIslands>> rasters_;
+};
+
+// A baked map as the 8-bit PNG member: the value a 16-bit PNG file of the bake would hold (diffuse sRGB-encoded),
+// then 8 bits (the members were once made through such files; the bytes stay the same).
+std::string baked_member(Image image) {
+  if (image.color_space == ColorSpace::Linear) image = to_srgb(image);
+  for (float& v : image.pixels) v = float(std::lround(std::clamp(v, 0.f, 1.f) * 65535.f)) * (1.0f / 65535.f);
+  return png8(image);
+}
+
+// The subject's four maps baked to the target sizes (in memory, through the cached layout raster), as PNG members.
+std::map<std::string, std::string> target_members(const Subject& s, LayoutRasters& rasters,
+                                                  const TextureDatasetOptions& o) {
   MapResizeOptions bake;
   bake.sizes = {o.target_res};
   if (o.hr_res > 0 && o.hr_res != o.target_res) bake.sizes.push_back(o.hr_res);
-  bake.format = "png";
-  const std::string out = scratch + "/bake-" + s.name;
-  fs::remove_all(out);
-  resize_maps(s.dir, &model.topology, bake, out);
   std::map<std::string, std::string> members;
-  const auto baked = [&](int size, const char* map) {
-    return png8(read_image(out + "/" + std::to_string(size) + "/" + map + ".png"));
-  };
-  for (const char* m : kMaps) {
-    const std::string name(m);
-    members[name + ".png"] = baked(o.target_res, m);
-    if (o.hr_res > 0) members[name + "_hr.png"] = o.hr_res == o.target_res ? members[name + ".png"] : baked(o.hr_res, m);
-  }
-  fs::remove_all(out);
+  bake_maps(s.dir, &rasters.at(map_set_size(s.dir)), bake, [&](const std::string& map, int size, Image image) {
+    const std::string png = baked_member(std::move(image));
+    if (size == o.target_res) members[map + ".png"] = png;
+    if (o.hr_res > 0 && size == o.hr_res) members[map + "_hr.png"] = png;
+  });
+  for (const char* m : kMaps)
+    BS_CHECK(members.count(std::string(m) + ".png"), "make-dataset: the bake gave no " + std::string(m) + " map");
   return members;
 }
 
@@ -137,7 +159,7 @@ struct SubjectOutput {
 
 SubjectOutput process_subject(const MorphableModel& model, const std::string& dir, int index, const std::string& split,
                               const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
-                              const std::string& scratch) {
+                              LayoutRasters& rasters) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   auto since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
@@ -148,7 +170,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   json& timing = out.report["seconds"];
   timing["load"] = since(t0);
   auto t = clock::now();
-  const std::map<std::string, std::string> targets = target_members(subject, model, o, scratch);
+  const std::map<std::string, std::string> targets = target_members(subject, rasters, o);
   timing["targets"] = since(t);
   const Image truth = resize_square(subject.diffuse, o.sample.input_res);
   double fit_s = 0, encode_s = 0;
@@ -156,8 +178,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   for (int l = 0; l < o.lights; ++l) {
     t = clock::now();
     const auto light = sample_light(l, subject_seed);
-    std::vector<ViewFit> views;
-    for (const ViewSpec& v : o.sample.views) views.push_back(fit_view(model, subject, v, light, detect, o.sample));
+    std::vector<ViewFit> views = fit_views(model, subject, light, detect, o.sample);
     std::vector<const UnwarpResult*> unwraps;
     for (const ViewFit& v : views) unwraps.push_back(&v.unwrap);
     const MergedUnwrap merged = merge_by_confidence(unwraps, o.sample.merge_sharpness);
@@ -200,6 +221,8 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
                  {"lighting", light},
                  {"unwrapped", o.sample.unwrap_lit ? "the lit render" : "the diffuse-only render"},
                  {"fitter", o.fitter},
+                 {"landmark_fit", o.sample.landmark_fit_mode},
+                 {"landmark_calibration", o.landmark_calibration ? fs::path(o.landmark_calibration->source).filename().string() : ""},
                  {"views", view_meta},
                  {"unwrap", {{"coverage", double(seen) / double(std::max<int64_t>(1, layout))},
                              {"psnr_db_vs_truth", psnr},
@@ -238,7 +261,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
 // Runs one unit into a scratch folder and renames its shards into place; then its index entry.
 void run_unit(const Unit& unit, const std::vector<std::string>& subjects, const MorphableModel& model,
               const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
-              const FaceLandmarkDetector& detect_photo, TextureDatasetReport& report,
+              const FaceLandmarkDetector& detect_photo, LayoutRasters& rasters, TextureDatasetReport& report,
               const std::function<void(const std::string&)>& step) {
   const std::string scratch = o.output + "/.tmp/" + numbered("unit", unit.id);
   fs::remove_all(scratch);
@@ -263,7 +286,7 @@ void run_unit(const Unit& unit, const std::vector<std::string>& subjects, const 
       step(subjects[size_t(s)]);
       try {
         check_subject_files(dir, o);
-        SubjectOutput r = process_subject(model, dir, s, kSplits[unit.split], o, detect, scratch);
+        SubjectOutput r = process_subject(model, dir, s, kSplits[unit.split], o, detect, rasters);
         for (const auto& x : r.samples) textures.write(x);
         for (const auto& x : r.masks) mask_writer.write(x);
         samples += int64_t(r.samples.size());
@@ -361,7 +384,9 @@ json options_to_json(const TextureDatasetOptions& o) {
   for (const ViewSpec& v : o.sample.views) views.push_back({{"name", v.name}, {"yaw_deg", v.yaw_deg}});
   json occluders = json::array();
   for (Occluder x : o.occluders) occluders.push_back(to_string(x));
-  return {{"views", views}, {"lights", o.lights}, {"fitter", o.fitter}, {"render_size", o.sample.render_size},
+  return {{"views", views}, {"lights", o.lights}, {"fitter", o.fitter},
+          {"landmark_fit", o.sample.landmark_fit_mode},
+          {"landmark_calibration", o.landmark_calibration ? o.landmark_calibration->source : ""}, {"render_size", o.sample.render_size},
           {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},
           {"hr_res", o.hr_res}, {"merge_sharpness", o.sample.merge_sharpness}, {"masks_per_subject", o.masks_per_subject},
           {"occluders", occluders}, {"celebamask_count", o.celebamask.empty() ? 0 : o.celebamask_count},
@@ -392,16 +417,24 @@ void TextureDatasetOptions::check() const {
   if (output.empty()) throw InvalidInput("-o", "no output folder", "give -o texture_shards/");
 }
 
-TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
+TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, const FaceLandmarkDetector& detect,
                                           const FaceLandmarkDetector& detect_photo, const ProgressCallback& progress) {
   const auto start = std::chrono::steady_clock::now();
-  o.check();
+  options.check();
+  TextureDatasetOptions o = options;
   TextureDatasetReport report;
   const std::vector<std::string> subjects = list_subjects(o.registered);
   report.subjects = int(subjects.size());
   const MorphableModel model = read_model(o.model);
   if (model.landmark_vertices.size() != 68)
     throw InvalidInput(o.model, "has no 68 landmark vertices", "build the model with `bareskin mm-build`");
+  if (o.landmark_calibration) {
+    try {
+      o.sample.landmark_offsets = landmark_offsets(model, o.landmark_calibration->reference, o.landmark_calibration->offset);
+    } catch (const InvalidInput& e) {
+      throw InvalidInput(o.landmark_calibration->source, e.what(), "make it again with `bareskin landmarks calibrate`");
+    }
+  }
   // A whole folder from another template shows at its first subject; missing maps show for every subject up front.
   for (const std::string& s : subjects) {
     try {
@@ -466,8 +499,9 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& o, const 
     todo.push_back(&u);
     total += int64_t(u.subjects.size() + u.photos.size());
   }
+  LayoutRasters rasters(model.topology);
   for (const Unit* u : todo) {
-    run_unit(*u, subjects, model, o, detect, detect_photo, report, [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
+    run_unit(*u, subjects, model, o, detect, detect_photo, rasters, report, [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
     ++report.units_done;
   }
   bareskin::report(progress, done, total, "manifests");

@@ -15,8 +15,10 @@
 // the manifests from the finished units, and the last one to finish leaves them complete. The same options and seed
 // give the same bytes (with the same thread count).
 #pragma once
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,13 @@ struct TextureDatasetOptions {
   TextureSampleOptions sample;
   int lights = 1;                   // light 0: the default light; others: random SH lights (the photo that is fitted)
   std::string fitter = "mm-fit";    // "recon" (the teacher network F) once it exists
+  // The detector's landmark convention (`landmarks calibrate`: reference points and per-landmark offsets to the truth,
+  // in its reference frame), brought into the model frame (landmark_offsets, multiview_fit.h) for the landmark fits.
+  struct LandmarkCalibration {
+    std::string source;  // the file, for the manifests
+    Eigen::Matrix<double, 68, 3> reference, offset;
+  };
+  std::optional<LandmarkCalibration> landmark_calibration;
   int target_res = 1024, hr_res = 4096;  // targets; hr 0 = none; each must divide the registered maps' size
   int masks_per_subject = 3;        // synthetic occluder masks per subject (views taken in turn)
   std::vector<Occluder> occluders = {Occluder::Hair, Occluder::Glasses, Occluder::Hand, Occluder::Hat};

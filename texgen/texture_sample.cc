@@ -13,6 +13,7 @@
 #include "render/rasterize.h"
 #include "render/shade.h"
 #include "render/sh.h"
+#include "texgen/multiview_fit.h"
 
 namespace bareskin::texgen {
 
@@ -28,6 +29,8 @@ void TextureSampleOptions::check() const {
                        "e.g. 1024");
   if (input_res < 16 || input_res > 16384) throw InvalidInput("--input-res", "must lie in [16, 16384]", "");
   if (!(merge_sharpness >= 0 && merge_sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
+  if (landmark_fit_mode != "shared-shape" && landmark_fit_mode != "rigid" && landmark_fit_mode != "per-view")
+    throw InvalidInput("--landmark-fit", "unknown mode '" + landmark_fit_mode + "'", "use shared-shape, rigid or per-view");
   landmark_fit.check();
 }
 
@@ -222,54 +225,102 @@ double masked_psnr_srgb(const Image& a, const Image& b, const Image& mask) {
   return se == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(1.0 / (se / (3.0 * double(n))));
 }
 
-ViewFit fit_view(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
-                 const std::array<double, 27>& light, const FaceLandmarkDetector& detect,
-                 const TextureSampleOptions& options) {
-  ViewFit out;
-  out.name = view.name;
-  out.yaw_deg = view.yaw_deg;
+namespace {
+
+// A view rendered and its landmarks detected; the linear images stay for the photometric fit and the unwrap.
+struct RenderedView {
+  ViewFit fit;
+  Eigen::Matrix3d rotation;
+  Image photo, unwrapped;  // linear
+};
+
+RenderedView render_view(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
+                         const std::array<double, 27>& light, const FaceLandmarkDetector& detect, const Camera& camera,
+                         const TextureSampleOptions& options) {
+  RenderedView out;
+  out.fit.name = view.name;
+  out.fit.yaw_deg = view.yaw_deg;
+  out.rotation = view_rotation(view);
   const std::string where = subject.dir + " (" + view.name + " view, yaw " + std::to_string(int(view.yaw_deg)) + ")";
   // The subject turned by the view's yaw, seen by the canonical camera.
   Mesh turned = subject.mesh;
-  turned.V = (subject.mesh.V * view_rotation(view).transpose()).eval();
-  const Camera camera = view_camera("front", options.render_size, Eigen::Vector3d::Zero(), 1000);
+  turned.V = (subject.mesh.V * out.rotation.transpose()).eval();
   ShadeOptions shade;
   shade.texture = &subject.diffuse;
   shade.gamma = light;
-  const Frame frame = render_frame(turned, camera, shade);
-  const Image& photo = frame.colour;  // what the detector and the fits see (inference: the photo)
-  const Image& unwrapped = options.unwrap_lit ? frame.colour : frame.albedo;  // inference: BareSkinNet's bare skin
-  out.render = to_srgb(photo);
-  out.bare = to_srgb(frame.albedo);
+  Frame frame = render_frame(turned, camera, shade);
+  out.fit.render = to_srgb(frame.colour);
+  out.fit.bare = to_srgb(frame.albedo);
+  out.unwrapped = options.unwrap_lit ? frame.colour : std::move(frame.albedo);  // inference: BareSkinNet's bare skin
+  out.photo = std::move(frame.colour);  // what the detector and the fits see (inference: the photo)
 
-  const std::optional<Landmarks68> found = detect(out.render);
+  const std::optional<Landmarks68> found = detect(out.fit.render);
   if (!found) throw InvalidInput(where, "no face found in the render", "use smaller yaw angles, or check the subject's maps");
-  out.landmarks = *found;
+  out.fit.landmarks = *found;
   double detector_error = 0;
   for (int k = 0; k < 68; ++k) {
     const Eigen::Vector3d p = camera.project(turned.V.row(model.landmark_vertices[size_t(k)]).transpose());
-    detector_error += (Eigen::Vector2d(p.x(), p.y()) - out.landmarks.row(k).transpose()).norm();
+    detector_error += (Eigen::Vector2d(p.x(), p.y()) - out.fit.landmarks.row(k).transpose()).norm();
   }
-  out.detector_error_px = detector_error / 68;
+  out.fit.detector_error_px = detector_error / 68;
+  return out;
+}
 
-  const LandmarkFit lm = fit_landmarks(model, out.landmarks, camera, options.landmark_fit);
-  out.fit.alpha = lm.alpha;
-  out.fit.beta = lm.beta;
-  out.fit.rotation = lm.rotation;
-  out.fit.translation = lm.translation;
-  out.landmark_rms_px = lm.rms_px;
-  const Mesh posed = posed_mesh(model, out.fit);
+}  // namespace
+
+std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
+                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options) {
+  const Camera camera = view_camera("front", options.render_size, Eigen::Vector3d::Zero(), 1000);
+  std::vector<RenderedView> views;
+  for (const ViewSpec& v : options.views) views.push_back(render_view(model, subject, v, light, detect, camera, options));
+  const Eigen::Matrix<double, 68, 3>* offsets = options.landmark_offsets ? &*options.landmark_offsets : nullptr;
+  // The landmark fits: one for all views, or one per view (each a one-view joint fit in that view's own frame).
+  std::vector<Coefficients> geometry;
+  std::vector<double> rms;
+  if (options.landmark_fit_mode != "per-view") {
+    std::vector<LandmarkViewInput> inputs;
+    for (const RenderedView& v : views) inputs.push_back({v.rotation, v.fit.landmarks});
+    const MultiviewLandmarkFit fit = fit_landmarks_multiview(model, inputs, camera, options.landmark_fit,
+                                                             options.landmark_fit_mode == "shared-shape", offsets);
+    for (size_t v = 0; v < views.size(); ++v) geometry.push_back(view_coefficients(fit, v));
+    rms = fit.rms_px;
+  } else if (offsets) {
+    for (const RenderedView& v : views) {
+      const MultiviewLandmarkFit fit = fit_landmarks_multiview(model, {{Eigen::Matrix3d::Identity(), v.fit.landmarks}},
+                                                               camera, options.landmark_fit, true, offsets);
+      geometry.push_back(view_coefficients(fit, 0));
+      rms.push_back(fit.rms_px[0]);
+    }
+  } else {
+    for (const RenderedView& v : views) {
+      const LandmarkFit lm = fit_landmarks(model, v.fit.landmarks, camera, options.landmark_fit);
+      Coefficients c;
+      c.alpha = lm.alpha;
+      c.beta = lm.beta;
+      c.rotation = lm.rotation;
+      c.translation = lm.translation;
+      geometry.push_back(c);
+      rms.push_back(lm.rms_px);
+    }
+  }
+  std::vector<ViewFit> out;
   const Camera small = view_camera("front", options.fit_size, Eigen::Vector3d::Zero(), 1000);
-  const PhotometricFit photometric =
-      fit_photometric(model, posed, small, resize_square(photo, options.fit_size), options.photometric);
-  out.fit.delta = photometric.delta;
-  out.fit.gamma = photometric.gamma;
-  out.photometric_psnr_db = photometric.psnr_db;
-  out.shape_error_mm = aligned_distance(model.shape(lm.alpha, lm.beta), subject.mesh.V);
-
-  UnwarpOptions unwarp_options;
-  unwarp_options.size = options.input_res;
-  out.unwrap = unwarp(unwrapped, posed, camera, unwarp_options);
+  for (size_t i = 0; i < views.size(); ++i) {
+    ViewFit& v = views[i].fit;
+    v.fit = geometry[i];
+    v.landmark_rms_px = rms[i];
+    const Mesh posed = posed_mesh(model, v.fit);
+    const PhotometricFit photometric =
+        fit_photometric(model, posed, small, resize_square(views[i].photo, options.fit_size), options.photometric);
+    v.fit.delta = photometric.delta;
+    v.fit.gamma = photometric.gamma;
+    v.photometric_psnr_db = photometric.psnr_db;
+    v.shape_error_mm = aligned_distance(model.shape(v.fit.alpha, v.fit.beta), subject.mesh.V);
+    UnwarpOptions unwarp_options;
+    unwarp_options.size = options.input_res;
+    v.unwrap = unwarp(views[i].unwrapped, posed, camera, unwarp_options);
+    out.push_back(std::move(v));
+  }
   return out;
 }
 

@@ -40,6 +40,13 @@ struct TextureSampleOptions {
   int input_res = 1024;    // UV size of the inputs
   double merge_sharpness = 4;  // views are weighted by confidence^sharpness
   bool unwrap_lit = false;     // unwrap the lit render instead of the diffuse-only one
+  // The landmark fit over the views (texgen/multiview_fit.h): "shared-shape" (one shape and expression for all
+  // views, a pose per view), "rigid" (one shape and one head pose, the views' known rotations between them) or
+  // "per-view" (an independent fit per view).
+  std::string landmark_fit_mode = "shared-shape";
+  // The detector's landmark convention in the model frame (landmark_offsets of a `landmarks calibrate` file), added
+  // to the model's landmark vertices in the landmark fits; empty: none.
+  std::optional<Eigen::Matrix<double, 68, 3>> landmark_offsets;
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range
@@ -68,7 +75,7 @@ struct ViewFit {
   Coefficients fit;    // canonical camera at render_size (posed_mesh(model, fit) reproduces the render)
   Landmarks68 landmarks;  // detected (px)
   double detector_error_px = 0;   // mean distance of the detected landmarks to the truth's projected landmark vertices
-  double landmark_rms_px = 0;     // the landmark fit's residual
+  double landmark_rms_px = 0;     // the landmark fit's residual in this view
   double photometric_psnr_db = 0; // the photometric fit's render vs the image (linear, fit_size)
   double shape_error_mm = 0;      // fitted shape vs the subject, mean vertex distance after a rigid alignment
   UnwarpResult unwrap;            // through the fit, at input_res
@@ -96,13 +103,13 @@ ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, 
 // above, a random light from `seed` around that ambient.
 std::array<double, 27> sample_light(int l, uint64_t seed);
 
-// Renders the subject from one view under `light`, detects its landmarks on that lit render (the photo of
-// inference), fits the model to it (landmarks, then photometric at fit_size), and unwraps the diffuse-only render
-// (what BareSkinNet hands texture inference: bare skin without light; `unwrap_lit`: the lit render) through the fit.
+// Renders the subject from every view under `light`, detects the landmarks on each lit render (the photo of
+// inference), fits the model to them (landmark_fit_mode: one shape for all views with a pose per view or one head
+// pose, or independent fits), then per view the photometric fit at fit_size and the unwrap of the diffuse-only render
+// (what BareSkinNet hands texture inference: bare skin without light; `unwrap_lit`: the lit render) through its fit.
 // InvalidInput naming the subject and view when the detector finds no face.
-ViewFit fit_view(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
-                 const std::array<double, 27>& light, const FaceLandmarkDetector& detect,
-                 const TextureSampleOptions& options);
+std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
+                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options);
 
 // PSNR (dB) of `a` against `b` over the texels where `mask` > 0, on sRGB-encoded values in [0, 1] (what the network
 // sees); both linear RGB of the same size. +inf when identical, NaN when the mask is empty.

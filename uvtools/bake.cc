@@ -24,82 +24,6 @@ struct MapFile {
   Kind kind;
 };
 
-// The layout's UV triangles in input pixel space (y down), bucketed by the bands of rows they touch; a band's island
-// mask is found by scanline spans, one row at a time.
-class IslandRaster {
- public:
-  IslandRaster(const Mesh& layout, int size, int band_rows) : size_(size), band_rows_(band_rows) {
-    const int bands = (size + band_rows - 1) / band_rows;
-    buckets_.resize(size_t(bands));
-    int positive = 0;
-    std::vector<double> area(size_t(layout.F.rows()));
-    for (Eigen::Index f = 0; f < layout.F.rows(); ++f) {
-      Triangle t;
-      for (int k = 0; k < 3; ++k) {
-        const Eigen::Vector2d uv = layout.UV.row(layout.FUV(f, k)).transpose();
-        t.p[k] = {uv.x() * size, (1 - uv.y()) * size};
-      }
-      area[size_t(f)] = (t.p[1] - t.p[0]).x() * (t.p[2] - t.p[0]).y() - (t.p[1] - t.p[0]).y() * (t.p[2] - t.p[0]).x();
-      if (area[size_t(f)] > 0) ++positive;
-      const double y0 = std::min({t.p[0].y(), t.p[1].y(), t.p[2].y()}), y1 = std::max({t.p[0].y(), t.p[1].y(), t.p[2].y()});
-      if (std::abs(area[size_t(f)]) < 1e-12 || y1 < 0 || y0 > size) continue;
-      const int id = int(triangles_.size());
-      triangles_.push_back(t);
-      for (int b = std::max(0, int(y0) / band_rows); b <= std::min(bands - 1, int(y1) / band_rows); ++b) {
-        buckets_[size_t(b)].push_back(id);
-      }
-    }
-    const bool majority_positive = 2 * positive >= layout.F.rows();
-    for (double a : area)
-      if (a != 0 && (a > 0) != majority_positive) ++flipped;
-  }
-
-  // Island mask of band b (rows [b * band_rows, ...), `rows` of them) into mask[rows * size]; overlaps counts texel
-  // centres strictly inside two or more triangles.
-  void band(int b, int rows, std::vector<uint8_t>& mask, std::atomic<int64_t>& overlaps) const {
-    mask.assign(size_t(rows) * size_t(size_), 0);
-    parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
-      std::vector<uint8_t> hits(static_cast<size_t>(size_));
-      for (int64_t r = r0; r < r1; ++r) {
-        const double yc = double(b) * band_rows_ + double(r) + 0.5;
-        std::fill(hits.begin(), hits.end(), 0);
-        for (int id : buckets_[size_t(b)]) {
-          const Triangle& t = triangles_[size_t(id)];
-          double x0 = 1e300, x1 = -1e300;
-          for (int k = 0; k < 3; ++k) {
-            const Eigen::Vector2d &a = t.p[k], &c = t.p[(k + 1) % 3];
-            if ((a.y() - yc) * (c.y() - yc) > 0 || a.y() == c.y()) {
-              if (a.y() == yc) x0 = std::min(x0, a.x()), x1 = std::max(x1, a.x());
-              continue;
-            }
-            const double x = a.x() + (yc - a.y()) / (c.y() - a.y()) * (c.x() - a.x());
-            x0 = std::min(x0, x), x1 = std::max(x1, x);
-          }
-          if (x0 > x1) continue;
-          const int c0 = std::max(0, int(std::ceil(x0 - 0.5))), c1 = std::min(size_ - 1, int(std::floor(x1 - 0.5)));
-          for (int c = c0; c <= c1; ++c) {
-            mask[size_t(r) * size_t(size_) + size_t(c)] = 1;
-            if (c + 0.5 > x0 && c + 0.5 < x1 && hits[size_t(c)] < 255) ++hits[size_t(c)];
-          }
-        }
-        int64_t n = 0;
-        for (uint8_t h : hits) n += h > 1;
-        if (n) overlaps += n;
-      }
-    }, 4);
-  }
-
-  int flipped = 0;
-
- private:
-  struct Triangle {
-    Eigen::Vector2d p[3];
-  };
-  int size_, band_rows_;
-  std::vector<Triangle> triangles_;
-  std::vector<std::vector<int>> buckets_;
-};
-
 std::vector<MapFile> find_maps(const std::string& dir) {
   const std::pair<const char*, Kind> names[] = {
       {"diffuse", Kind::Colour}, {"normal", Kind::Normal}, {"roughness", Kind::Scalar}, {"specular", Kind::Scalar}};
@@ -120,32 +44,45 @@ std::vector<MapFile> find_maps(const std::string& dir) {
   return maps;
 }
 
-// Output texels with no island texel under them take the mean of their filled 8-neighbours, `passes` times.
+// Output texels with no island texel under them take the mean of their filled 8-neighbours, `passes` times. Each pass
+// visits only the unfilled texels next to a filled one (the front), so its cost follows the gutter, not the map.
 void fill_gutter(std::vector<float>& value, std::vector<uint8_t>& filled, int s, int channels, int passes) {
-  for (int pass = 0; pass < passes; ++pass) {
-    std::vector<uint8_t> next = filled;
-    parallel_for(0, s, [&](int64_t y0, int64_t y1) {
-      for (int64_t y = y0; y < y1; ++y)
-        for (int x = 0; x < s; ++x) {
-          const size_t i = size_t(y) * size_t(s) + size_t(x);
-          if (filled[i]) continue;
-          float sum[4] = {0, 0, 0, 0};
-          int n = 0;
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int64_t yy = y + dy, xx = x + dx;
-              if (yy < 0 || yy >= s || xx < 0 || xx >= s) continue;
-              const size_t j = size_t(yy) * size_t(s) + size_t(xx);
-              if (!filled[j]) continue;
-              for (int c = 0; c < channels; ++c) sum[c] += value[j * size_t(channels) + size_t(c)];
-              ++n;
-            }
-          if (!n) continue;
-          for (int c = 0; c < channels; ++c) value[i * size_t(channels) + size_t(c)] = sum[c] / float(n);
-          next[i] = 1;
-        }
-    }, 16);
-    filled.swap(next);
+  const auto neighbours = [s](size_t i, auto&& f) {
+    const int64_t y = int64_t(i) / s, x = int64_t(i) % s;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int64_t yy = y + dy, xx = x + dx;
+        if (yy < 0 || yy >= s || xx < 0 || xx >= s || (dx == 0 && dy == 0)) continue;
+        f(size_t(yy) * size_t(s) + size_t(xx));
+      }
+  };
+  std::vector<uint8_t> queued(filled.size(), 0);
+  std::vector<size_t> front;
+  for (size_t i = 0; i < filled.size(); ++i) {
+    if (!filled[i]) continue;
+    neighbours(i, [&](size_t j) {
+      if (!filled[j] && !queued[j]) queued[j] = 1, front.push_back(j);
+    });
+  }
+  for (int pass = 0; pass < passes && !front.empty(); ++pass) {
+    // Values of this pass come from texels filled before it only; the front is unfilled, so the order is free.
+    for (size_t i : front) {
+      float sum[4] = {0, 0, 0, 0};
+      int n = 0;
+      neighbours(i, [&](size_t j) {
+        if (!filled[j]) return;
+        for (int c = 0; c < channels; ++c) sum[c] += value[j * size_t(channels) + size_t(c)];
+        ++n;
+      });
+      for (int c = 0; c < channels; ++c) value[i * size_t(channels) + size_t(c)] = sum[c] / float(n);
+    }
+    for (size_t i : front) filled[i] = 1;
+    std::vector<size_t> next;
+    for (size_t i : front)
+      neighbours(i, [&](size_t j) {
+        if (!filled[j] && !queued[j]) queued[j] = 1, next.push_back(j);
+      });
+    front.swap(next);
   }
 }
 
@@ -266,8 +203,8 @@ void toksvig(Output& o, int C, const std::vector<float>& L) {
   }
 }
 
-// Gutters, normals encoded, then the file (the values move into the image: no second copy of a 4K map).
-void write_output(Output& o, const MapFile& m, int C, const MapResizeOptions& options, const std::string& dir) {
+// Gutters and normals encoded; the values move into the image (no second copy of a 4K map).
+Image finish_output(Output& o, const MapFile& m, int C, const MapResizeOptions& options) {
   fill_gutter(o.value, o.filled, o.size, C, options.gutter);
   if (m.kind == Kind::Normal) {  // encode (n + 1) / 2; beyond the gutter, +z
     for (size_t i = 0; i < o.filled.size(); ++i)
@@ -282,37 +219,133 @@ void write_output(Output& o, const MapFile& m, int C, const MapResizeOptions& op
   img.color_space = m.kind == Kind::Colour ? ColorSpace::Linear : ColorSpace::Data;
   img.pixels = std::move(o.value);
   std::vector<uint8_t>().swap(o.filled);
-  ImageWriteOptions w;
-  if (options.format == "exr") {
-    w.type = PixelType::Half;
-    w.compression = "zip";
-    w.tiled = true;
-  } else {
-    w.type = PixelType::UInt16;
-    if (m.kind == Kind::Colour) img = to_srgb(img);
+  return img;
+}
+
+// One row's coverage by the layout's triangles: the covered columns into `row` (1), and the count of texel centres
+// strictly inside two or more triangles.
+struct UvTriangle {
+  Eigen::Vector2d p[3];
+};
+int64_t scan_row(const std::vector<UvTriangle>& triangles, const std::vector<int>& candidates, double yc, int size,
+                 std::vector<uint8_t>& row, std::vector<uint8_t>& hits) {
+  std::fill(row.begin(), row.end(), 0);
+  std::fill(hits.begin(), hits.end(), 0);
+  for (int id : candidates) {
+    const UvTriangle& t = triangles[size_t(id)];
+    double x0 = 1e300, x1 = -1e300;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector2d &a = t.p[k], &c = t.p[(k + 1) % 3];
+      if ((a.y() - yc) * (c.y() - yc) > 0 || a.y() == c.y()) {
+        if (a.y() == yc) x0 = std::min(x0, a.x()), x1 = std::max(x1, a.x());
+        continue;
+      }
+      const double x = a.x() + (yc - a.y()) / (c.y() - a.y()) * (c.x() - a.x());
+      x0 = std::min(x0, x), x1 = std::max(x1, x);
+    }
+    if (x0 > x1) continue;
+    const int c0 = std::max(0, int(std::ceil(x0 - 0.5))), c1 = std::min(size - 1, int(std::floor(x1 - 0.5)));
+    for (int c = c0; c <= c1; ++c) {
+      row[size_t(c)] = 1;
+      if (c + 0.5 > x0 && c + 0.5 < x1 && hits[size_t(c)] < 255) ++hits[size_t(c)];
+    }
   }
-  w.mipmap = options.mipmap && options.format != "png";
-  write_image(dir + "/" + std::to_string(o.size) + "/" + m.name + "." + options.format, img, w);
+  int64_t n = 0;
+  for (uint8_t h : hits) n += h > 1;
+  return n;
 }
 
 }  // namespace
 
-MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const MapResizeOptions& options,
-                            const std::string& out_dir, const ProgressCallback& progress) {
+UvIslands::UvIslands(const Mesh& layout, int size) : size_(size) {
+  if (!layout.has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
+  // The triangles in pixel space (y down), bucketed by the bands of rows they touch.
+  const int band_rows = 64, bands = (size + band_rows - 1) / band_rows;
+  std::vector<UvTriangle> triangles;
+  std::vector<std::vector<int>> buckets(static_cast<size_t>(bands));
+  int positive = 0;
+  std::vector<double> area(size_t(layout.F.rows()));
+  for (Eigen::Index f = 0; f < layout.F.rows(); ++f) {
+    UvTriangle t;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector2d uv = layout.UV.row(layout.FUV(f, k)).transpose();
+      t.p[k] = {uv.x() * size, (1 - uv.y()) * size};
+    }
+    area[size_t(f)] = (t.p[1] - t.p[0]).x() * (t.p[2] - t.p[0]).y() - (t.p[1] - t.p[0]).y() * (t.p[2] - t.p[0]).x();
+    if (area[size_t(f)] > 0) ++positive;
+    const double y0 = std::min({t.p[0].y(), t.p[1].y(), t.p[2].y()}), y1 = std::max({t.p[0].y(), t.p[1].y(), t.p[2].y()});
+    if (std::abs(area[size_t(f)]) < 1e-12 || y1 < 0 || y0 > size) continue;
+    const int id = int(triangles.size());
+    triangles.push_back(t);
+    for (int b = std::max(0, int(y0) / band_rows); b <= std::min(bands - 1, int(y1) / band_rows); ++b)
+      buckets[size_t(b)].push_back(id);
+  }
+  const bool majority_positive = 2 * positive >= layout.F.rows();
+  for (double a : area)
+    if (a != 0 && (a > 0) != majority_positive) ++flipped_triangles;
+  // Row by row: the covered columns as spans.
+  std::vector<std::vector<std::pair<int32_t, int32_t>>> rows(static_cast<size_t>(size));
+  std::atomic<int64_t> overlaps{0}, covered{0};
+  parallel_for(0, size, [&](int64_t y0, int64_t y1) {
+    std::vector<uint8_t> row(static_cast<size_t>(size)), hits(static_cast<size_t>(size));
+    for (int64_t y = y0; y < y1; ++y) {
+      overlaps += scan_row(triangles, buckets[size_t(y / band_rows)], double(y) + 0.5, size, row, hits);
+      int64_t n = 0;
+      for (int x = 0; x < size;) {
+        if (!row[size_t(x)]) {
+          ++x;
+          continue;
+        }
+        int e = x;
+        while (e + 1 < size && row[size_t(e + 1)]) ++e;
+        rows[size_t(y)].push_back({x, e});
+        n += e - x + 1;
+        x = e + 1;
+      }
+      covered += n;
+    }
+  }, 16);
+  row_start_.assign(size_t(size) + 1, 0);
+  for (int y = 0; y < size; ++y) row_start_[size_t(y) + 1] = row_start_[size_t(y)] + int64_t(rows[size_t(y)].size());
+  spans_.reserve(size_t(row_start_.back()));
+  for (const auto& r : rows) spans_.insert(spans_.end(), r.begin(), r.end());
+  overlapping_texels = overlaps.load();
+  fraction = double(covered.load()) / (double(size) * size);
+}
+
+void UvIslands::mask_rows(int y0, int rows, std::vector<uint8_t>& mask) const {
+  BS_CHECK(y0 >= 0 && rows >= 0 && y0 + rows <= size_, "UvIslands::mask_rows: rows out of range");
+  mask.assign(size_t(rows) * size_t(size_), 0);
+  for (int r = 0; r < rows; ++r)
+    for (int64_t k = row_start_[size_t(y0 + r)]; k < row_start_[size_t(y0 + r) + 1]; ++k) {
+      uint8_t* m = &mask[size_t(r) * size_t(size_)];
+      std::fill(m + spans_[size_t(k)].first, m + spans_[size_t(k)].second + 1, uint8_t(1));
+    }
+}
+
+int map_set_size(const std::string& in_dir) {
+  std::vector<int> none;
+  return check_map_set(find_maps(in_dir), none);
+}
+
+MapResizeReport bake_maps(const std::string& in_dir, const UvIslands* islands, const MapResizeOptions& options,
+                          const BakedMapSink& sink, const ProgressCallback& progress) {
   // 1. The maps and sizes; the layout's islands (without a layout every texel counts: a plain resize).
   options.check();
-  if (layout && !layout->has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
   std::vector<MapFile> maps = find_maps(in_dir);
   MapResizeReport result;
   std::vector<int> sizes = options.sizes;
   const int N = check_map_set(maps, sizes);
+  if (islands && islands->size() != N)
+    throw InvalidInput(in_dir, "holds " + std::to_string(N) + "² maps, the layout raster is " +
+                                   std::to_string(islands->size()) + "²", "bake each map size through its own raster");
   result.input_size = N;
-  result.layout = layout != nullptr;
+  result.layout = islands != nullptr;
+  result.flipped_triangles = islands ? islands->flipped_triangles : 0;
+  result.island_fraction = islands ? islands->fraction : 1.0;
+  result.overlapping_texels = islands ? islands->overlapping_texels : 0;
   const int F = N / sizes.back();                       // the largest factor
   const int band_rows = F * std::max(1, 128 / F);        // input rows per pass: a multiple of every factor
-  std::optional<IslandRaster> raster;
-  if (layout) raster.emplace(*layout, N, band_rows);
-  result.flipped_triangles = raster ? raster->flipped : 0;
 
   // 2. Map by map, band by band: read, decode, box-filter into every output size. Normal before roughness, so that
   // Toksvig can use the normals' lengths.
@@ -320,11 +353,7 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const
     return a.kind == Kind::Normal && b.kind != Kind::Normal;
   });
   std::map<int, std::vector<float>> normal_length;  // per output size, for Toksvig
-  AtomicDirectory out(out_dir);
-  for (int s : sizes) make_directories(out.path() + "/" + std::to_string(s));
   const int64_t bands = (N + band_rows - 1) / band_rows;
-  int64_t covered_total = 0;
-  std::atomic<int64_t> overlaps{0};
   for (size_t mi = 0; mi < maps.size(); ++mi) {
     const MapFile& m = maps[mi];
     result.maps.push_back(m.name);
@@ -342,26 +371,47 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const
     for (int64_t b = 0; b < bands; ++b) {
       const int y0 = int(b * band_rows), rows = std::min(band_rows, N - y0);
       in.read_rows(y0, y0 + rows, band.data());
-      if (raster) raster->band(int(b), rows, mask, overlaps);
+      if (islands) islands->mask_rows(y0, rows, mask);
       else mask.assign(size_t(rows) * size_t(N), 1);
-      if (mi == 0) covered_total += std::count(mask.begin(), mask.end(), uint8_t(1));
       decode_band(m, decode_srgb, C, Cin, N, y0, rows, band, mask);
       for (Output& o : outs) filter_band(m.kind, C, Cin, N, y0, rows, band, mask, o);
       report(progress, int64_t(mi) * bands + b + 1, int64_t(maps.size()) * bands, "resizing " + m.name);
     }
-    if (mi == 0) {
-      result.island_fraction = double(covered_total) / (double(N) * N);
-      result.overlapping_texels = overlaps.load();
-    }
-    // 3. Toksvig, gutters, the files.
+    // 3. Toksvig, gutters, the images.
     if (m.kind == Kind::Normal) {
       for (Output& o : outs) normal_length[o.size] = o.length;
     }
     if (options.toksvig && m.name == "roughness" && !normal_length.empty()) {
       for (Output& o : outs) toksvig(o, C, normal_length[o.size]);
     }
-    for (Output& o : outs) write_output(o, m, C, options, out.path());
+    for (Output& o : outs) sink(m.name, o.size, finish_output(o, m, C, options));
   }
+  return result;
+}
+
+MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const MapResizeOptions& options,
+                            const std::string& out_dir, const ProgressCallback& progress) {
+  options.check();
+  if (layout && !layout->has_uv()) throw InvalidInput("layout", "the layout mesh has no UVs", "give a mesh with UVs (the template)");
+  std::vector<int> sizes = options.sizes;
+  const int N = check_map_set(find_maps(in_dir), sizes);  // bad maps or sizes stop before the raster
+  std::optional<UvIslands> islands;
+  if (layout) islands.emplace(*layout, N);
+  AtomicDirectory out(out_dir);
+  for (int s : options.sizes) make_directories(out.path() + "/" + std::to_string(s));
+  const MapResizeReport result = bake_maps(in_dir, islands ? &*islands : nullptr, options, [&](const std::string& map, int size, Image img) {
+    ImageWriteOptions w;
+    if (options.format == "exr") {
+      w.type = PixelType::Half;
+      w.compression = "zip";
+      w.tiled = true;
+    } else {
+      w.type = PixelType::UInt16;
+      if (img.color_space == ColorSpace::Linear) img = to_srgb(img);
+    }
+    w.mipmap = options.mipmap && options.format != "png";
+    write_image(out.path() + "/" + std::to_string(size) + "/" + map + "." + options.format, img, w);
+  }, progress);
   out.commit();
   return result;
 }

@@ -7,8 +7,13 @@
 // - diffuse is filtered in linear light (sRGB files are decoded first), normals as vectors and renormalised,
 //   roughness and specular as they are; `toksvig` lets the roughness absorb the normal variance the averaging lost.
 #pragma once
+#include <cstdint>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "core/image.h"
 
 #include "core/mesh.h"
 #include "core/progress.h"
@@ -32,6 +37,36 @@ struct MapResizeReport {
   int flipped_triangles = 0;          // UV triangles wound against the majority
   int64_t overlapping_texels = 0;     // input texel centres strictly inside two or more UV triangles
 };
+
+// The layout's UV islands rasterised at one map size: per input row, the spans of texels a UV triangle covers. It is
+// the layout half of a bake and the same for every map set of that size, so make-dataset builds it once per run.
+class UvIslands {
+ public:
+  UvIslands(const Mesh& layout, int size);  // InvalidInput when the layout has no UVs
+  int size() const { return size_; }
+  // The island mask of rows [y0, y0 + rows) into mask[rows * size] (1 inside).
+  void mask_rows(int y0, int rows, std::vector<uint8_t>& mask) const;
+  double fraction = 0;             // of texels inside an island
+  int flipped_triangles = 0;       // UV triangles wound against the majority
+  int64_t overlapping_texels = 0;  // texel centres strictly inside two or more UV triangles
+
+ private:
+  int size_;
+  std::vector<int64_t> row_start_;                 // spans_[row_start_[y] .. row_start_[y + 1]) are row y's
+  std::vector<std::pair<int32_t, int32_t>> spans_;  // [first, last] texel columns
+};
+
+// A baked map handed over in memory: map name (diffuse, normal, roughness, specular), output size, and the image
+// (diffuse linear RGB; normals encoded (n + 1) / 2; roughness and specular as read).
+using BakedMapSink = std::function<void(const std::string& map, int size, Image image)>;
+
+// The bake of resize_maps without the files: every map and size goes to `sink` (largest size first, map by map).
+// `islands`: the layout raster at the maps' size (InvalidInput when its size differs), or nullptr for no seam handling.
+MapResizeReport bake_maps(const std::string& in_dir, const UvIslands* islands, const MapResizeOptions& options,
+                          const BakedMapSink& sink, const ProgressCallback& progress = {});
+
+// The size of the map set in `in_dir` (every map square and of one size), or InvalidInput as resize_maps reports it.
+int map_set_size(const std::string& in_dir);
 
 // Reads in_dir/{diffuse,normal,roughness,specular}.{exr,tif,tiff,png} (those present; all square and the same size)
 // and writes out_dir/<size>/<map>.<format> for every size, atomically (a failure leaves no out_dir). `layout`: a mesh

@@ -1,0 +1,158 @@
+#include "texgen/multiview_fit.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace bareskin::texgen {
+
+Eigen::Vector3d euler_angles(const Eigen::Matrix3d& R) {
+  // R = Rz(c) Ry(b) Rx(a): R20 = −sin b, R21 = cos b sin a, R22 = cos b cos a, R10 = sin c cos b, R00 = cos c cos b.
+  const double b = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  return {std::atan2(R(2, 1), R(2, 2)), b, std::atan2(R(1, 0), R(0, 0))};
+}
+
+Coefficients view_coefficients(const MultiviewLandmarkFit& fit, size_t v) {
+  Coefficients c;
+  c.alpha = fit.alpha;
+  c.beta = fit.beta;
+  c.rotation = fit.rotation.at(v);
+  c.translation = fit.translation.at(v);
+  return c;
+}
+
+MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const std::vector<LandmarkViewInput>& views,
+                                             const Camera& camera, const LandmarkFitOptions& options,
+                                             bool pose_per_view, const Eigen::Matrix<double, 68, 3>* offsets) {
+  options.check();
+  if (model.landmark_vertices.size() != 68) throw InvalidInput("", "the fit needs a model with 68 landmarks", "");
+  if (views.empty()) throw InvalidInput("", "the multi-view fit needs at least one view", "");
+  for (const LandmarkViewInput& v : views)
+    if (!v.landmarks.allFinite() || !v.weight.allFinite()) throw InvalidInput("", "a view's landmarks hold NaN or Inf", "");
+  const int Ka = std::min<int>(options.shape_components, int(model.shape_basis.rows()));
+  const int Kb = std::min<int>(options.expression_components, int(model.expression_basis.rows()));
+  const int K = Ka + Kb, V = int(views.size());
+  // Landmark rows of the mean (plus the detector's offsets) and of the standardised bases.
+  Eigen::MatrixXd mean(68, 3), basis(3 * 68, K);
+  for (int k = 0; k < 68; ++k) {
+    const int v = model.landmark_vertices[size_t(k)];
+    mean.row(k) = model.topology.V.row(v);
+    if (offsets) mean.row(k) += offsets->row(k);
+    for (int c = 0; c < 3; ++c) {
+      for (int j = 0; j < Ka; ++j) basis(3 * k + c, j) = double(model.shape_basis(j, 3 * v + c)) * model.shape_stddev(j);
+      for (int j = 0; j < Kb; ++j)
+        basis(3 * k + c, Ka + j) = double(model.expression_basis(j, 3 * v + c)) * model.expression_stddev(j);
+    }
+  }
+  std::vector<Eigen::Matrix<double, 68, 1>> sqrt_w;
+  for (const LandmarkViewInput& v : views) sqrt_w.push_back(v.weight.cwiseMax(0).cwiseSqrt());
+  // x = [pose (6) per view, or one pose; α; β]. A shared pose is the head's, seen by view v as Q_v R, Q_v t.
+  const int poses = pose_per_view ? V : 1, P = 6 * poses + K, M = 2 * 68 * V + K;
+  const auto view_pose = [&](const Eigen::VectorXd& x, int v, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+    const int i = pose_per_view ? 6 * v : 0;
+    R = euler_rotation(x.segment<3>(i));
+    t = x.segment<3>(i + 3);
+    if (!pose_per_view) R = (views[size_t(v)].rotation * R).eval(), t = (views[size_t(v)].rotation * t).eval();
+  };
+  const auto residuals = [&](const Eigen::VectorXd& x) {
+    Eigen::VectorXd r(M);
+    const Eigen::VectorXd s = basis * x.tail(K);
+    for (int v = 0; v < V; ++v) {
+      Eigen::Matrix3d R;
+      Eigen::Vector3d t;
+      view_pose(x, v, R, t);
+      for (int k = 0; k < 68; ++k) {
+        const Eigen::Vector3d q = camera.project(R * (mean.row(k).transpose() + s.segment<3>(3 * k)) + t);
+        const double w = sqrt_w[size_t(v)](k);
+        r(2 * (68 * v + k)) = w * (q.x() - views[size_t(v)].landmarks(k, 0));
+        r(2 * (68 * v + k) + 1) = w * (q.y() - views[size_t(v)].landmarks(k, 1));
+      }
+    }
+    r.tail(K) = std::sqrt(options.regularisation) * x.tail(K);
+    return r;
+  };
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(P);
+  if (pose_per_view)
+    for (int v = 0; v < V; ++v) x.segment<3>(6 * v) = euler_angles(views[size_t(v)].rotation);
+  Eigen::VectorXd r = residuals(x);
+  double cost = r.squaredNorm(), lambda = 1e-3;
+  MultiviewLandmarkFit out;
+  bool converged = false;
+  for (int it = 0; it < options.iterations && !converged; ++it) {
+    Eigen::MatrixXd J(M, P);
+    for (int p = 0; p < P; ++p) {
+      const double h = p < 6 * poses && p % 6 < 3 ? 1e-6 : 1e-4;  // radians; mm and standardised α
+      Eigen::VectorXd xp = x;
+      xp(p) += h;
+      J.col(p) = (residuals(xp) - r) / h;
+    }
+    const Eigen::MatrixXd JtJ = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * r;
+    bool improved = false;
+    for (int tries = 0; tries < 10 && !improved; ++tries) {
+      Eigen::MatrixXd A = JtJ;
+      A.diagonal() += lambda * JtJ.diagonal().cwiseMax(1e-9);
+      const Eigen::VectorXd step = A.ldlt().solve(-g);
+      const Eigen::VectorXd r_new = residuals(x + step);
+      if (r_new.squaredNorm() < cost) {
+        x += step;
+        r = r_new;
+        const double previous = cost;
+        cost = r.squaredNorm();
+        lambda = std::max(lambda / 3, 1e-9);
+        improved = true;
+        converged = previous - cost < 1e-10 * previous;
+      } else {
+        lambda *= 10;
+      }
+    }
+    out.iterations = it + 1;
+    if (!improved) break;
+  }
+  out.alpha = x.segment(6 * poses, Ka);
+  out.beta = x.tail(Kb);
+  const Eigen::VectorXd s = basis * x.tail(K);
+  for (int v = 0; v < V; ++v) {  // each view's pose, and its unweighted reprojection error over the landmarks used
+    Eigen::Matrix3d R;
+    Eigen::Vector3d t;
+    view_pose(x, v, R, t);
+    out.rotation.push_back(euler_angles(R));
+    out.translation.push_back(t);
+    double se = 0;
+    int n = 0;
+    for (int k = 0; k < 68; ++k) {
+      if (!(views[size_t(v)].weight(k) > 0)) continue;
+      const Eigen::Vector3d q = camera.project(R * (mean.row(k).transpose() + s.segment<3>(3 * k)) + t);
+      se += (Eigen::Vector2d(q.x(), q.y()) - views[size_t(v)].landmarks.row(k).transpose()).squaredNorm();
+      ++n;
+    }
+    out.rms_px.push_back(n ? std::sqrt(se / n) : 0.0);
+  }
+  return out;
+}
+
+Eigen::Matrix<double, 68, 3> landmark_offsets(const MorphableModel& model, const Eigen::Matrix<double, 68, 3>& reference,
+                                              const Eigen::Matrix<double, 68, 3>& offset) {
+  if (model.landmark_vertices.size() != 68) throw InvalidInput("", "the model has no 68 landmarks", "");
+  std::vector<int> rows;
+  for (int k = 17; k < 68; ++k)
+    if (reference.row(k).allFinite() && offset.row(k).allFinite()) rows.push_back(k);
+  if (rows.size() < 20)
+    throw InvalidInput("", "the landmark calibration has fewer than 20 usable points in 17-67",
+                       "make it again with `bareskin landmarks calibrate`");
+  Eigen::Matrix3Xd src(3, Eigen::Index(rows.size())), dst(3, Eigen::Index(rows.size()));
+  for (size_t i = 0; i < rows.size(); ++i) {
+    src.col(Eigen::Index(i)) = (reference.row(rows[i]) + offset.row(rows[i])).transpose();
+    dst.col(Eigen::Index(i)) = model.topology.V.row(model.landmark_vertices[size_t(rows[i])]).transpose();
+  }
+  const Eigen::Matrix4d T = Eigen::umeyama(src, dst, true);
+  const Eigen::Matrix3d sR = T.topLeftCorner<3, 3>();
+  Eigen::Matrix<double, 68, 3> d = Eigen::Matrix<double, 68, 3>::Zero();
+  for (int k = 17; k < 68; ++k)  // the jaw (0-16) follows each view's silhouette: no fixed 3D offset describes it
+    if (offset.row(k).allFinite()) d.row(k) = -(sR * offset.row(k).transpose()).transpose();
+  return d;
+}
+
+}  // namespace bareskin::texgen

@@ -1,0 +1,54 @@
+// make-dataset's views show one head under rotations we know (we rendered them), so one shape α and expression β are
+// fitted to every view's detected landmarks at once, instead of one independent fit per view:
+//   min Σ_v Σ_k w_vk |π(R_v (S_k(α, β) + d_k) + t_v) − l_vk|² + λ (|α|² + |β|²)
+// with π the fixed camera, l_vk view v's detected landmark k and d_k the detector's convention offset in the model
+// frame (0 without a calibration; landmark_offsets below). The head pose is either one (R_v = Q_v R, t_v = Q_v t with
+// Q_v the view's known rotation: a rigid rig) or free per view (R_v, t_v started at Q_v: each view keeps its own
+// alignment to its image, which the unwrap needs, while the shape is shared). Three views constrain the depth of the
+// face that one view leaves to the prior, and the detector's per-view errors partly average out.
+#pragma once
+#include <Eigen/Core>
+#include <vector>
+
+#include "morphable/coefficients.h"
+#include "morphable/fit.h"
+#include "morphable/model.h"
+#include "render/camera.h"
+
+namespace bareskin::texgen {
+
+struct LandmarkViewInput {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // Q_v: the model frame as this view's camera sees it
+  Eigen::Matrix<double, 68, 2> landmarks;                   // detected (px)
+  Eigen::Matrix<double, 68, 1> weight = Eigen::Matrix<double, 68, 1>::Ones();  // w_vk (0: left out)
+};
+
+struct MultiviewLandmarkFit {
+  Eigen::VectorXd alpha, beta;
+  std::vector<Eigen::Vector3d> rotation, translation;  // per view: R_v (Euler angles, euler_rotation), t_v (mm)
+  std::vector<double> rms_px;  // per view, over the landmarks with weight > 0
+  int iterations = 0;
+};
+
+// Levenberg–Marquardt on a forward-difference Jacobian (options: components, λ, iterations; options.start is not
+// used). `offsets`: d_k (68 × 3 mm, model frame) or nullptr. InvalidInput for a model without 68 landmarks, no views,
+// or non-finite landmarks.
+MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const std::vector<LandmarkViewInput>& views,
+                                             const Camera& camera, const LandmarkFitOptions& options,
+                                             bool pose_per_view, const Eigen::Matrix<double, 68, 3>* offsets = nullptr);
+
+// View v's coefficients: the shared shape and expression with the view's pose (delta and gamma left empty).
+Coefficients view_coefficients(const MultiviewLandmarkFit& fit, size_t v);
+
+// Euler angles (rx, ry, rz) of a rotation, the inverse of euler_rotation (R = Rz Ry Rx).
+Eigen::Vector3d euler_angles(const Eigen::Matrix3d& R);
+
+// A detector-convention calibration (`landmarks calibrate`: per landmark, the mean offset from the detector's point to
+// the true one, in its reference frame) brought into the model frame: the similarity that takes reference + offset
+// (the true points) onto the model's landmark vertices over 17–67, applied to −offset, for the inner points 17–67
+// (the jaw's 2D points follow each view's silhouette, which no fixed 3D offset describes); rows 0–16 and rows with
+// non-finite input are 0. The result is the d_k above.
+Eigen::Matrix<double, 68, 3> landmark_offsets(const MorphableModel& model, const Eigen::Matrix<double, 68, 3>& reference,
+                                              const Eigen::Matrix<double, 68, 3>& offset);
+
+}  // namespace bareskin::texgen
