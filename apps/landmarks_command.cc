@@ -150,9 +150,13 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
                               ("bareskin_colmap_" + std::to_string(std::hash<std::string>{}(capture) % 1000000)))
                                  .string();
     std::filesystem::remove_all(work);
+    std::filesystem::remove(work + ".log");
+    // COLMAP's database and models are removed once read; its log stays (named in the messages).
     try {
       model = run_colmap(capture, work, colmap, work + ".log");
+      std::filesystem::remove_all(work);
     } catch (const Error& e) {
+      std::filesystem::remove_all(work);
       spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), options.views);
       return nullptr;
     }
@@ -198,7 +202,8 @@ nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, d
                model.images.size(), photos, model.points.rows(), on_head, model.reprojection_px, S.s, rms);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
           {"points_on_head", on_head}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
-          {"icp_rms_mm", rms}, {"cameras", cams}};
+          {"icp_rms_mm", rms}, {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs},
+          {"cameras", cams}};
 }
 
 void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
@@ -299,6 +304,9 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                                                             "features on faint texture)")
       ->capture_default_str()->check(CLI::Range(0.0001, 0.1))->group("COLMAP");
   s->add_flag("--colmap-dsp", sc->colmap.domain_size_pooling, "With --capture: DSP-SIFT descriptors")->group("COLMAP");
+  s->add_option("--colmap-focal", sc->colmap.focal_px, "With --capture: the rig's focal length in px, COLMAP's starting "
+                                                       "value (default: EXIF, else COLMAP's guess)")
+      ->check(CLI::PositiveNumber)->group("COLMAP");
   s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
                                                 "this folder: a synthetic capture");
 

@@ -6,11 +6,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <sstream>
 #include <thread>
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/image_io.h"
 #include "template/surface.h"
 
 namespace bareskin {
@@ -31,6 +33,8 @@ std::string shell_quote(const std::string& s) {
   for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return q + "'";
 }
+
+std::string database_summary(const std::string& work);
 
 }  // namespace
 
@@ -105,6 +109,16 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, const
   sift << " --SiftExtraction.max_num_features " << o.max_features << " --SiftExtraction.max_image_size "
        << o.max_image_size << " --SiftExtraction.peak_threshold " << o.peak_threshold
        << " --SiftExtraction.domain_size_pooling " << int(o.domain_size_pooling);
+  if (o.focal_px > 0) {  // SIMPLE_PINHOLE's f, cx, cy, from the first photo's size
+    for (const auto& e : fs::directory_iterator(images)) {
+      const std::string ext = e.path().extension().string();
+      if (ext != ".png" && ext != ".jpg" && ext != ".jpeg" && ext != ".tif" && ext != ".tiff" && ext != ".PNG" && ext != ".JPG")
+        continue;
+      const Image first = read_image(e.path().string());
+      sift << " --ImageReader.camera_params " << o.focal_px << "," << first.width / 2.0 << "," << first.height / 2.0;
+      break;
+    }
+  }
   const std::vector<std::string> steps = {
       "colmap feature_extractor --database_path " + db + " --image_path " + img +
           " --ImageReader.camera_model SIMPLE_PINHOLE --ImageReader.single_camera 1 --SiftExtraction.use_gpu 0"
@@ -117,7 +131,7 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, const
   for (const std::string& step : steps)
     if (std::system((step + out).c_str()) != 0)
       throw InvalidInput(images, "COLMAP failed at '" + step.substr(7, step.find(' ', 7) - 7) + "'" +
-                                     colmap_database_summary(work), "see " + log);
+                                     database_summary(work), "see " + log);
   // The largest model (most registered images).
   ColmapModel best;
   for (const auto& e : fs::directory_iterator(work + "/sparse")) {
@@ -130,21 +144,21 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, const
     ColmapModel m = read_colmap_text_model(txt);
     if (m.images.size() > best.images.size()) best = std::move(m);
   }
+  std::tie(best.median_features, best.verified_pairs) = colmap_database_stats(work);
   if (best.images.empty())
-    throw InvalidInput(images, "COLMAP reconstructed no model from these photos" + colmap_database_summary(work),
+    throw InvalidInput(images, "COLMAP reconstructed no model from these photos" + database_summary(work),
                        "see " + log);
   return best;
 }
 
-std::string colmap_database_summary(const std::string& work) {
+std::pair<long, long> colmap_database_stats(const std::string& work) {
   const std::string db = work + "/database.db";
-  if (!fs::exists(db) || std::system("command -v sqlite3 > /dev/null 2>&1") != 0) return "";
-  // Features per image, then the pairs whose two-view geometry kept 15 or more inliers.
+  if (!fs::exists(db) || std::system("command -v sqlite3 > /dev/null 2>&1") != 0) return {-1, -1};
   const std::string cmd = "sqlite3 -batch " + shell_quote(db) +
                           " 'select rows from keypoints order by rows; select -1; "
                           "select count(*) from two_view_geometries where rows >= 15;' 2> /dev/null";
   FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) return "";
+  if (!pipe) return {-1, -1};
   std::vector<long> features;
   long pairs = -1;
   bool after = false;
@@ -154,10 +168,18 @@ std::string colmap_database_summary(const std::string& work) {
     else features.push_back(v);
   }
   pclose(pipe);
-  if (features.empty() || pairs < 0) return "";
-  return " (median " + std::to_string(features[features.size() / 2]) + " SIFT features per photo, " +
-         std::to_string(pairs) + " photo pairs with 15+ verified matches)";
+  if (features.empty() || pairs < 0) return {-1, -1};
+  return {features[features.size() / 2], pairs};
 }
+
+namespace {
+std::string database_summary(const std::string& work) {
+  const auto [features, pairs] = colmap_database_stats(work);
+  if (features < 0) return "";
+  return " (median " + std::to_string(features) + " SIFT features per photo, " + std::to_string(pairs) +
+         " photo pairs with 15+ verified matches)";
+}
+}  // namespace
 
 Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to) {
   std::vector<Eigen::Index> rows;

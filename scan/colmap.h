@@ -22,6 +22,8 @@ struct ColmapModel {
   std::vector<ColmapImage> images;  // registered images only
   Eigen::MatrixX3d points;          // the sparse 3D points
   double reprojection_px = 0;       // mean of the points' reprojection errors (points3D.txt's ERROR)
+  long median_features = -1;        // when COLMAP was run here: SIFT features per photo (median)
+  long verified_pairs = -1;         // and photo pairs with 15+ verified matches
 };
 
 // How COLMAP is run (defaults: COLMAP's own, CPU). Exhaustive matching: every pair, fine up to a few hundred photos.
@@ -32,6 +34,8 @@ struct ColmapOptions {
   double peak_threshold = 0.02 / 3;    // SIFT's contrast threshold (lower: more features on faint texture)
   bool domain_size_pooling = false;    // DSP-SIFT descriptors (better matches across scale, slower)
   int init_min_inliers = 100;          // inliers the mapper's first image pair needs
+  double focal_px = 0;                 // the rig's focal length in px, a starting value COLMAP refines (0: from EXIF,
+                                       // else COLMAP's guess of 1.2 x the photo's size, far off for long lenses)
 };
 
 // Reads cameras.txt, images.txt and points3D.txt of a TXT model. Pinhole models (SIMPLE_PINHOLE, PINHOLE) are read
@@ -46,9 +50,9 @@ ColmapModel read_colmap_text_model(const std::string& dir);
 ColmapModel run_colmap(const std::string& images, const std::string& work, const ColmapOptions& options,
                        const std::string& log);
 
-// What COLMAP's database in `work` holds: SIFT features per photo and the pairs with a verified two-view geometry
-// (inlier matches), read with python3's sqlite3. For the log when the mapper fails; empty when it cannot be read.
-std::string colmap_database_summary(const std::string& work);
+// What COLMAP's database in `work` holds: the median SIFT features per photo and the photo pairs with 15 or more
+// verified (two-view geometry) matches, read with the sqlite3 command; -1 each when it cannot be read.
+std::pair<long, long> colmap_database_stats(const std::string& work);
 
 // x_scan = s R x_model + t.
 struct Similarity {
