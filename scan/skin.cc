@@ -6,6 +6,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/mesh.h"
 
 namespace bareskin {
@@ -20,26 +21,7 @@ const Vec3 kBase(0.95f, 0.72f, 0.62f);
 const Vec3 kMelanin(3.68f, 4.67f, 5.32f);
 const Vec3 kHaemoglobin(0.15f, 1.6f, 1.0f);
 
-uint32_t hash3(int x, int y, int z, uint32_t seed) {
-  uint32_t h = seed ^ 0x9e3779b9u;
-  h ^= uint32_t(x) * 0x85ebca6bu;
-  h = (h << 13 | h >> 19) * 5u + 0xe6546b64u;
-  h ^= uint32_t(y) * 0xc2b2ae35u;
-  h = (h << 13 | h >> 19) * 5u + 0xe6546b64u;
-  h ^= uint32_t(z) * 0x27d4eb2fu;
-  h ^= h >> 16;
-  h *= 0x85ebca6bu;
-  h ^= h >> 13;
-  h *= 0xc2b2ae35u;
-  h ^= h >> 16;
-  return h;
-}
-float unit(uint32_t h) { return float(h >> 8) * (1.0f / 16777216.0f); }  // [0,1)
-
-float smoothstep(float edge0, float edge1, float x) {
-  const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.0f, 1.0f);
-  return t * t * (3 - 2 * t);
-}
+uint32_t hash3(int x, int y, int z, uint32_t seed) { return lattice_hash(seed, {x, y, z}); }
 
 // Value noise in [-1,1] with quintic interpolation (C2), and its exact gradient; deterministic in the seed.
 float value_noise(const Vec3& p, uint32_t seed, Vec3* gradient = nullptr) {
@@ -49,7 +31,7 @@ float value_noise(const Vec3& p, uint32_t seed, Vec3* gradient = nullptr) {
   const auto fade = [](float t) { return t * t * t * (t * (t * 6 - 15) + 10); };
   const auto dfade = [](float t) { return 30 * t * t * (t - 1) * (t - 1); };
   const float u = fade(x), v = fade(y), w = fade(z);
-  const auto c = [&](int a, int b, int d) { return 2 * unit(hash3(ix + a, iy + b, iz + d, seed)) - 1; };
+  const auto c = [&](int a, int b, int d) { return 2 * unit_float(hash3(ix + a, iy + b, iz + d, seed)) - 1; };
   const float a = c(0, 0, 0), b = c(1, 0, 0), cc = c(0, 1, 0), d = c(1, 1, 0), e = c(0, 0, 1), f = c(1, 0, 1),
               g = c(0, 1, 1), h = c(1, 1, 1);
   const float k1 = b - a, k2 = cc - a, k3 = e - a, k4 = a - b - cc + d, k5 = a - cc - e + g, k6 = a - b - e + f,
@@ -86,10 +68,10 @@ float spots(const Vec3& p, float cell, float radius, float density, float footpr
     for (int b = 0; b < 2; ++b)
       for (int d = 0; d < 2; ++d) {
         const uint32_t h = hash3(bx + a, by + b, bz + d, seed);
-        if (unit(h) >= density) continue;
-        const Vec3 centre(float(bx + a) + unit(hash3(h, 1, 0, seed)), float(by + b) + unit(hash3(h, 2, 0, seed)),
-                          float(bz + d) + unit(hash3(h, 3, 0, seed)));
-        const float r = radius * (0.5f + 0.5f * unit(hash3(h, 4, 0, seed)));
+        if (unit_float(h) >= density) continue;
+        const Vec3 centre(float(bx + a) + unit_float(hash3(h, 1, 0, seed)), float(by + b) + unit_float(hash3(h, 2, 0, seed)),
+                          float(bz + d) + unit_float(hash3(h, 3, 0, seed)));
+        const float r = radius * (0.5f + 0.5f * unit_float(hash3(h, 4, 0, seed)));
         const float soft = 0.2f * r + footprint;
         const float dist = (centre * cell - p).norm();
         best = std::max(best, smoothstep(r + soft, r - soft, dist) * r * r / (r * r + footprint * footprint));
@@ -256,9 +238,9 @@ SkinModel::Pores SkinModel::pores(const Vec3& p, float footprint) const {
     for (int b = 0; b < 2; ++b)
       for (int d = 0; d < 2; ++d) {
         const uint32_t h = hash3(bx + a, by + b, bz + d, seed_ ^ 0x706f7265u);
-        const Vec3 centre(float(bx + a) + unit(h), float(by + b) + unit(hash3(h, 1, 0, 0)),
-                          float(bz + d) + unit(hash3(h, 2, 0, 0)));
-        const float strength = 0.5f + 0.5f * unit(hash3(h, 3, 0, 0));
+        const Vec3 centre(float(bx + a) + unit_float(h), float(by + b) + unit_float(hash3(h, 1, 0, 0)),
+                          float(bz + d) + unit_float(hash3(h, 2, 0, 0)));
+        const float strength = 0.5f + 0.5f * unit_float(hash3(h, 3, 0, 0));
         const Vec3 r = p - centre * cell;
         const float value = gain * strength * std::exp(-r.squaredNorm() / (2 * s2));
         out.value += value;
@@ -283,7 +265,7 @@ SkinSample SkinModel::sample(const Vec3& p, const Vec2& uv, float footprint) con
                         std::sqrt(w2);
   if (wrinkle > 0) {
     for (int k = 0; k < 4; ++k) {
-      const float phase = 6.283f * unit(hash3(k, 9, 9, seed_));
+      const float phase = 6.283f * unit_float(hash3(k, 9, 9, seed_));
       const float y = brow_top_y_ + 10.0f + 5.5f * float(k) + 1.2f * std::sin(p.x() / 11.0f + phase);
       const float dy_dx = 1.2f / 11.0f * std::cos(p.x() / 11.0f + phase);
       const float groove = std::exp(-(p.y() - y) * (p.y() - y) / (2 * w2));

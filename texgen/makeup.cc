@@ -5,28 +5,12 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/hash.h"
 
 namespace bareskin::makeup {
 namespace {
 
-float smoothstep(float edge0, float edge1, float x) {
-  const float t = std::clamp((x - edge0) / (edge1 - edge0), 0.0f, 1.0f);
-  return t * t * (3 - 2 * t);
-}
-
-uint32_t hash2(int x, int y, uint64_t seed) {
-  uint32_t h = uint32_t(seed ^ (seed >> 32)) ^ 0x9e3779b9u;
-  h ^= uint32_t(x) * 0x85ebca6bu;
-  h = (h << 13 | h >> 19) * 5u + 0xe6546b64u;
-  h ^= uint32_t(y) * 0xc2b2ae35u;
-  h ^= h >> 16;
-  h *= 0x85ebca6bu;
-  h ^= h >> 13;
-  h *= 0xc2b2ae35u;
-  h ^= h >> 16;
-  return h;
-}
-float unit(uint32_t h) { return float(h >> 8) * (1.0f / 16777216.0f); }
+uint32_t hash2(int x, int y, uint64_t seed) { return lattice_hash(uint32_t(seed ^ (seed >> 32)), {x, y}); }
 
 // Pattern coverage in [0,1] at the point q (mm, already rotated), period P.
 float pattern_mask(Pattern pattern, const Eigen::Vector2f& q, float P) {
@@ -122,7 +106,7 @@ MakeupLayer paint(const MakeupRegions& regions, const MakeupLook& look, const Ei
         if (l.shimmer > 0) {  // flecks on a 0.3 mm grid
           const int gx = int(std::floor((float(x) + 0.5f) * mm / 0.3f)),
                     gy = int(std::floor((float(y) + 0.5f) * mm / 0.3f));
-          if (unit(hash2(gx, gy, l.seed)) < 0.35f * l.shimmer) {
+          if (unit_float(hash2(gx, gy, l.seed)) < 0.35f * l.shimmer) {
             col = (col * (1 + 1.5f * l.shimmer)).array() + 0.1f * l.shimmer;
             col = col.cwiseMin(1.0f);
             dr -= 0.25f * l.shimmer;
