@@ -88,8 +88,9 @@ bool UvRaster::locate(const Eigen::Vector2d& uv, int& f, Eigen::Vector3d& bary) 
         if (std::abs(det) < 1e-18) continue;
         const double l1 = (q.x() * e1.y() - q.y() * e1.x()) / det, l2 = (e0.x() * q.y() - e0.y() * q.x()) / det;
         Eigen::Vector3d w(1 - l1 - l2, l1, l2);
+        if (!w.allFinite()) continue;
         const double outside = -std::min(0.0, w.minCoeff());
-        if (outside < best) {
+        if (outside < best && w.cwiseMax(0.0).sum() > 0) {
           best = outside;
           w = w.cwiseMax(0.0);
           bary = w / w.sum();
@@ -147,7 +148,9 @@ Image transfer_diffuse(const UvRaster& raster, const Eigen::MatrixX3d& V, const 
       const Eigen::Vector3f& w = raster.barycentric[size_t(i)];
       const Eigen::Vector3d p = double(w[0]) * V.row(F(f, 0)).transpose() + double(w[1]) * V.row(F(f, 1)).transpose() +
                                 double(w[2]) * V.row(F(f, 2)).transpose();
+      if (!p.allFinite()) continue;
       const SurfacePoint s = locator.locate(p);
+      if (s.face < 0 || !s.barycentric.allFinite()) continue;
       Eigen::Vector2d uv = Eigen::Vector2d::Zero();
       for (int k = 0; k < 3; ++k) uv += s.barycentric[k] * scan.UV.row(scan.FUV(s.face, k)).transpose();
       const Eigen::Vector3f c = sample_bilinear(scan_diffuse, uv);
