@@ -43,7 +43,9 @@ print(f"  {cap['registered']} of {cap['photos']} photos, {cap['points_on_head']}
 assert cap["photos"] == 16 and cap["registered"] >= 15, cap["registered"]
 assert cap["reprojection_px"] < 1 and cap["median_features"] > 300 and cap["points_on_head"] > 50
 assert np.median(px) < 4, px
-assert np.nanmedian(d) < 2, d
+# COLMAP's multi-threaded mapping differs run to run (below 2 mm in most runs, 2.19 mm in one full-suite run), so the bound is the
+# issue's 3 mm for capture landmarks (a misaligned model is tens of mm off).
+assert np.nanmedian(d) < 3, d
 PY
 
 # 2. A folder COLMAP cannot reconstruct: three blank photos. One warning naming the fallback, exit 0, output.
