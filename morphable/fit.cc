@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "morphable/levenberg_marquardt.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
 
@@ -77,43 +78,12 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
     if (!x.allFinite()) throw InvalidInput("", "the fit's start holds NaN or Inf", "");
   }
   Eigen::VectorXd r = residuals(x);
-  double cost = r.squaredNorm(), lambda = 1e-3;
   LandmarkFit out;
   const auto rms = [&] { return std::sqrt(r.head(2 * 68).squaredNorm() / 68); };
   out.trace.push_back({0, seconds_since(t0), rms()});
-  bool converged = false;
-  for (int it = 0; it < options.iterations && !converged; ++it) {
-    Eigen::MatrixXd J(M, P);
-    for (int p = 0; p < P; ++p) {
-      const double h = p < 3 ? 1e-6 : 1e-4;  // radians; mm and standardised α
-      Eigen::VectorXd xp = x;
-      xp(p) += h;
-      J.col(p) = (residuals(xp) - r) / h;
-    }
-    const Eigen::MatrixXd JtJ = J.transpose() * J;
-    const Eigen::VectorXd g = J.transpose() * r;
-    bool improved = false;
-    for (int tries = 0; tries < 10 && !improved; ++tries) {
-      Eigen::MatrixXd A = JtJ;
-      A.diagonal() += lambda * JtJ.diagonal().cwiseMax(1e-9);
-      const Eigen::VectorXd step = A.ldlt().solve(-g);
-      const Eigen::VectorXd r_new = residuals(x + step);
-      if (r_new.squaredNorm() < cost) {
-        x += step;
-        r = r_new;
-        const double previous = cost;
-        cost = r.squaredNorm();
-        lambda = std::max(lambda / 3, 1e-9);
-        improved = true;
-        converged = previous - cost < 1e-10 * previous;
-      } else {
-        lambda *= 10;
-      }
-    }
-    out.iterations = it + 1;
-    out.trace.push_back({it + 1, seconds_since(t0), rms()});
-    if (!improved) break;
-  }
+  out.iterations = levenberg_marquardt(
+      x, r, residuals, [](Eigen::Index p) { return p < 3 ? 1e-6 : 1e-4; },  // radians; mm and standardised α
+      options.iterations, [&](int it) { out.trace.push_back({it, seconds_since(t0), rms()}); });
   out.rotation = x.head<3>();
   out.translation = x.segment<3>(3);
   out.alpha = x.segment(6, Ka);

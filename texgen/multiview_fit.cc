@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "morphable/levenberg_marquardt.h"
 
 namespace bareskin::texgen {
 
@@ -77,40 +78,10 @@ MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const 
   if (pose_per_view)
     for (int v = 0; v < V; ++v) x.segment<3>(6 * v) = euler_angles(views[size_t(v)].rotation);
   Eigen::VectorXd r = residuals(x);
-  double cost = r.squaredNorm(), lambda = 1e-3;
   MultiviewLandmarkFit out;
-  bool converged = false;
-  for (int it = 0; it < options.iterations && !converged; ++it) {
-    Eigen::MatrixXd J(M, P);
-    for (int p = 0; p < P; ++p) {
-      const double h = p < 6 * poses && p % 6 < 3 ? 1e-6 : 1e-4;  // radians; mm and standardised α
-      Eigen::VectorXd xp = x;
-      xp(p) += h;
-      J.col(p) = (residuals(xp) - r) / h;
-    }
-    const Eigen::MatrixXd JtJ = J.transpose() * J;
-    const Eigen::VectorXd g = J.transpose() * r;
-    bool improved = false;
-    for (int tries = 0; tries < 10 && !improved; ++tries) {
-      Eigen::MatrixXd A = JtJ;
-      A.diagonal() += lambda * JtJ.diagonal().cwiseMax(1e-9);
-      const Eigen::VectorXd step = A.ldlt().solve(-g);
-      const Eigen::VectorXd r_new = residuals(x + step);
-      if (r_new.squaredNorm() < cost) {
-        x += step;
-        r = r_new;
-        const double previous = cost;
-        cost = r.squaredNorm();
-        lambda = std::max(lambda / 3, 1e-9);
-        improved = true;
-        converged = previous - cost < 1e-10 * previous;
-      } else {
-        lambda *= 10;
-      }
-    }
-    out.iterations = it + 1;
-    if (!improved) break;
-  }
+  out.iterations = levenberg_marquardt(
+      x, r, residuals, [&](Eigen::Index p) { return p < 6 * poses && p % 6 < 3 ? 1e-6 : 1e-4; },  // radians; mm, α
+      options.iterations, [](int) {});
   out.alpha = x.segment(6 * poses, Ka);
   out.beta = x.tail(Kb);
   const Eigen::VectorXd s = basis * x.tail(K);
