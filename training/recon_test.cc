@@ -19,6 +19,7 @@
 #include "morphable/coefficients.h"
 #include "morphable/model.h"
 #include "render/shade.h"
+#include "training/recon_photo.h"
 #endif
 
 namespace bareskin::recon {
@@ -257,21 +258,12 @@ TEST(FaceModel, AgreesWithRenderFrame) {
   const FaceRender r = m.render(c, cam);
   ASSERT_EQ(r.colour.sizes(), torch::IntArrayRef({3, 3, size, size}));
   for (int64_t b = 0; b < 3; ++b) {
-    const nlohmann::json j = coefficients_to_json(c[b], m.layout());
-    Coefficients gc;
-    const auto vec = [&](const char* k) {
-      const std::vector<double> v = j.at(k).get<std::vector<double>>();
-      return Eigen::Map<const Eigen::VectorXd>(v.data(), Eigen::Index(v.size())).eval();
-    };
-    gc.alpha = vec("alpha"), gc.beta = vec("beta"), gc.delta = vec("delta");
-    gc.rotation = vec("rotation"), gc.translation = vec("translation");
-    std::array<double, 27> g{};
-    for (int k = 0; k < 27; ++k) g[size_t(k)] = j.at("gamma")[size_t(k)].get<double>();
+    const Coefficients gc = to_coefficients(c[b], m.layout());
     const Mesh mesh = posed_mesh(geo, gc);
     const Image tex = appearance_image(geo, gc);
     ShadeOptions so;
     so.texture = &tex;
-    so.gamma = g;
+    so.gamma = *gc.gamma;
     const Frame f = render_frame(mesh, cam, so);
     int64_t covered = 0, mismatched = 0;
     double colour_err = 0, albedo_err = 0;
