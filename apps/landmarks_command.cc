@@ -90,29 +90,10 @@ Mesh read_textured_scan(const std::string& scan, const std::string& texture_give
   return mesh;
 }
 
-// A capture folder: the pictures as NAME_NN.png (sRGB) and their cameras in cameras.json (docs/file_formats.md).
-void write_capture(const std::string& dir, const std::string& stem, const std::vector<Image>& pictures,
-                   const std::vector<Camera>& cameras) {
-  std::filesystem::create_directories(dir);
-  nlohmann::json cams = nlohmann::json::array();
-  for (size_t v = 0; v < pictures.size(); ++v) {
-    char name[64];
-    std::snprintf(name, sizeof name, "%s_%02zu.png", stem.c_str(), v);
-    write_image(dir + "/" + name, pictures[v]);
-    const Camera& c = cameras[v];
-    nlohmann::json R = nlohmann::json::array();
-    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
-    cams.push_back({{"image", name}, {"width", c.width}, {"height", c.height}, {"focal", c.focal}, {"cx", c.cx},
-                    {"cy", c.cy}, {"R", R}, {"t", {c.t.x(), c.t.y(), c.t.z()}}});
-  }
-  write_file_atomic(dir + "/cameras.json", nlohmann::json{{"convention", "bareskin pinhole: p = R x + t, looks down -z"},
-                                                          {"cameras", cams}}.dump(1) + "\n");
-}
-
 void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
   std::vector<Camera> cameras;
   for (const auto& v : m.views) cameras.push_back(v.camera);
-  write_capture(dir, "view", m.pictures, cameras);
+  write_capture_folder(dir, "view", m.pictures, cameras);
 }
 
 // landmarks capture: a synthetic rig capture of a scan (scan/capture.h), photo_NN.png + cameras.json.
@@ -123,7 +104,7 @@ void run_synthetic_capture(const Mesh& mesh, const Image* diffuse, const std::st
   const auto start = std::chrono::steady_clock::now();
   for (size_t k = 0; k < cameras.size(); ++k)
     photos.push_back(render_capture_photo(mesh, diffuse, cameras[k], target, o, int(k)));
-  write_capture(dir, "photo", photos, cameras);
+  write_capture_folder(dir, "photo", photos, cameras);
   spdlog::info("landmarks capture: {} photos of {}² px ({}x supersampled{}) in {:.1f} s -> {}", photos.size(), o.size,
                o.supersample, o.backdrop ? ", speckle backdrop" : "",
                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), dir);

@@ -4,7 +4,13 @@
 #include <cmath>
 #include <random>
 
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
 #include "core/parallel.h"
 #include "render/shade.h"
 #include "scan/multiview.h"
@@ -126,6 +132,24 @@ Image render_capture_photo(const Mesh& scan, const Image* diffuse, const Camera&
     for (float& v : out.pixels) v = std::max(0.f, v + n(rng));
   }
   return to_srgb(out);
+}
+
+void write_capture_folder(const std::string& dir, const std::string& stem, const std::vector<Image>& pictures,
+                          const std::vector<Camera>& cameras) {
+  std::filesystem::create_directories(dir);
+  nlohmann::json cams = nlohmann::json::array();
+  for (size_t v = 0; v < pictures.size(); ++v) {
+    char name[64];
+    std::snprintf(name, sizeof name, "%s_%02zu.png", stem.c_str(), v);
+    write_image(dir + "/" + name, pictures[v]);
+    const Camera& c = cameras[v];
+    nlohmann::json R = nlohmann::json::array();
+    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
+    cams.push_back({{"image", name}, {"width", c.width}, {"height", c.height}, {"focal", c.focal}, {"cx", c.cx},
+                    {"cy", c.cy}, {"R", R}, {"t", {c.t.x(), c.t.y(), c.t.z()}}});
+  }
+  write_file_atomic(dir + "/cameras.json", nlohmann::json{{"convention", "bareskin pinhole: p = R x + t, looks down -z"},
+                                                          {"cameras", cams}}.dump(1) + "\n");
 }
 
 }  // namespace bareskin

@@ -40,4 +40,9 @@ float backdrop_albedo(const Eigen::Vector3d& x, uint64_t seed);
 Image render_capture_photo(const Mesh& scan, const Image* diffuse, const Camera& camera, const Eigen::Vector3d& target,
                            const CaptureOptions& options, int index);
 
+// Writes a capture folder: the pictures as <stem>_NN.png (sRGB) and their cameras in cameras.json (the format
+// `landmarks scan --capture` and docs/file_formats.md describe).
+void write_capture_folder(const std::string& dir, const std::string& stem, const std::vector<Image>& pictures,
+                          const std::vector<Camera>& cameras);
+
 }  // namespace bareskin
