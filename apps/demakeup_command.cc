@@ -1,7 +1,11 @@
 // bareskin demakeup: photo(s) → detect → align → G → F → bare-skin image, coefficients, unlit 3DMM render, bare
 // skin in the template UV (training/bareskinnet.h's demakeup). docs/cli.md.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include "apps/cli.h"
 #include "apps/detector.h"
@@ -22,6 +26,20 @@ bool is_photo(const fs::path& p) {
   return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
 }
 
+// --timing: per stage the median over the photos (the first left out as the warm-up when there are several).
+void print_timing(const std::vector<std::map<std::string, double>>& runs) {
+  const size_t first = runs.size() > 1 ? 1 : 0;
+  std::printf("stage      median ms (%zu photo(s)%s)\n", runs.size() - first, first ? ", after a warm-up" : "");
+  for (const char* stage : {"read", "detect", "align", "G", "F", "render", "unwarp", "write", "total"}) {
+    std::vector<double> v;
+    for (size_t i = first; i < runs.size(); ++i)
+      if (auto it = runs[i].find(stage); it != runs[i].end()) v.push_back(it->second);
+    if (v.empty()) continue;
+    std::sort(v.begin(), v.end());
+    std::printf("%-10s %9.1f\n", stage, v[v.size() / 2]);
+  }
+}
+
 }  // namespace
 
 std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globals) {
@@ -29,7 +47,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
     std::string input, output, run, teacher, model, device = "cpu";
     int64_t uv_size = 1024;
     int detector_size = 416;
-    bool keep_going = false, aligned = false, without_g = false;
+    bool keep_going = false, aligned = false, without_g = false, timing = false;
   };
   auto o = std::make_shared<Options>();
   app.add_option("input", o->input, "A photo (PNG/JPEG/TIFF) or a folder of photos")->required();
@@ -44,6 +62,8 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
   app.add_flag("--without-g", o->without_g, "Skip G (the baseline: F's fit and the unwrap of the input itself, through "
                "G's resize round trip)");
   app.add_flag("--keep-going", o->keep_going, "With a folder: skip photos that fail and list them at the end");
+  app.add_flag("--timing", o->timing, "Print the median wall milliseconds per stage over the photos (read, detect, "
+               "align, G, F, render, unwarp, write, total; the first photo of several is the warm-up)");
   app.footer("Outputs: aligned.png (the 256² input G saw), bare.png (bare skin), unlit.png (the fit's albedo render), "
              "coefficients.json (F's fit: the coefficient file), uv.png + uv_mask.png (bare skin in the template UV).\n"
              "Example:\n  bareskin demakeup photo.jpg --run runs/bsn -o out/");
@@ -81,19 +101,26 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
     bsn::Demakeup d = bsn::Demakeup::load(o->run, o->teacher, o->model, device);
     d.skip_g = o->without_g;
     std::vector<std::string> failed;
+    std::vector<std::map<std::string, double>> timings;
     auto bar = globals.progress("demakeup");
     for (size_t i = 0; i < photos.size(); ++i) {
       const std::string photo = photos[i].string();
       try {
         const std::string dir = folder ? o->output + "/" + photos[i].stem().string() : o->output;
-        if (o->aligned) {
-          const Image image = read_aligned(photo);
-          bsn::write_demakeup(bsn::demakeup_aligned(d, bsn::image_tensor(image), o->uv_size), d, dir, photo, false);
-        } else {
-          Image image = read_image(photo);
-          if (image.channels < 3) throw InvalidInput(photo, "is not an RGB photo", "give a colour photo");
-          bsn::write_demakeup(bsn::demakeup(d, image, detector, o->uv_size, photo), d, dir, photo);
-        }
+        using Clock = std::chrono::steady_clock;
+        const auto t0 = Clock::now();
+        auto ms_since = [](Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); };
+        const Image image = o->aligned ? read_aligned(photo) : read_image(photo);
+        if (image.channels < 3) throw InvalidInput(photo, "is not an RGB photo", "give a colour photo");
+        const double read_ms = ms_since(t0);
+        bsn::DemakeupResult r = o->aligned ? bsn::demakeup_aligned(d, bsn::image_tensor(image), o->uv_size)
+                                           : bsn::demakeup(d, image, detector, o->uv_size, photo);
+        const auto t1 = Clock::now();
+        bsn::write_demakeup(r, d, dir, photo, !o->aligned);
+        r.ms["write"] = ms_since(t1);
+        r.ms["read"] = read_ms;
+        r.ms["total"] = ms_since(t0);
+        timings.push_back(r.ms);
       } catch (const Error& e) {
         if (!o->keep_going || !folder) throw;
         failed.push_back(e.what());
@@ -101,6 +128,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
       bar.update(int64_t(i + 1), int64_t(photos.size()), photos[i].filename().string());
     }
     bar.finish();
+    if (o->timing && !timings.empty()) print_timing(timings);
     for (const auto& f : failed) std::cerr << "skipped: " << f << "\n";
     if (!globals.quiet()) std::cerr << "wrote " << o->output << " (" << photos.size() - failed.size() << " of " << photos.size() << " photos)\n";
     if (!failed.empty()) throw InvalidInput(o->input, std::to_string(failed.size()) + " photo(s) failed (listed above)", "");

@@ -220,10 +220,18 @@ torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
   return generator_forward(*nets_->G, images, options_.residual);
 }
 
+torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
+  if (options_.target != "bare") return member(batch, options_.target);
+  // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
+  // not occluded) G is asked to keep its input, so the background does not dominate the L1.
+  auto face = member(batch, "face");
+  return face * member(batch, "bare") + (1 - face) * member(batch, "makeup");
+}
+
 train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   if (teacher_.module) teacher_.module->eval();  // frozen batch statistics (also when tuned: batch 4 is too small)
   auto makeup = member(batch, "makeup");
-  auto target = member(batch, options_.target);
+  auto target = this->target(batch);
   auto D = [&](const torch::Tensor& out) { return nets_->D->forward(torch::cat({makeup * 2 - 1, out * 2 - 1}, 1)); };
   if (phase == 0) {  // D: real pairs vs G's output
     cached_output_ = generate(makeup);
@@ -279,7 +287,7 @@ std::vector<std::vector<torch::Tensor>> BareSkinTask::samples(const data::Batch&
   auto out = generate(makeup);
   std::vector<std::vector<torch::Tensor>> rows;
   for (int64_t i = 0; i < std::min<int64_t>(batch.size(), 4); ++i) {
-    std::vector<torch::Tensor> row{makeup[i], out[i], member(batch, options_.target)[i]};
+    std::vector<torch::Tensor> row{makeup[i], out[i], target(batch)[i]};
     if (options_.target != "bare" && batch.tensors.count("bare")) row.push_back(member(batch, "bare")[i]);
     rows.push_back(row);
   }
@@ -376,7 +384,7 @@ ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& optio
 std::vector<std::string> required_members(const Options& o) {
   std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
   if (o.target != "before") r.push_back("before.png");
-  if (o.stage == 2) r.push_back("face.png");
+  if (o.stage == 2 || o.target == "bare") r.push_back("face.png");
   return r;
 }
 

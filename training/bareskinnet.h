@@ -54,7 +54,8 @@ FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model);
 
 struct Options {
   int stage = 1;                  // 1: G alone (L_DD); 2: + L_FR through the reconstruction
-  std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth)
+  std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth
+                                  // on the face region, the input elsewhere)
   // Ours, not the paper's: G predicts a change of its input (output = input + Δ, Δ = the U-Net's Tanh output in
   // [0, 1] units) and its last layer starts at zero, so G starts as the identity and training is judged by what it
   // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false.
@@ -120,6 +121,9 @@ class BareSkinTask : public train::Task {
   torch::Tensor generate(const torch::Tensor& images);
   // The batch's member at the training size (area resize; landmarks scaled).
   torch::Tensor member(const data::Batch& batch, const std::string& name) const;
+  // G's supervision at the training size: the before image, or for target "bare" the bare albedo on the face region
+  // (face.png) and the input elsewhere.
+  torch::Tensor target(const data::Batch& batch) const;
 
   const Options& options() const { return options_; }
   std::shared_ptr<torch::nn::Module> generator() const;
@@ -185,6 +189,9 @@ std::vector<std::string> required_members(const Options& o);
 // A trained BareSkinNet ready for photos: G of a run, the teacher F and the morphable model.
 struct Demakeup {
   std::shared_ptr<torch::nn::Module> G;  // nets::UNetImpl
+  // G prepared for inference (nets::UNetInference: batch norms folded, CPU-fast upsampling); run_generator uses it
+  // when set (load and load_generator set it), else G.
+  std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
   bool residual = false;                 // G's output is input + Δ (Options::residual of its run)
   bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
@@ -209,6 +216,7 @@ struct DemakeupResult {
   torch::Tensor coefficients;               // [K + 27]: F's fit of the bare-skin image (α, β, δ, R, t, γ)
   torch::Tensor unlit, mask;                // [3, 256, 256] sRGB albedo render of the fit, [1, 256, 256] its coverage
   torch::Tensor uv, uv_mask;                // [3, R, R] sRGB bare skin in the template UV (row 0 = v 1), [1, R, R] seen
+  std::map<std::string, double> ms;         // wall milliseconds per stage: detect, align, G, F, render, unwarp
 };
 
 // G on aligned faces [B, 3, 256, 256] sRGB → bare-skin images (G runs at its training size, the output is resized

@@ -386,5 +386,68 @@ TEST(BareSkinNet, BadOptionsAndAblationRows) {
   EXPECT_THROW(BareSkinTask task(s2), InvalidInput);  // stage 2 without teacher and renderer
 }
 
+// G at inference (nets::UNetInference: batch norms folded, transposed convolutions as phase convolutions) against
+// the module itself in eval mode, with non-trivial batch statistics, for every norm and upsampler; and through
+// run_generator.
+TEST(BareSkinNet, InferenceFormOfGEqualsTheModuleInEvalMode) {
+  for (const char* norm : {"batch", "instance", "none"})
+    for (const char* up : {"transpose", "resize_conv"}) {
+      torch::manual_seed(3);
+      nets::UNetOptions uo;
+      uo.ngf = 8;
+      uo.num_downs = 5;
+      uo.norm = norm;
+      uo.upsample = up;
+      nets::UNet net(uo);
+      {
+        torch::NoGradGuard no_grad;
+        // without a norm the activations grow level by level: smaller weights keep them near 1
+        const double scale = std::string(norm) == "none" ? 0.05 : 0.2;
+        for (auto& p : net->named_parameters()) p.value().copy_(torch::randn_like(p.value()) * scale);
+        for (auto& b : net->named_buffers())
+          if (b.key().find("running_mean") != std::string::npos) b.value().copy_(torch::randn_like(b.value()) * 0.3);
+          else if (b.key().find("running_var") != std::string::npos) b.value().copy_(torch::rand_like(b.value()) + 0.5);
+      }
+      net->eval();
+      auto x = torch::rand({2, 3, 64, 64}) * 2 - 1;
+      torch::Tensor ref;
+      {
+        torch::NoGradGuard no_grad;
+        ref = net->forward(x);
+      }
+      ASSERT_GT(ref.abs().max().item<double>(), 0.05);  // not a saturated or dead net
+      for (int64_t side : {0, 2, 8}) {  // never, all levels from 2 px, the default
+        const auto y = nets::UNetInference(*net, side).forward(x.clone());
+        EXPECT_LT((y - ref).abs().max().item<double>(), 2e-5) << norm << " " << up << " phase from " << side;
+      }
+      // A batch-norm model in train mode differs (batch statistics): the comparison can fail.
+      if (std::string(norm) == "batch") {
+        net->train();
+        torch::NoGradGuard no_grad;
+        EXPECT_GT((net->forward(x) - ref).abs().max().item<double>(), 1e-3);
+      }
+    }
+  // run_generator through the inference form equals generator_forward on the module.
+  torch::manual_seed(0);
+  Options o = small_options(1);
+  BareSkinTask task(o);
+  auto G = std::dynamic_pointer_cast<nets::UNetImpl>(task.generator());
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : G->named_parameters()) p.value().add_(torch::randn_like(p.value()) * 0.05);
+  }
+  G->eval();
+  auto x = torch::rand({2, 3, kSize, kSize});
+  Demakeup d;
+  d.G = G;
+  d.size = kSize;
+  d.residual = true;
+  const auto plain = run_generator(d, x);
+  d.G_inference = std::make_shared<nets::UNetInference>(*G);
+  const auto fast = run_generator(d, x);
+  EXPECT_GT((plain - x).abs().max().item<double>(), 1e-3);
+  EXPECT_LT((fast - plain).abs().max().item<double>(), 1e-5);
+}
+
 }  // namespace
 }  // namespace bareskin::bsn

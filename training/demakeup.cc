@@ -82,6 +82,10 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   train::load_module_weights(path, "G", *d.G);
   d.G->to(device);
   d.G->eval();
+  // The phase form of the upsampling pays off with LibTorch's CPU convolutions only; cuDNN has its own.
+  auto inference = std::make_shared<nets::UNetInference>(*std::dynamic_pointer_cast<nets::UNetImpl>(d.G),
+                                                         device.is_cpu() ? 8 : 0);
+  d.G_inference = inference;
   return d;
 }
 
@@ -116,6 +120,26 @@ Demakeup Demakeup::with_model(const std::string& model_path, torch::Device devic
   d.uv_vertex.index_put_({d.uv_triangles.flatten()}, tri.flatten());
   return d;
 }
+
+namespace {
+
+// G's image (generator_forward's) through the inference form when there is one; the result is an ordinary tensor
+// (InferenceMode only inside).
+torch::Tensor generator_image(const Demakeup& d, const torch::Tensor& x) {
+  if (!d.G_inference) {
+    auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
+    BS_CHECK(G, "Demakeup::G is not a U-Net");
+    return generator_forward(*G, x, d.residual);
+  }
+  torch::Tensor y;  // as generator_forward
+  {
+    c10::InferenceMode guard;
+    y = d.G_inference->forward(x * 2 - 1);
+  }
+  return d.residual ? x + y : (y + 1) * 0.5;
+}
+
+}  // namespace
 
 void to_json(nlohmann::json& j, const EvalResult& r) {
   j = {{"samples", r.samples}, {"ms_per_image", r.ms_per_image}, {"mean", r.mean}, {"by_style", r.by_style}};
@@ -179,13 +203,12 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   r.by_style["count"] = {};
   for (auto& [style, c] : style_counts) r.by_style["count"][style] = double(c);
   // Inference time of G alone (batch 1, at its training size), median of 5 after a warm-up.
-  auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
   auto x = torch::rand({1, 3, d.size, d.size}, torch::TensorOptions().device(eo.device));
   std::vector<double> times;
   for (int k = 0; k < 6; ++k) {
     if (eo.device.is_cuda()) torch::cuda::synchronize();
     const auto t0 = std::chrono::steady_clock::now();
-    G->forward(x);
+    generator_image(d, x);
     if (eo.device.is_cuda()) torch::cuda::synchronize();
     if (k) times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
@@ -198,10 +221,7 @@ torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   torch::NoGradGuard no_grad;
   auto x = resized(aligned.to(d.device), d.size, true);
   if (d.skip_g) return resized(x, aligned.size(-1), false).clamp(0, 1);
-  auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
-  BS_CHECK(G, "Demakeup::G is not a U-Net");
-  auto out = generator_forward(*G, x, d.residual);
-  return resized(out, aligned.size(-1), false).clamp(0, 1);
+  return resized(generator_image(d, x), aligned.size(-1), false).clamp(0, 1);
 }
 
 std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
@@ -234,31 +254,54 @@ std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const to
   return {sample(images.to(d.device), false) * seen, seen};
 }
 
+namespace {
+
+// Wall milliseconds since `t0`, restarting it (after the device's queue has run).
+double lap(std::chrono::steady_clock::time_point& t0, torch::Device device) {
+  if (device.is_cuda()) torch::cuda::synchronize();
+  const auto t = std::chrono::steady_clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(t - t0).count();
+  t0 = t;
+  return ms;
+}
+
+}  // namespace
+
 DemakeupResult demakeup_aligned(const Demakeup& d, const torch::Tensor& aligned, int64_t uv_size) {
   torch::NoGradGuard no_grad;
   DemakeupResult r;
+  auto t0 = std::chrono::steady_clock::now();
   r.similarity << 1, 0, 0, 0, 1, 0;
   r.landmarks.setZero();
   r.aligned = aligned.narrow(0, 0, 3).to(d.device);
   r.bare = run_generator(d, r.aligned.unsqueeze(0))[0];
+  r.ms["G"] = lap(t0, d.device);
   auto c = d.F.forward(r.bare.unsqueeze(0));
   r.coefficients = c[0];
+  r.ms["F"] = lap(t0, d.device);
   auto render = d.model->render(c, recon::canonical_camera(int(r.aligned.size(-1))));
   r.unlit = recon::linear_to_srgb(render.albedo)[0];
   r.mask = render.mask[0];
+  r.ms["render"] = lap(t0, d.device);
   auto [uv, seen] = unwarp_to_uv(d, r.bare.unsqueeze(0), c, uv_size);
   r.uv = uv[0];
   r.uv_mask = seen[0];
+  r.ms["unwarp"] = lap(t0, d.device);
   return r;
 }
 
 DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::PhotoDetector& detector,
                         int64_t uv_size, const std::string& source) {
+  auto t0 = std::chrono::steady_clock::now();
   auto faces = detector(photo);
   if (faces.empty()) throw InvalidInput(source, "no face was found", "give a photo with a face of at least ~80 px");
+  const double detect_ms = lap(t0, torch::kCPU);
   const detect::Similarity sim = detect::alignment(faces[0].points);
   Image aligned = detect::warp_aligned(photo, sim, detect::kAlignedSize);
+  const double align_ms = lap(t0, torch::kCPU);
   DemakeupResult r = demakeup_aligned(d, image_tensor(aligned), uv_size);
+  r.ms["detect"] = detect_ms;
+  r.ms["align"] = align_ms;
   r.score = faces[0].score;
   r.landmarks = faces[0].points;
   r.similarity = sim.matrix();

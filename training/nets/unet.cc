@@ -124,3 +124,151 @@ torch::Tensor UNetImpl::forward(torch::Tensor x) {
 }
 
 }  // namespace bareskin::nets
+
+// ---- UNetInference ----
+
+namespace bareskin::nets {
+namespace {
+
+// The folded form of a batch norm in eval mode after a layer whose output channels lie along `dim` of its weight.
+void fold_batch_norm(torch::Tensor& w, torch::Tensor& b, const nn::BatchNorm2dImpl& bn, int64_t dim) {
+  const auto& o = bn.options;
+  auto mean = bn.running_mean, var = bn.running_var;
+  auto gamma = o.affine() ? bn.weight : torch::ones_like(mean);
+  auto beta = o.affine() ? bn.bias : torch::zeros_like(mean);
+  auto s = gamma / torch::sqrt(var + o.eps());
+  std::vector<int64_t> shape(size_t(w.dim()), 1);
+  shape[size_t(dim)] = -1;
+  w = w * s.view(shape);
+  b = ((b.defined() ? b : torch::zeros_like(mean)) - mean) * s + beta;
+}
+
+// Output phase (a, b) of a 4×4 stride-2 padding-1 transposed convolution: rows 2m + a take the input rows
+// {m − 1, m} (a = 0, kernel rows 3, 1) or {m, m + 1} (a = 1, kernel rows 2, 0); columns alike. As one 2×2
+// convolution of the input padded by 1, the phase (a, b) is its output shifted by (a, b).
+torch::Tensor phase_weight(const torch::Tensor& w) {  // [in, out, 4, 4] → [4·out, in, 2, 2], phases (0,0) (0,1) (1,0) (1,1)
+  const auto taps = [](int64_t a) { return torch::tensor(a ? std::vector<int64_t>{2, 0} : std::vector<int64_t>{3, 1}, torch::kLong); };
+  auto wt = w.transpose(0, 1);
+  std::vector<torch::Tensor> phases;
+  for (int64_t a = 0; a < 2; ++a)
+    for (int64_t c = 0; c < 2; ++c) phases.push_back(wt.index_select(2, taps(a).to(w.device())).index_select(3, taps(c).to(w.device())));
+  return torch::cat(phases, 0).contiguous();
+}
+
+torch::Tensor phase_conv(const torch::Tensor& x, const torch::Tensor& w, const torch::Tensor& b, int64_t out) {
+  namespace F = nn::functional;
+  const int64_t N = x.size(0), H = x.size(2), W = x.size(3);
+  auto y = F::conv2d(F::pad(x, F::PadFuncOptions({1, 1, 1, 1})), w, F::Conv2dFuncOptions().bias(b));  // [N, 4·out, H+1, W+1]
+  auto z = torch::empty({N, out, H, 2, W, 2}, x.options());
+  for (int64_t a = 0; a < 2; ++a)
+    for (int64_t c = 0; c < 2; ++c)
+      z.select(5, c).select(3, a).copy_(y.narrow(1, (a * 2 + c) * out, out).narrow(2, a, H).narrow(3, c, W));
+  return z.view({N, out, 2 * H, 2 * W});
+}
+
+}  // namespace
+
+UNetInference::UNetInference(const UNetImpl& net, int64_t phase_min_side)
+    : options_(net.options()), phase_min_side_(phase_min_side) {
+  torch::NoGradGuard no_grad;
+  auto copy = [](const torch::Tensor& t) { return t.defined() ? t.detach().clone() : torch::Tensor(); };
+  for (const UNetBlockImpl* block = net.model_.get(); block;) {
+    Level l;
+    l.outermost = block->outermost_;
+    const UNetBlockImpl* inner = nullptr;
+    // UNetBlockImpl's layouts in order: a norm belongs to the convolution just before it.
+    bool last_up = false;
+    for (const auto& any : *block->model_) {
+      const auto m = any.ptr();
+      if (auto* conv = m->as<nn::Conv2d>()) {
+        l.down_w = copy(conv->weight);
+        l.down_b = copy(conv->bias);
+        last_up = false;
+      } else if (auto* up = m->as<nn::ConvTranspose2d>()) {
+        l.up_w = copy(up->weight);
+        l.up_b = copy(up->bias);
+        l.up_out = up->options.out_channels();
+        last_up = true;
+      } else if (auto* rc = m->as<ResizeConv>()) {
+        l.up_w = copy(rc->conv_->weight);
+        l.up_b = copy(rc->conv_->bias);
+        l.up_out = rc->conv_->options.out_channels();
+        l.resize_conv = last_up = true;
+      } else if (auto* b = m->as<UNetBlock>()) {
+        inner = b;
+      } else if (auto* bn = m->as<nn::BatchNorm2d>()) {
+        // transposed weights hold the output channels in dim 1, ordinary ones in dim 0
+        if (last_up) fold_batch_norm(l.up_w, l.up_b, *bn, l.resize_conv ? 0 : 1);
+        else fold_batch_norm(l.down_w, l.down_b, *bn, 0);
+      } else if (m->as<nn::InstanceNorm2d>()) {
+        (last_up ? l.up_norm : l.down_norm) = std::dynamic_pointer_cast<nn::InstanceNorm2dImpl>(m->clone());
+      }
+    }
+    if (!l.resize_conv && l.up_out >= 16 && phase_min_side_ > 0) {
+      l.phase_w = phase_weight(l.up_w);
+      if (l.up_b.defined()) l.phase_b = l.up_b.repeat({4});
+    }
+    l.innermost = inner == nullptr;
+    levels_.push_back(std::move(l));
+    block = inner;
+  }
+}
+
+UNetInference& UNetInference::to(torch::Device device) {
+  for (auto& l : levels_) {
+    for (auto* t : {&l.down_w, &l.down_b, &l.up_w, &l.up_b, &l.phase_w, &l.phase_b})
+      if (t->defined()) *t = t->to(device);
+    for (auto* n : {&l.down_norm, &l.up_norm})
+      if (*n) (*n)->to(device);
+  }
+  return *this;
+}
+
+torch::Tensor UNetInference::upsample(const Level& l, const torch::Tensor& x) const {
+  namespace F = nn::functional;
+  torch::Tensor y;
+  if (l.resize_conv) {
+    y = F::interpolate(x, F::InterpolateFuncOptions()
+                              .scale_factor(std::vector<double>{2.0, 2.0})
+                              .mode(torch::kBilinear)
+                              .align_corners(false));
+    y = F::conv2d(y, l.up_w, F::Conv2dFuncOptions().bias(l.up_b).padding(1));
+  } else if (l.phase_w.defined() && std::min(x.size(2), x.size(3)) >= phase_min_side_) {
+    y = phase_conv(x, l.phase_w, l.phase_b, l.up_out);
+  } else {
+    y = F::conv_transpose2d(x, l.up_w, F::ConvTranspose2dFuncOptions().bias(l.up_b).stride(2).padding(1));
+  }
+  return l.up_norm ? l.up_norm->forward(y) : y;
+}
+
+// One level: outermost  tanh(up(relu(inner(down(x)))));
+//            the others cat(x, up(relu(inner(down(leaky(x)))))) — the parent's ReLU follows the concatenation, and
+//            relu(leaky(x)) = relu(x), so x may be replaced by leaky(x) in place (as the reference's in-place
+//            LeakyReLU does).
+torch::Tensor UNetInference::level_forward(size_t i, torch::Tensor x) const {
+  namespace F = nn::functional;
+  const Level& l = levels_[i];
+  const auto conv = F::Conv2dFuncOptions().bias(l.down_b).stride(2).padding(1);
+  if (l.outermost) {
+    auto h = level_forward(i + 1, F::conv2d(x, l.down_w, conv));
+    auto y = upsample(l, torch::relu_(h));
+    return torch::tanh_(y);
+  }
+  torch::leaky_relu_(x, 0.2);
+  auto h = F::conv2d(x, l.down_w, conv);
+  if (l.down_norm) h = l.down_norm->forward(h);
+  h = l.innermost ? h : level_forward(i + 1, h);
+  return torch::cat({x, upsample(l, torch::relu_(h))}, 1);
+}
+
+torch::Tensor UNetInference::forward(const torch::Tensor& x) const {
+  const int64_t m = int64_t(1) << options_.num_downs;
+  if (x.dim() != 4 || x.size(1) != options_.in_channels || x.size(2) % m || x.size(3) % m)
+    throw InvalidInput(
+        "unet input", "shape " + c10::str(x.sizes()) + " does not fit",
+        "give [N, " + std::to_string(options_.in_channels) + ", H, W] with H and W multiples of " + std::to_string(m));
+  torch::NoGradGuard no_grad;
+  return level_forward(0, x);
+}
+
+}  // namespace bareskin::nets

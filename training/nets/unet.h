@@ -11,7 +11,9 @@
 #include <torch/nn.h>
 
 #include <nlohmann/json.hpp>
+#include <memory>
 #include <string>
+#include <vector>
 
 namespace bareskin::nets {
 
@@ -35,9 +37,12 @@ class ResizeConvImpl : public torch::nn::Module {
   torch::Tensor forward(torch::Tensor x);
 
  private:
+  friend class UNetInference;
   torch::nn::Conv2d conv_{nullptr};
 };
 TORCH_MODULE(ResizeConv);
+
+class UNetInference;
 
 class UNetBlockImpl : public torch::nn::Module {
  public:
@@ -49,6 +54,7 @@ class UNetBlockImpl : public torch::nn::Module {
   torch::Tensor forward(torch::Tensor x);
 
  private:
+  friend class UNetInference;
   bool outermost_;
   torch::nn::Sequential model_{nullptr};
 };
@@ -63,9 +69,47 @@ class UNetImpl : public torch::nn::Module {
   const UNetOptions& options() const { return options_; }
 
  private:
+  friend class UNetInference;
   UNetOptions options_;
   UNetBlock model_{nullptr};
 };
 TORCH_MODULE(UNet);
+
+// A trained U-Net for inference only: the same function as UNetImpl::forward in eval mode (dropout off, batch norm
+// with its running statistics), computed faster on the CPU. Ours, not the reference's:
+//  - every batch norm is folded into the convolution before it (w·s, (b − mean)·s + β with s = γ / √(var + ε));
+//    instance norm has no fixed statistics and stays a layer;
+//  - the 4×4 stride-2 transposed convolutions of the levels at least `phase_min_side` pixels wide are computed as one
+//    ordinary 2×2 convolution of the padded input with 4× the output channels, one per output phase (row and
+//    column parity), interleaved afterwards (levels with at least 16 output channels; for the last level's 3 the
+//    transposed convolution is faster). LibTorch 1.13's CPU transposed convolution is an im2col + BLAS path
+//    while its ordinary convolution is mkldnn's (docs/training.md, "BareSkinNet at inference"). 0 = never.
+//  - activations in place where the reference's order allows it.
+// The weights are copied: later changes to the module do not reach it. Not differentiable.
+class UNetInference {
+ public:
+  explicit UNetInference(const UNetImpl& net, int64_t phase_min_side = 8);
+  // [N, in_channels, H, W] → [N, out_channels, H, W] in (−1, 1); the same checks as UNetImpl::forward.
+  torch::Tensor forward(const torch::Tensor& x) const;
+  const UNetOptions& options() const { return options_; }
+  UNetInference& to(torch::Device device);
+
+ private:
+  struct Level {
+    torch::Tensor down_w, down_b;        // the downsampling convolution (norm folded)
+    std::shared_ptr<torch::nn::InstanceNorm2dImpl> down_norm;  // an instance norm (not foldable), else null
+    torch::Tensor up_w, up_b;            // transposed [in, out, 4, 4] or resize_conv [out, in, 3, 3] (norm folded)
+    torch::Tensor phase_w, phase_b;      // the transposed one as phases: [4·out, in, 2, 2], [4·out] (else undefined)
+    std::shared_ptr<torch::nn::InstanceNorm2dImpl> up_norm;
+    int64_t up_out = 0;
+    bool resize_conv = false;
+    bool outermost = false, innermost = false;
+  };
+  torch::Tensor level_forward(size_t i, torch::Tensor x) const;
+  torch::Tensor upsample(const Level& l, const torch::Tensor& x) const;
+  UNetOptions options_;
+  int64_t phase_min_side_;
+  std::vector<Level> levels_;  // outermost first
+};
 
 }  // namespace bareskin::nets
