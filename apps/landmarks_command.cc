@@ -1,12 +1,11 @@
 // bareskin landmarks detect: faces and their iBUG-68 landmarks in a photo, with face-api's networks in LibTorch
 // (detect/face_api.h). The output is a landmark file every other command reads (the best face's points), plus
 // every face found with its box and score.
-#include <chrono>
 #include <algorithm>
-#include <filesystem>
+#include <chrono>
+#include <memory>
 #include <optional>
 #include <thread>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
@@ -16,13 +15,13 @@
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
-#include "core/mesh_io.h"
+#include "core/scan_folder.h"
+#include "detect/capture_landmarks.h"
 #include "detect/face_api.h"
 #include "detect/multiview_landmarks.h"
 #include "detect/scan_landmarks.h"
-#include "scan/capture.h"
-#include "scan/colmap.h"
 #include "render/preview.h"
+#include "scan/capture.h"
 
 namespace bareskin::cli {
 
@@ -71,153 +70,10 @@ detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
 
 namespace {
 
-// A scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file with an optional texture.
-Mesh read_textured_scan(const std::string& scan, const std::string& texture_given, std::string& mesh_path,
-                        std::optional<Image>& diffuse) {
-  mesh_path = scan;
-  std::string texture = texture_given;
-  if (std::filesystem::is_directory(scan)) {
-    mesh_path.clear();
-    for (const char* name : {"mesh.obj", "mesh.ply"})
-      if (std::filesystem::exists(scan + "/" + name)) mesh_path = scan + "/" + name;
-    if (mesh_path.empty()) throw InvalidInput(scan, "holds no mesh.obj or mesh.ply", "pass a scan folder");
-    for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
-      if (texture.empty() && std::filesystem::exists(scan + "/" + name)) texture = scan + "/" + name;
-  }
-  Mesh mesh = read_mesh(mesh_path);
-  if (!texture.empty()) diffuse = to_linear(read_image(texture));
-  if (diffuse && !mesh.has_uv()) throw InvalidInput(mesh_path, "has no UVs for its diffuse map", "pass --texture ''");
-  return mesh;
-}
-
 void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
   std::vector<Camera> cameras;
   for (const auto& v : m.views) cameras.push_back(v.camera);
   write_capture_folder(dir, "view", m.pictures, cameras);
-}
-
-// landmarks capture: a synthetic rig capture of a scan (scan/capture.h), photo_NN.png + cameras.json.
-void run_synthetic_capture(const Mesh& mesh, const Image* diffuse, const std::string& dir, const CaptureOptions& o) {
-  const Eigen::Vector3d target = (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose() / 2;
-  const std::vector<Camera> cameras = capture_cameras(o, target);
-  std::vector<Image> photos;
-  const auto start = std::chrono::steady_clock::now();
-  for (size_t k = 0; k < cameras.size(); ++k)
-    photos.push_back(render_capture_photo(mesh, diffuse, cameras[k], target, o, int(k)));
-  write_capture_folder(dir, "photo", photos, cameras);
-  spdlog::info("landmarks capture: {} photos of {}² px ({}x supersampled{}) in {:.1f} s -> {}", photos.size(), o.size,
-               o.supersample, o.backdrop ? ", speckle backdrop" : "",
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), dir);
-}
-
-// --capture: the photos' cameras from COLMAP (or --sparse), brought onto the scan (a similarity from the landmarks
-// triangulated in both frames, then ICP of the model's points against the mesh), and the landmarks triangulated on
-// the photos; m.result is replaced. When COLMAP cannot reconstruct the folder, one warning names the fallback (the
-// virtual views already in m) and null is returned.
-nlohmann::json capture_landmarks(const detect::FaceApi& net, const Mesh& mesh, detect::MultiviewScanLandmarks& m,
-                                 const std::string& capture, const std::string& sparse,
-                                 const detect::MultiviewOptions& options, const ColmapOptions& colmap) {
-  if (!std::filesystem::is_directory(capture)) throw InvalidInput(capture, "is not a folder", "pass the photos' folder");
-  int photos = 0;
-  for (const auto& e : std::filesystem::directory_iterator(capture)) {
-    const std::string ext = lower_extension(e.path().string());
-    photos += ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
-  }
-  ColmapModel model;
-  if (!sparse.empty()) {
-    model = read_colmap_text_model(sparse);
-  } else {
-    const std::string work = (std::filesystem::temp_directory_path() /
-                              ("bareskin_colmap_" + std::to_string(std::hash<std::string>{}(capture) % 1000000)))
-                                 .string();
-    std::filesystem::remove_all(work);
-    std::filesystem::remove(work + ".log");
-    // COLMAP's database and models are removed once read; its log stays (named in the messages).
-    try {
-      model = run_colmap(capture, work, colmap, work + ".log");
-      std::filesystem::remove_all(work);
-    } catch (const Error& e) {
-      std::filesystem::remove_all(work);
-      spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), options.views);
-      return nullptr;
-    }
-  }
-  std::vector<LandmarkView> views;
-  for (const ColmapImage& im : model.images)
-    views.push_back(detect::detect_view(net, read_image(capture + "/" + im.name), im.camera, options.refinements,
-                                        options.triangulate.min_score));
-  // The start: landmarks 17-67 in the model's frame (photos) against the scan's (virtual views).
-  Eigen::MatrixX3d in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
-  Eigen::MatrixX3d on_scan = m.result.landmarks.points;
-  in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
-  Similarity S;
-  double rms = 0;
-  Eigen::Index on_head = 0;
-  try {
-    S = similarity_from_points(in_model, on_scan);
-    // ICP on the head's points only: those on a backdrop, floor or rig are dropped by their distance to the mesh
-    // after the landmark start (a tenth of the scan's size: the start is good to a few mm).
-    const double size = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
-    const Eigen::MatrixX3d head = points_near_mesh(model.points, mesh, S, 0.1 * size);
-    on_head = head.rows();
-    S = align_points_to_mesh(head, mesh, S, 100, 0.2, &rms);
-  } catch (const InvalidInput&) {
-    spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back to "
-                 "the {} virtual views of the scan", capture, options.views);
-    return nullptr;
-  }
-  nlohmann::json cams = nlohmann::json::array();
-  for (size_t v = 0; v < views.size(); ++v) {
-    views[v].camera = transform_camera(views[v].camera, S);
-    const Camera& c = views[v].camera;
-    nlohmann::json R = nlohmann::json::array();
-    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
-    cams.push_back({{"image", model.images[v].name}, {"focal", c.focal}, {"cx", c.cx}, {"cy", c.cy}, {"R", R},
-                    {"t", {c.t.x(), c.t.y(), c.t.z()}}, {"score", views[v].score}});
-  }
-  m.result = triangulate_landmarks(mesh, views, options.triangulate);
-  m.views = views;
-  m.pictures.clear();
-  spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points ({} on the head), reprojection "
-               "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%)", capture,
-               model.images.size(), photos, model.points.rows(), on_head, model.reprojection_px, S.s, rms);
-  return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
-          {"points_on_head", on_head}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
-          {"icp_rms_mm", rms}, {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs},
-          {"cameras", cams}};
-}
-
-void run_landmarks_calibrate(const std::string& scans, const std::string& output, int count,
-                             const detect::MultiviewOptions& options, const std::string& weights) {
-  std::vector<std::string> dirs;
-  if (!std::filesystem::is_directory(scans)) throw InvalidInput(scans, "is not a folder", "pass a folder of scan folders");
-  for (const auto& e : std::filesystem::directory_iterator(scans))
-    if (e.is_directory() && std::filesystem::exists(e.path() / "landmarks.json")) dirs.push_back(e.path().string());
-  std::sort(dirs.begin(), dirs.end());
-  if (count > 0 && int(dirs.size()) > count) dirs.resize(size_t(count));
-  if (dirs.size() < 2)
-    throw InvalidInput(scans, "holds " + std::to_string(dirs.size()) + " scan folder(s) with landmarks.json",
-                       "a calibration needs two or more scans with known 3D landmarks");
-  const detect::FaceApi net(weights);
-  std::vector<MultiviewLandmarks> found;
-  std::vector<Landmarks> truth;
-  for (const std::string& dir : dirs) {
-    std::string mesh_path;
-    std::optional<Image> diffuse;
-    const Mesh mesh = read_textured_scan(dir, "", mesh_path, diffuse);
-    truth.push_back(read_landmarks(dir + "/landmarks.json"));
-    if (truth.back().points.rows() != 68 || truth.back().points.cols() != 3)
-      throw InvalidInput(dir + "/landmarks.json", "needs 68 3D points", "give the scan's iBUG-68 landmarks in mm");
-    found.push_back(detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, options).result);
-    spdlog::info("landmarks calibrate: {}: {} of {} views with a face", dir, found.back().views_detected, options.views);
-  }
-  const LandmarkCalibration c = calibrate_landmarks(found, truth);
-  write_file_atomic(output, landmark_calibration_json(c));
-  std::vector<double> best;
-  for (int i = 17; i < 68; ++i) best.push_back(std::min(c.spread_detected_mm[i], c.spread_shape_mm[i]));
-  std::nth_element(best.begin(), best.begin() + 25, best.end());
-  spdlog::info("landmarks calibrate: {} scans, leave-one-out median error over 17-67 {:.2f} mm -> {}", dirs.size(),
-               best[25], output);
 }
 
 }  // namespace
@@ -333,22 +189,23 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     if (p->parsed()) {
       cp->capture.backdrop = !cp->no_backdrop;
       cp->capture.check();
-      std::string mesh_path;
-      std::optional<Image> diffuse;
-      const Mesh mesh = read_textured_scan(cp->scan, cp->texture, mesh_path, diffuse);
-      run_synthetic_capture(mesh, diffuse ? &*diffuse : nullptr, cp->output, cp->capture);
+      const TexturedScan scan = read_textured_scan(cp->scan, cp->texture);
+      write_synthetic_capture(scan.mesh, scan.diffuse ? &*scan.diffuse : nullptr, cp->output, cp->capture);
       return;
     }
     if (c->parsed()) {
-      run_landmarks_calibrate(ca->scans, ca->output, ca->count, ca->multiview,
-                              ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
+      const detect::FaceApi net(ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
+      write_file_atomic(ca->output,
+                        landmark_calibration_json(detect::calibrate_on_scans(net, ca->scans, ca->count, ca->multiview)));
+      spdlog::info("landmarks calibrate: -> {}", ca->output);
       return;
     }
     if (s->parsed()) {
       if (sc->weights.empty()) sc->weights = detect::default_face_api_folder();
-      std::string mesh_path;
-      std::optional<Image> diffuse;
-      const Mesh mesh = read_textured_scan(sc->scan, sc->texture, mesh_path, diffuse);
+      const TexturedScan scan = read_textured_scan(sc->scan, sc->texture);
+      const Mesh& mesh = scan.mesh;
+      const Image* diffuse = scan.diffuse ? &*scan.diffuse : nullptr;
+      const std::string& mesh_path = scan.mesh_path;
       detect::FaceApi net(sc->weights);
       if (sc->multiview.views == 1 && !(sc->calibration.empty() && sc->save_views.empty() && sc->capture.empty()))
         throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
@@ -360,12 +217,12 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
         sc->multiview.refinements = sc->detect.refinements;
         std::optional<LandmarkCalibration> calibration;
         if (!sc->calibration.empty()) calibration = read_landmark_calibration(sc->calibration);
-        auto m = detect::detect_multiview_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->multiview,
+        auto m = detect::detect_multiview_landmarks(net, mesh, diffuse, sc->multiview,
                                                     !sc->draw.empty() || !sc->save_views.empty());
         if (!sc->save_views.empty()) save_views(sc->save_views, m);
         nlohmann::json capture_info;
         if (!sc->capture.empty())
-          capture_info = capture_landmarks(net, mesh, m, sc->capture, sc->sparse, sc->multiview, sc->colmap);
+          capture_info = detect::capture_landmarks(net, mesh, m, {sc->capture, sc->sparse, sc->colmap}, sc->multiview);
         if (!sc->uncalibrated.empty()) write_file_atomic(sc->uncalibrated, multiview_landmarks_json(m.result));
         if (calibration) apply_calibration(mesh, *calibration, m.result);
         if (!sc->draw.empty() && !m.pictures.empty()) write_image(sc->draw, detect::draw_multiview(m));
@@ -379,7 +236,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                      valid, m.seconds_render, m.seconds_detect, m.seconds_triangulate, sc->output);
         return;
       }
-      const auto r = detect::detect_scan_landmarks(net, mesh, diffuse ? &*diffuse : nullptr, sc->detect);
+      const auto r = detect::detect_scan_landmarks(net, mesh, diffuse, sc->detect);
       if (!sc->draw.empty()) {
         Image canvas = r.picture;
         draw_landmarks(canvas, r.px, {1.f, 0.2f, 0.2f}, std::max(1, sc->detect.size / 256));

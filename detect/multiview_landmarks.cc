@@ -2,11 +2,16 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <spdlog/spdlog.h>
 #include <cmath>
 #include <limits>
 
 #include "core/error.h"
+#include "core/landmarks.h"
+#include "core/scan_folder.h"
 #include "detect/scan_landmarks.h"
 #include "render/preview.h"
 #include "render/shade.h"
@@ -64,6 +69,35 @@ MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh
   out.result = triangulate_landmarks(scan, out.views, options.triangulate);
   out.seconds_triangulate = seconds_since(t0);
   return out;
+}
+
+LandmarkCalibration calibrate_on_scans(const FaceApi& net, const std::string& scans, int count,
+                                       const MultiviewOptions& options) {
+  std::vector<std::string> dirs;
+  if (!std::filesystem::is_directory(scans)) throw InvalidInput(scans, "is not a folder", "pass a folder of scan folders");
+  for (const auto& e : std::filesystem::directory_iterator(scans))
+    if (e.is_directory() && std::filesystem::exists(e.path() / "landmarks.json")) dirs.push_back(e.path().string());
+  std::sort(dirs.begin(), dirs.end());
+  if (count > 0 && int(dirs.size()) > count) dirs.resize(size_t(count));
+  if (dirs.size() < 2)
+    throw InvalidInput(scans, "holds " + std::to_string(dirs.size()) + " scan folder(s) with landmarks.json",
+                       "a calibration needs two or more scans with known 3D landmarks");
+  std::vector<MultiviewLandmarks> found;
+  std::vector<Landmarks> truth;
+  for (const std::string& dir : dirs) {
+    const TexturedScan scan = read_textured_scan(dir);
+    truth.push_back(read_landmarks(dir + "/landmarks.json"));
+    if (truth.back().points.rows() != 68 || truth.back().points.cols() != 3)
+      throw InvalidInput(dir + "/landmarks.json", "needs 68 3D points", "give the scan's iBUG-68 landmarks in mm");
+    found.push_back(detect_multiview_landmarks(net, scan.mesh, scan.diffuse ? &*scan.diffuse : nullptr, options).result);
+    spdlog::info("landmarks calibrate: {}: {} of {} views with a face", dir, found.back().views_detected, options.views);
+  }
+  LandmarkCalibration c = calibrate_landmarks(found, truth);
+  std::vector<double> best;
+  for (int i = 17; i < 68; ++i) best.push_back(std::min(c.spread_detected_mm[i], c.spread_shape_mm[i]));
+  std::nth_element(best.begin(), best.begin() + 25, best.end());
+  spdlog::info("landmarks calibrate: {} scans, leave-one-out median error over 17-67 {:.2f} mm", dirs.size(), best[25]);
+  return c;
 }
 
 Image draw_multiview(const MultiviewScanLandmarks& found) {

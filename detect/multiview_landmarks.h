@@ -37,6 +37,11 @@ LandmarkView detect_view(const FaceApi& net, const Image& photo_srgb, const Came
 MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
                                                   const MultiviewOptions& options, bool keep_pictures = false);
 
+// `landmarks calibrate`: the detector's convention learnt on the scan folders under `scans` that hold a
+// landmarks.json (68 points, mm), the first `count` of them in name order (0: all). InvalidInput when fewer than two.
+LandmarkCalibration calibrate_on_scans(const FaceApi& net, const std::string& scans, int count,
+                                       const MultiviewOptions& options);
+
 // A contact sheet of the kept pictures (grid, view order): each view's detected points in red, the triangulated
 // points projected back in green. InvalidInput when no pictures were kept.
 Image draw_multiview(const MultiviewScanLandmarks& found);

@@ -1,8 +1,10 @@
 #include "scan/capture.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <random>
+#include <spdlog/spdlog.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -150,6 +152,19 @@ void write_capture_folder(const std::string& dir, const std::string& stem, const
   }
   write_file_atomic(dir + "/cameras.json", nlohmann::json{{"convention", "bareskin pinhole: p = R x + t, looks down -z"},
                                                           {"cameras", cams}}.dump(1) + "\n");
+}
+
+void write_synthetic_capture(const Mesh& mesh, const Image* diffuse, const std::string& dir, const CaptureOptions& o) {
+  const Eigen::Vector3d target = (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose() / 2;
+  const std::vector<Camera> cameras = capture_cameras(o, target);
+  std::vector<Image> photos;
+  const auto start = std::chrono::steady_clock::now();
+  for (size_t k = 0; k < cameras.size(); ++k)
+    photos.push_back(render_capture_photo(mesh, diffuse, cameras[k], target, o, int(k)));
+  write_capture_folder(dir, "photo", photos, cameras);
+  spdlog::info("landmarks capture: {} photos of {}² px ({}x supersampled{}) in {:.1f} s -> {}", photos.size(), o.size,
+               o.supersample, o.backdrop ? ", speckle backdrop" : "",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), dir);
 }
 
 }  // namespace bareskin

@@ -45,4 +45,9 @@ Image render_capture_photo(const Mesh& scan, const Image* diffuse, const Camera&
 void write_capture_folder(const std::string& dir, const std::string& stem, const std::vector<Image>& pictures,
                           const std::vector<Camera>& cameras);
 
+// `landmarks capture`: the whole synthetic capture of a scan (cameras around its bounding box's centre, one photo
+// each) written as photo_NN.png + cameras.json.
+void write_synthetic_capture(const Mesh& scan, const Image* diffuse, const std::string& dir,
+                             const CaptureOptions& options);
+
 }  // namespace bareskin

@@ -1,0 +1,30 @@
+// `landmarks scan --capture`: the landmarks of a scan triangulated on the rig's own photos. COLMAP (scan/colmap.h)
+// recovers the photos' cameras, or a user's sparse model gives them; the model's frame is brought onto the scan by a
+// similarity from landmarks 17-67 (triangulated in both frames), then ICP of the model's head points against the mesh;
+// the landmarks are then detected in each photo and triangulated with those cameras (scan/multiview.h).
+#pragma once
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/mesh.h"
+#include "detect/face_api.h"
+#include "detect/multiview_landmarks.h"
+#include "scan/colmap.h"
+
+namespace bareskin::detect {
+
+struct CaptureLandmarkOptions {
+  std::string photos;  // the capture folder
+  std::string sparse;  // an existing COLMAP TXT model of the photos ("": run COLMAP)
+  ColmapOptions colmap;
+};
+
+// `found` holds the scan's virtual-view landmarks (detect_multiview_landmarks), the start of the alignment. On success
+// found.result and found.views are replaced by the photos' and a summary (photos, registered cameras, points,
+// reprojection, alignment, each camera on the scan) is returned. When COLMAP cannot reconstruct the folder or too few
+// landmarks are found on the photos, one warning names the fallback (the virtual views, left in `found`) and null is
+// returned. InvalidInput when the folder does not exist or the sparse model cannot be read.
+nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& scan, MultiviewScanLandmarks& found,
+                                 const CaptureLandmarkOptions& capture, const MultiviewOptions& options);
+
+}  // namespace bareskin::detect
