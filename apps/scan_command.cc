@@ -58,6 +58,17 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                   "Stiffness: weight of Amberg's affine difference (--consistency 0 --affine-stiffness 1: Amberg's)")
       ->capture_default_str()->group("NICP");
   app->add_option("--huber", n.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
+  TextureRefineOptions& t = n.texture;
+  app->add_option("--texture-refine", t.iterations,
+                  "Rounds of texture-aware refinement after NICP (flow in UV to --texture-reference; 0: off)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-reference", f.texture_reference,
+                  "Reference diffuse in the template UV (e.g. the mean of a first pass's diffuse maps; "
+                  "docs/registration.md)")->group("Texture refinement");
+  app->add_option("--texture-res", t.resolution, "UV size of the flow (power of two)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-weight", t.weight, "Texture correspondences against the closest-point term")
+      ->capture_default_str()->group("Texture refinement");
   app->add_option("--maps-res", f.maps.resolution,
                   "Transfer the maps the scan has (diffuse, normal, roughness, specular) into the template UV at this "
                   "resolution (0: no maps)")

@@ -8,10 +8,12 @@
 #include <chrono>
 #include <cmath>
 #include <set>
+#include <unordered_map>
 
 #include "core/error.h"
 #include "core/stats.h"
 #include "core/parallel.h"
+#include "render/rasterize.h"
 #include "template/surface.h"
 
 namespace bareskin {
@@ -231,89 +233,195 @@ Eigen::SparseMatrix<double> stiffness_matrix(const Eigen::MatrixX4d& v, const No
   return K;
 }
 
+// Correspondences of dense template vertices (landmarks, texture targets): blended rows of the node affines.
+struct DenseTerm {
+  std::vector<int> vertex;
+  std::vector<Eigen::Vector3d> point;  // mm
+  std::vector<double> weight;          // squared-residual weights
+};
+
 // Phase 2: optimal-step NICP in normalised coordinates (centred, unit RMS radius), so the schedules do not depend on
-// size. Per iteration: A = alpha^2 K + sum_i w_i v_i v_i^T + beta^2 r^T r per landmark (r: the landmark's blended row);
-// B likewise; X = A^-1 B. Returns the dense template: each vertex by the blend of its node triangle's affines.
-Eigen::MatrixX3d nicp(const TemplateFace& face, const Eigen::MatrixX3d& V0, const Landmarks* landmarks,
-                      const RegisterOptions& options, const ScanSurface& surface, RegistrationStats& stats,
-                      const ProgressCallback& progress) {
-  const std::vector<int> ids = landmark_ids(options);
-  const Eigen::Index n = V0.rows();
-  const Eigen::RowVector3d centre = V0.colwise().mean();
-  const double radius = std::sqrt((V0.rowwise() - centre).rowwise().squaredNorm().mean());
-  const NodeEmbedding e = embed_in_nodes(V0, face.mesh.F, options.nodes);
-  stats.nodes = int(e.V.rows());
-  const Eigen::Index m = e.V.rows();
-  const auto homogeneous = [&](const Eigen::MatrixX3d& P) {
+// size. Per iteration: A = alpha^2 K + sum_i w_i v_i v_i^T + beta^2 r^T r per landmark (r: the landmark's blended row)
+// [+ w_t r^T r per texture target]; B likewise; X = A^-1 B. dense(): each template vertex by the blend of its node
+// triangle's affines.
+class Nicp {
+ public:
+  Nicp(const TemplateFace& face, const Eigen::MatrixX3d& V0, const Landmarks* landmarks, const RegisterOptions& options,
+       const ScanSurface& surface, RegistrationStats& stats)
+      : face_(face), options_(options), surface_(surface), stats_(stats), ids_(landmark_ids(options)),
+        centre_(V0.colwise().mean()),
+        radius_(std::sqrt((V0.rowwise() - centre_).rowwise().squaredNorm().mean())),
+        e_(embed_in_nodes(V0, face.mesh.F, options.nodes)), m_(e_.V.rows()) {
+    stats.nodes = int(m_);
+    v_ = homogeneous(e_.V);
+    v_dense_ = homogeneous(V0);
+    if (landmarks) {
+      for (const int k : ids_) {
+        landmarks_.vertex.push_back(face.landmark_vertices[size_t(k)]);
+        landmarks_.point.push_back(landmarks->points.row(k).transpose());
+        landmarks_.weight.push_back(1.0);
+      }
+    }
+    K_ = stiffness_matrix(v_, e_, face.landmark_vertices, options);
+    solver_.analyzePattern(K_);
+    X_ = Eigen::MatrixXd::Zero(4 * m_, 3);
+    for (Eigen::Index i = 0; i < m_; ++i) X_.block<3, 3>(4 * i, 0).setIdentity();
+  }
+
+  // The stiffness schedule (alpha relaxed step by step, beta decaying).
+  void run(const ProgressCallback& progress) {
+    const int steps = int(options_.stiffness.size());
+    for (int s = 0; s < steps; ++s) {
+      for (int it = 0; it < options_.iterations_per_step; ++it)
+        if (iterate(s, 1.0, nullptr) < 1e-4) break;
+      report(progress, s + 1, steps, "NICP steps");
+    }
+  }
+
+  // One iteration at step s's stiffness, landmark weight and trim; the closest-point term scaled by data_scale, plus
+  // `extra` dense correspondences. Returns the change of the affines (RMS per node).
+  double iterate(int s, double data_scale, const DenseTerm* extra, double stiffness = 0) {
+    const double alpha = stiffness > 0 ? stiffness : options_.stiffness[size_t(s)];
+    const double beta = landmarks_.vertex.empty() ? 0.0 : options_.landmark_weight[size_t(s)];
+    const auto t_c = std::chrono::steady_clock::now();
+    const Correspondences c = correspond(nodes_mm(), e_.F, surface_, options_.trim_mm[size_t(s)], options_.huber_mm);
+    stats_.seconds_correspond += seconds_since(t_c);
+    Eigen::SparseMatrix<double> A = alpha * alpha * K_;
+    Eigen::MatrixXd B = Eigen::MatrixXd::Zero(4 * m_, 3);
+    for (Eigen::Index i = 0; i < m_; ++i) {
+      if (c.weight(i) <= 0) continue;
+      const double w = data_scale * c.weight(i);
+      const Eigen::RowVector4d vi = v_.row(i);
+      for (int b = 0; b < 4; ++b)
+        for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += w * vi[a] * vi[b];
+      B.block<4, 3>(4 * i, 0) += w * vi.transpose() * ((c.target.row(i) - centre_) / radius_);
+    }
+    if (beta > 0) add_dense(landmarks_, beta * beta, A, B);
+    if (extra) add_dense(*extra, 1.0, A, B);
+    const auto t_f = std::chrono::steady_clock::now();
+    solver_.factorize(A);
+    if (solver_.info() != Eigen::Success) throw InternalError("NICP: the sparse system is not positive definite");
+    const Eigen::MatrixXd X_new = solver_.solve(B);
+    stats_.seconds_factorize += seconds_since(t_f);
+    const double change = (X_new - X_).norm() / std::sqrt(double(m_));
+    X_ = X_new;
+    ++stats_.iterations;
+    return change;
+  }
+
+  Eigen::MatrixX3d dense() const {
+    const Eigen::Index n = v_dense_.rows();
+    Eigen::MatrixX3d out(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int k = 0; k < 3; ++k)
+        p += e_.weight[size_t(i)][k] * (v_dense_.row(i) * X_.block<4, 3>(4 * e_.node[size_t(i)][size_t(k)], 0));
+      out.row(i) = p;
+    }
+    return to_mm(out);
+  }
+  Eigen::Index node_count() const { return m_; }
+
+ private:
+  Eigen::MatrixX4d homogeneous(const Eigen::MatrixX3d& P) const {
     Eigen::MatrixX4d h(P.rows(), 4);
-    h.leftCols<3>() = (P.rowwise() - centre) / radius;
+    h.leftCols<3>() = (P.rowwise() - centre_) / radius_;
     h.col(3).setOnes();
     return h;
-  };
-  const Eigen::MatrixX4d v = homogeneous(e.V), v_dense = homogeneous(V0);
-  const Eigen::MatrixX3d lm_target =
-      landmarks ? Eigen::MatrixX3d((landmarks->points.rowwise() - centre) / radius) : Eigen::MatrixX3d();
-  const Eigen::SparseMatrix<double> K = stiffness_matrix(v, e, face.landmark_vertices, options);
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver;
-  solver.analyzePattern(K);
-
-  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(4 * m, 3);
-  for (Eigen::Index i = 0; i < m; ++i) X.block<3, 3>(4 * i, 0).setIdentity();
-  const auto to_mm = [&](const Eigen::MatrixX3d& P) { return Eigen::MatrixX3d((P * radius).rowwise() + centre); };
-  const auto deformed_nodes = [&](const Eigen::MatrixXd& Xs) {
-    Eigen::MatrixX3d P(m, 3);
-    for (Eigen::Index i = 0; i < m; ++i) P.row(i) = v.row(i) * Xs.block<4, 3>(4 * i, 0);
+  }
+  Eigen::MatrixX3d to_mm(const Eigen::MatrixX3d& P) const { return Eigen::MatrixX3d((P * radius_).rowwise() + centre_); }
+  Eigen::MatrixX3d nodes_mm() const {
+    Eigen::MatrixX3d P(m_, 3);
+    for (Eigen::Index i = 0; i < m_; ++i) P.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
     return to_mm(P);
-  };
-  const int steps = int(options.stiffness.size());
-  for (int s = 0; s < steps; ++s) {
-    const double alpha = options.stiffness[size_t(s)], beta = landmarks ? options.landmark_weight[size_t(s)] : 0.0;
-    for (int it = 0; it < options.iterations_per_step; ++it) {
-      const auto t_c = std::chrono::steady_clock::now();
-      const Correspondences c = correspond(deformed_nodes(X), e.F, surface, options.trim_mm[size_t(s)], options.huber_mm);
-      stats.seconds_correspond += seconds_since(t_c);
-      Eigen::SparseMatrix<double> A = alpha * alpha * K;
-      Eigen::MatrixXd B = Eigen::MatrixXd::Zero(4 * m, 3);
-      for (Eigen::Index i = 0; i < m; ++i) {
-        if (c.weight(i) <= 0) continue;
-        const Eigen::RowVector4d vi = v.row(i);
-        for (int b = 0; b < 4; ++b)
-          for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += c.weight(i) * vi[a] * vi[b];
-        B.block<4, 3>(4 * i, 0) += c.weight(i) * vi.transpose() * ((c.target.row(i) - centre) / radius);
-      }
-      for (const int k : ids) {
-        if (beta <= 0) break;
-        const int vertex = face.landmark_vertices[size_t(k)];
-        const Eigen::RowVector4d x = v_dense.row(vertex);
-        const auto& nodes = e.node[size_t(vertex)];
-        const Eigen::Vector3d& w = e.weight[size_t(vertex)];
-        for (int p = 0; p < 3; ++p) {
-          for (int q = 0; q < 3; ++q)
-            for (int b = 0; b < 4; ++b)
-              for (int a = 0; a < 4; ++a)
-                A.coeffRef(4 * nodes[size_t(p)] + a, 4 * nodes[size_t(q)] + b) += beta * beta * w[p] * w[q] * x[a] * x[b];
-          B.block<4, 3>(4 * nodes[size_t(p)], 0) += beta * beta * w[p] * x.transpose() * lm_target.row(k);
+  }
+  // scale * sum_j w_j |blend_j(X) - p_j|^2, accumulated per node block first (many targets share a few blocks).
+  void add_dense(const DenseTerm& t, double scale, Eigen::SparseMatrix<double>& A, Eigen::MatrixXd& B) const {
+    std::unordered_map<uint64_t, Eigen::Matrix4d> blocks;
+    for (size_t j = 0; j < t.vertex.size(); ++j) {
+      const int vertex = t.vertex[j];
+      const double w = scale * t.weight[j];
+      const Eigen::RowVector4d x = v_dense_.row(vertex);
+      const Eigen::Matrix4d xx = x.transpose() * x;
+      const Eigen::RowVector3d target = (t.point[j].transpose() - centre_) / radius_;
+      const auto& nodes = e_.node[size_t(vertex)];
+      const Eigen::Vector3d& b = e_.weight[size_t(vertex)];
+      for (int p = 0; p < 3; ++p) {
+        for (int q = 0; q < 3; ++q) {
+          const uint64_t key = (uint64_t(nodes[size_t(p)]) << 32) | uint64_t(nodes[size_t(q)]);
+          auto [it, fresh] = blocks.try_emplace(key, Eigen::Matrix4d::Zero());
+          it->second += w * b[p] * b[q] * xx;
         }
+        B.block<4, 3>(4 * nodes[size_t(p)], 0) += w * b[p] * x.transpose() * target;
       }
-      const auto t_f = std::chrono::steady_clock::now();
-      solver.factorize(A);
-      if (solver.info() != Eigen::Success) throw InternalError("NICP: the sparse system is not positive definite");
-      const Eigen::MatrixXd X_new = solver.solve(B);
-      stats.seconds_factorize += seconds_since(t_f);
-      const double change = (X_new - X).norm() / std::sqrt(double(m));
-      X = X_new;
-      ++stats.iterations;
-      if (change < 1e-4) break;
     }
-    report(progress, s + 1, steps, "NICP steps");
+    for (const auto& [key, block] : blocks) {
+      const int p = int(key >> 32), q = int(key & 0xffffffffu);
+      for (int b = 0; b < 4; ++b)
+        for (int a = 0; a < 4; ++a) A.coeffRef(4 * p + a, 4 * q + b) += block(a, b);
+    }
   }
-  Eigen::MatrixX3d dense(n, 3);
+
+  const TemplateFace& face_;
+  const RegisterOptions& options_;
+  const ScanSurface& surface_;
+  RegistrationStats& stats_;
+  std::vector<int> ids_;
+  Eigen::RowVector3d centre_;
+  double radius_;
+  NodeEmbedding e_;
+  Eigen::Index m_;
+  Eigen::MatrixX4d v_, v_dense_;
+  DenseTerm landmarks_;
+  Eigen::SparseMatrix<double> K_;
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver_;
+  Eigen::MatrixXd X_;
+};
+
+// Phase 3: accepted vertices go onto the scan (the last step's rejection rules).
+void project_onto_scan(Registration& out, const Eigen::MatrixX3i& F, const ScanSurface& surface,
+                       const RegisterOptions& options) {
+  const Correspondences c = correspond(out.V, F, surface, options.trim_mm.back(), 1e9);
+  const Eigen::Index n = out.V.rows();
+  out.accepted.assign(size_t(n), false);
+  int accepted = 0;
   for (Eigen::Index i = 0; i < n; ++i) {
-    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-    for (int k = 0; k < 3; ++k) p += e.weight[size_t(i)][k] * (v_dense.row(i) * X.block<4, 3>(4 * e.node[size_t(i)][size_t(k)], 0));
-    dense.row(i) = p;
+    if (c.weight(i) <= 0) continue;
+    out.accepted[size_t(i)] = true;
+    ++accepted;
+    if (options.project) out.V.row(i) = c.target.row(i);
   }
-  return to_mm(dense);
+  out.stats.accepted_fraction = double(accepted) / double(n);
+}
+
+// Phase 4 (texture refinement, texture_refine.h): rounds of transfer, flow to the reference and NICP iterations at
+// the last stiffness with the texture targets as soft correspondences.
+void texture_rounds(const TemplateFace& face, const Mesh& scan, const RegistrationTexture& texture,
+                    const RegisterOptions& options, const ScanSurface& surface, Nicp& nicp, Registration& out) {
+  const TextureRefineOptions& o = options.texture;
+  const RasterOutput raster = rasterize_uv(face.mesh, o.resolution);
+  const Image reference = resample_square(*texture.reference, o.resolution);
+  std::vector<uint8_t> reference_valid(raster.triangle.size(), 0);
+  for (size_t i = 0; i < raster.triangle.size(); ++i) reference_valid[i] = raster.triangle[i] >= 0;
+  const Plane fixed = texture_structure(reference, reference_valid, o.structure_sigma * o.resolution / 256, o.structure_floor);
+  const int last = int(options.stiffness.size()) - 1;
+  const double per_vertex = o.weight * double(nicp.node_count()) / double(face.mesh.V.rows());
+  for (int round = 0; round < o.iterations; ++round) {
+    std::vector<uint8_t> valid;
+    const Image moved = transfer_diffuse(raster, face.mesh, out.V, scan, surface.locator, *texture.scan_diffuse, valid);
+    for (size_t i = 0; i < valid.size(); ++i) valid[i] = valid[i] && reference_valid[i];
+    const UvFlow flow = uv_flow(texture_structure(moved, valid, o.structure_sigma * o.resolution / 256, o.structure_floor), fixed, valid, o);
+    const TextureTargets t = texture_targets(face.mesh, out.V, raster, flow, surface.locator, o);
+    DenseTerm term;
+    term.vertex = t.vertex;
+    term.point = t.point;
+    for (const double c : t.confidence) term.weight.push_back(per_vertex * c);
+    for (int it = 0; it < o.nicp_iterations; ++it) nicp.iterate(last, o.data_weight, &term, o.stiffness);
+    out.V = nicp.dense();
+    project_onto_scan(out, face.mesh.F, surface, options);
+    out.stats.texture_targets.push_back(int(t.vertex.size()));
+    out.stats.texture_median_flow_mm.push_back(t.median_move_mm);
+  }
 }
 
 }  // namespace
@@ -328,6 +436,7 @@ void RegisterOptions::check() const {
       throw InvalidInput("", "schedules need stiffness > 0, landmark weight >= 0 and trim > 0", "");
     }
   }
+  texture.check();
   if (nodes < 0 || (nodes > 0 && nodes < 500)) throw InvalidInput("", "--nodes must be 0 (every vertex) or >= 500", "");
   if (iterations_per_step < 1 || iterations_per_step > 100) throw InvalidInput("", "--iterations must lie in [1, 100]", "");
   if (!(affine_stiffness > 0) || !(consistency >= 0)) {
@@ -375,7 +484,8 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 }
 
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
-                           const RegisterOptions& options, const ProgressCallback& progress) {
+                           const RegisterOptions& options, const ProgressCallback& progress,
+                           const RegistrationTexture& texture) {
   options.check();
   const auto t_start = std::chrono::steady_clock::now();
   Registration out;
@@ -388,21 +498,42 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
 
   // 2. Optimal-step NICP on the nodes, the dense template following them.
   const auto t_nicp = std::chrono::steady_clock::now();
-  out.V = nicp(face, V0, landmarks, options, surface, stats, progress);
+  Nicp nicp(face, V0, landmarks, options, surface, stats);
+  nicp.run(progress);
+  out.V = nicp.dense();
 
   // 3. Projection: accepted vertices go onto the scan (the last step's rejection rules).
-  const Correspondences c = correspond(out.V, face.mesh.F, surface, options.trim_mm.back(), 1e9);
-  const Eigen::Index n = face.mesh.V.rows();
-  out.accepted.assign(size_t(n), false);
-  int accepted = 0;
-  for (Eigen::Index i = 0; i < n; ++i) {
-    if (c.weight(i) <= 0) continue;
-    out.accepted[size_t(i)] = true;
-    ++accepted;
-    if (options.project) out.V.row(i) = c.target.row(i);
-  }
-  stats.accepted_fraction = double(accepted) / double(n);
+  project_onto_scan(out, face.mesh.F, surface, options);
   stats.seconds_nicp = seconds_since(t_nicp);
+
+  // 4. Texture refinement: the scan's texture says where along the surface each point belongs.
+  if (options.texture.iterations > 0 && texture.scan_diffuse && texture.reference) {
+    const auto t_texture = std::chrono::steady_clock::now();
+    out.V_before_texture = out.V;
+    texture_rounds(face, scan, texture, options, surface, nicp, out);
+    stats.seconds_texture = seconds_since(t_texture);
+  }
+
+  return out;
+}
+
+Registration refine_with_texture(const TemplateFace& face, const Mesh& scan, const Eigen::MatrixX3d& V,
+                                 const Landmarks* landmarks, const RegisterOptions& options,
+                                 const RegistrationTexture& texture) {
+  options.check();
+  if (!texture.scan_diffuse || !texture.reference || options.texture.iterations < 1) {
+    throw InvalidInput("", "the texture refinement needs the scan's diffuse, a reference and at least one round", "");
+  }
+  if (V.rows() != face.mesh.V.rows()) throw InvalidInput("", "the registration to refine is not in the template's topology", "");
+  const auto t0 = std::chrono::steady_clock::now();
+  Registration out;
+  out.V = V;
+  out.V_before_texture = V;
+  const ScanSurface surface(scan, options.max_normal_angle_deg);
+  Nicp nicp(face, V, landmarks, options, surface, out.stats);
+  texture_rounds(face, scan, texture, options, surface, nicp, out);
+  out.stats.used_landmarks = landmarks != nullptr;
+  out.stats.seconds_texture = seconds_since(t0);
   return out;
 }
 

@@ -16,6 +16,7 @@
 #include "core/landmarks.h"
 #include "core/mesh.h"
 #include "core/progress.h"
+#include "scan/texture_refine.h"
 #include "template/template_face.h"
 
 namespace bareskin {
@@ -38,6 +39,8 @@ struct RegisterOptions {
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
   int nodes = 2000;
+  // After NICP: rounds of texture-aware refinement (texture_refine.h; needs the scan's diffuse and a reference).
+  TextureRefineOptions texture;
   void check() const;                // InvalidInput when inconsistent
 };
 
@@ -49,12 +52,24 @@ struct RegistrationStats {
   int iterations = 0;
   double accepted_fraction = 0;  // of template vertices with an accepted correspondence at the end
   double seconds_similarity = 0, seconds_nicp = 0, seconds_factorize = 0, seconds_correspond = 0;
+  // Texture refinement, per round: template vertices with a texture correspondence, their median move (mm).
+  std::vector<int> texture_targets;
+  std::vector<double> texture_median_flow_mm;
+  double seconds_texture = 0;
 };
 
 struct Registration {
   Eigen::MatrixX3d V;  // template topology, on the scan (mm, the scan's frame)
   std::vector<bool> accepted;  // per template vertex: had an accepted correspondence at the end
+  Eigen::MatrixX3d V_before_texture;  // V before the texture refinement (empty when it did not run)
   RegistrationStats stats;
+};
+
+// What the texture refinement reads: the scan's diffuse (linear, in the scan's atlas) and the reference diffuse in
+// the template UV (linear or sRGB, any square size). Both null: no refinement.
+struct RegistrationTexture {
+  const Image* scan_diffuse = nullptr;
+  const Image* reference = nullptr;
 };
 
 // Checks the scan's landmarks against the template's: millimetres (eye-corner distance), order and handedness
@@ -64,8 +79,16 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 // Registers the template to `scan`. Without landmarks (nullptr) the fallback is documented: the template is centred
 // and scaled onto the scan's centroid and RMS radius, assuming the scan is in the template's orientation (+y up, +z
 // out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
+// With options.texture.iterations > 0 and both texture images, the texture refinement runs last.
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
-                           const RegisterOptions& options = {}, const ProgressCallback& progress = {});
+                           const RegisterOptions& options = {}, const ProgressCallback& progress = {},
+                           const RegistrationTexture& texture = {});
+
+// The texture refinement alone, from an existing registration V (template topology, on the scan): NICP is set up
+// around V (its affines start at the identity, at the last stiffness) and options.texture.iterations rounds run.
+Registration refine_with_texture(const TemplateFace& face, const Mesh& scan, const Eigen::MatrixX3d& V,
+                                 const Landmarks* landmarks, const RegisterOptions& options,
+                                 const RegistrationTexture& texture);
 
 // Registration error, in mm. Surface distance: registered vertex to the scan surface. Correspondence error (when the
 // scan has truth, e.g. from `scan synth`): registered vertex to its true point, over template vertices that are not in

@@ -164,7 +164,25 @@ nlohmann::json registration_report(const std::string& id, const std::string& mes
   return report;
 }
 
-nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const RegisterFolderOptions& options) {
+// The texture refinement's report entry: rounds, targets, moves, time, and the error before it (against the truth).
+nlohmann::json texture_report(const TemplateFace& face, const Registration& reg, const Mesh& scan, const Truth& truth) {
+  const RegistrationStats& s = reg.stats;
+  nlohmann::json j = {{"rounds", s.texture_targets.size()},
+                      {"targets", s.texture_targets},
+                      {"median_move_mm", s.texture_median_flow_mm},
+                      {"seconds", s.seconds_texture}};
+  if (truth.point) {
+    const RegistrationErrors before = measure_registration(face, reg.V_before_texture, scan, nullptr, &*truth.point,
+                                                           truth.face ? &*truth.face : nullptr);
+    j["correspondence_error_before_mm"] = {{"median", before.correspondence_median},
+                                           {"p95", before.correspondence_p95},
+                                           {"max", before.correspondence_max}};
+  }
+  return j;
+}
+
+nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const RegisterFolderOptions& options,
+                            const Image* texture_reference) {
   // 1. Read the scan and its landmarks (given, detected or none).
   const auto t0 = std::chrono::steady_clock::now();
   const std::string id = fs::path(scan_dir).filename().string(), mesh_path = scan_mesh_path(scan_dir);
@@ -174,7 +192,15 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   const double read_seconds = seconds_since(t0);
 
   // 2. Register, and measure against the surface, the landmarks and (for synthetic scans) the truth.
-  const Registration reg = register_scan(face, scan, landmarks, lm.nicp);
+  std::optional<Image> scan_diffuse;
+  RegistrationTexture texture;
+  if (options.nicp.texture.iterations > 0 && texture_reference) {
+    if (const std::string p = find_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) {
+      scan_diffuse = to_linear(read_image(p));
+      texture = {&*scan_diffuse, texture_reference};
+    }
+  }
+  const Registration reg = register_scan(face, scan, landmarks, lm.nicp, {}, texture);
   const Truth truth = read_truth(scan_dir, face.mesh.V.rows());
   const RegistrationErrors err = measure_registration(face, reg.V, scan, landmarks, truth.point ? &*truth.point : nullptr,
                                                       truth.face ? &*truth.face : nullptr);
@@ -203,6 +229,9 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
                        {"nicp_factorize_solve", s.seconds_factorize},
                        {"total", seconds_since(t0)}};
   if (!maps.is_null()) report["maps"] = maps;
+  if (reg.V_before_texture.rows() > 0) report["texture_refine"] = texture_report(face, reg, scan, truth);
+  else if (options.nicp.texture.iterations > 0) report["texture_refine"] = {{"note", "the scan has no diffuse map or no UVs: not refined"}};
+  report["seconds"]["texture_refine"] = s.seconds_texture;
   report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
                                    ", blue 0 to red " + std::to_string(options.heat_max_mm) + " mm"}};
   write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");
@@ -270,12 +299,24 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
   }
 
   // 2. Register them, in parallel over scans (one scan: the registration's own loops get every thread).
+  std::optional<Image> reference;
+  if (options.nicp.texture.iterations > 0 && !todo.empty()) {
+    if (options.texture_reference.empty()) {
+      throw InvalidInput("--texture-refine", "needs a reference diffuse in the template UV",
+                         "give --texture-reference UV.png (docs/registration.md says how to make one)");
+    }
+    reference = read_image(options.texture_reference);
+    if (reference->width != reference->height || reference->channels < 3 || reference->color_space == ColorSpace::Data) {
+      throw InvalidInput(options.texture_reference, "is not a square RGB colour image",
+                         "give the template-UV diffuse (e.g. the mean of registered diffuse.png maps)");
+    }
+  }
   std::atomic<int> done{0};
   std::mutex failures_mutex;
   std::vector<std::pair<std::string, std::string>> failures;
   const auto one = [&](int64_t k) {
     try {
-      register_one(face, todo[size_t(k)], options);
+      register_one(face, todo[size_t(k)], options, reference ? &*reference : nullptr);
     } catch (const std::exception& e) {
       if (!options.keep_going) throw;
       std::lock_guard<std::mutex> lock(failures_mutex);

@@ -1,0 +1,88 @@
+// Texture-aware registration refinement (`scan register --texture-refine N`, docs/registration.md). After NICP the
+// registered surface lies on the scan to < 0.001 mm, but points may slide along it: geometry does not say where on a
+// smooth cheek a template point belongs; the scan's texture does. One round:
+//   1. the scan's diffuse is transferred into the template UV through the current registration (render's UV raster of
+//      the template, each texel's point on the registered surface, the closest scan point, the scan's atlas there);
+//   2. it and a reference diffuse in the template UV (e.g. the mean of other scans' first-pass transfers) are reduced
+//      to their structure, so that skin tone and shading drop out: log-luminance minus its local mean, over its local
+//      standard deviation;
+//   3. a dense flow d in UV, coarse to fine (pyramidal Lucas-Kanade, regularised by confidence-weighted smoothing),
+//      takes the subject's structure onto the reference's: T(u + d(u)) ~ R(u);
+//   4. so template UV u belongs where the registration now puts u + d(u): each confident template vertex gets that
+//      point (the registered triangle under u + d, by its barycentrics, then projected onto the scan) as a soft
+//      correspondence for a few NICP iterations.
+// Geometry side only (no Torch, no OpenCV): small loops over float planes.
+#pragma once
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "core/image.h"
+#include "core/mesh.h"
+#include "render/rasterize.h"
+#include "template/surface.h"
+
+namespace bareskin {
+
+struct TextureRefineOptions {
+  int iterations = 0;           // rounds of transfer, flow and NICP (0: off)
+  int resolution = 256;         // UV working size (texels per side, power of two)
+  int levels = 4;               // pyramid levels of the flow
+  double structure_sigma = 6;   // texels: the local mean / deviation taken out of log-luminance (at `resolution`)
+  double structure_floor = 0.3; // its deviation's floor (log units): plain skin stays flat
+  double confidence_quantile = 0.8;  // confidence 1/2 at this quantile (over the face) of the reference's structure
+  double window = 3;            // texels: Lucas-Kanade's window (Gaussian sigma) at every level
+  double smoothing = 16;        // texels: the flow's confidence-weighted smoothing (the regulariser) at every level
+  int nicp_iterations = 3;      // NICP iterations per round, at `stiffness`
+  double weight = 2;            // texture correspondences against the closest-point term (per node, on average)
+  double data_weight = 0.3;     // the closest-point term's weight during refinement (it resists tangential moves)
+  double stiffness = 0.4;       // NICP stiffness during refinement (stiffer than the schedule's end: slides are smooth)
+  double min_confidence = 0.2;  // vertices whose flow confidence is lower get no texture correspondence
+  double max_move_mm = 5;       // larger moves are treated as mismatches
+  void check() const;           // InvalidInput when out of range
+};
+
+// A plane of floats, size x size, row 0 = v 1 (the UV raster's layout).
+struct Plane {
+  int size = 0;
+  std::vector<float> v;
+  float& at(int x, int y) { return v[size_t(y) * size_t(size) + size_t(x)]; }
+  float at(int x, int y) const { return v[size_t(y) * size_t(size) + size_t(x)]; }
+};
+
+// The scan's linear diffuse seen through a registration: per texel of `raster` (rasterize_uv of the template mesh),
+// the point of the registered surface `V` (template topology) there, its closest scan point and the scan's atlas UV
+// there, sampled bilinearly. `valid` gets 1 where a texel was filled (layout covered, scan found, not black).
+Image transfer_diffuse(const RasterOutput& raster, const Mesh& template_mesh, const Eigen::MatrixX3d& V,
+                       const Mesh& scan, const SurfaceLocator& scan_locator, const Image& scan_diffuse,
+                       std::vector<uint8_t>& valid);
+
+// An image resampled to size x size (box filter when size divides it, else bilinear), linear colour.
+Image resample_square(const Image& image, int size);
+
+// The structure of a colour texture: log-luminance minus its local (Gaussian, `sigma` texels) mean, over its local
+// standard deviation, over the valid texels (0 elsewhere). A multiplicative skin tone and slow shading drop out.
+Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor);
+
+// Displacement field (texels, x right, y down) with moving(u + d) ~ fixed(u), and a confidence in [0, 1] per texel
+// (the Lucas-Kanade structure tensor's smaller eigenvalue against its median over the mask). `mask`: texels where both
+// images are defined.
+struct UvFlow {
+  Plane dx, dy, confidence;
+  // Bilinear at template uv (origin bottom-left).
+  Eigen::Vector2f at(const Eigen::Vector2d& uv, float* confidence_out) const;
+};
+UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_t>& mask, const TextureRefineOptions& o);
+
+// Per template vertex with enough confidence: the registered surface's point at its UV moved by the flow, projected
+// onto the scan, with the flow's confidence.
+struct TextureTargets {
+  std::vector<int> vertex;
+  std::vector<Eigen::Vector3d> point;
+  std::vector<double> confidence;
+  double median_move_mm = 0;  // over the vertices kept
+};
+TextureTargets texture_targets(const Mesh& template_mesh, const Eigen::MatrixX3d& V, const RasterOutput& raster,
+                               const UvFlow& flow, const SurfaceLocator& scan_locator, const TextureRefineOptions& o);
+
+}  // namespace bareskin
