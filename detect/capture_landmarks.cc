@@ -1,5 +1,6 @@
 #include "detect/capture_landmarks.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -45,6 +46,15 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
                                         options.triangulate.min_score));
   // The start: landmarks 17-67 in the model's frame (photos) against the scan's (virtual views).
   Eigen::MatrixX3d in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
+  // A photo COLMAP placed wrongly disagrees with the points the others triangulate: it takes no further part.
+  const std::vector<int> dropped = inconsistent_views(views, in_model, options.triangulate.min_score);
+  for (int v : dropped) {
+    spdlog::warn("landmarks scan: {}/{}: its camera disagrees with the other photos (the landmarks they triangulate "
+                 "project far from its detections): left out", capture, model.images[size_t(v)].name);
+    views[size_t(v)].score = 0;
+  }
+  if (!dropped.empty())
+    in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
   Eigen::MatrixX3d on_scan = m.result.landmarks.points;
   in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
   Similarity S;
@@ -70,7 +80,8 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
     nlohmann::json R = nlohmann::json::array();
     for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
     cams.push_back({{"image", model.images[v].name}, {"focal", c.focal}, {"cx", c.cx}, {"cy", c.cy}, {"R", R},
-                    {"t", {c.t.x(), c.t.y(), c.t.z()}}, {"score", views[v].score}});
+                    {"t", {c.t.x(), c.t.y(), c.t.z()}}, {"score", views[v].score},
+                    {"dropped", std::count(dropped.begin(), dropped.end(), int(v)) > 0}});
   }
   m.result = triangulate_landmarks(mesh, views, options.triangulate);
   m.views = views;
@@ -79,7 +90,7 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
                "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%)", capture,
                model.images.size(), photos, model.points.rows(), on_head, model.reprojection_px, S.s, rms);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
-          {"points_on_head", on_head}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
+          {"points_on_head", on_head}, {"cameras_dropped", dropped.size()}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
           {"icp_rms_mm", rms}, {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs},
           {"cameras", cams}};
 }

@@ -1,7 +1,8 @@
 // `landmarks scan --capture`: the landmarks of a scan triangulated on the rig's own photos. COLMAP (scan/colmap.h)
 // recovers the photos' cameras, or a user's sparse model gives them; the model's frame is brought onto the scan by a
 // similarity from landmarks 17-67 (triangulated in both frames), then ICP of the model's head points against the mesh;
-// the landmarks are then detected in each photo and triangulated with those cameras (scan/multiview.h).
+// the landmarks are then detected in each photo and triangulated with those cameras (scan/multiview.h). A photo whose
+// camera disagrees with the others (scan/multiview.h's inconsistent_views) is left out, with a warning naming it.
 #pragma once
 #include <nlohmann/json.hpp>
 #include <string>

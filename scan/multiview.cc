@@ -329,6 +329,35 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
   return result;
 }
 
+std::vector<int> inconsistent_views(const std::vector<LandmarkView>& views, const Eigen::Matrix<double, 68, 3>& points,
+                                    double min_score, double factor, double floor_px) {
+  std::vector<int> used;
+  std::vector<double> medians;
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (views[v].score < min_score) continue;
+    std::vector<double> d;
+    for (int i = 17; i < 68; ++i) {
+      const Eigen::Vector3d X = points.row(i).transpose();
+      if (!X.allFinite() || !views[v].px.row(i).allFinite()) continue;
+      const Eigen::Vector3d q = views[v].camera.project(X);
+      if (q.z() <= 0) continue;
+      d.push_back((q.head<2>() - views[v].px.row(i).transpose()).norm());
+    }
+    if (d.empty()) continue;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    used.push_back(int(v));
+    medians.push_back(d[d.size() / 2]);
+  }
+  std::vector<int> out;
+  if (medians.size() < 3) return out;  // two views always agree with their own triangulation
+  std::vector<double> sorted = medians;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double limit = std::max(factor * sorted[sorted.size() / 2], floor_px);
+  for (size_t k = 0; k < used.size(); ++k)
+    if (medians[k] > limit) out.push_back(used[k]);
+  return out;
+}
+
 Eigen::Matrix<double, 68, 3> triangulate_free(const std::vector<LandmarkView>& views, double pixel_sigma,
                                               double min_score) {
   Eigen::Matrix<double, 68, 3> out;

@@ -79,6 +79,14 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
 Eigen::Matrix<double, 68, 3> triangulate_free(const std::vector<LandmarkView>& views, double pixel_sigma = 2,
                                               double min_score = 0.1);
 
+// Views whose camera disagrees with the others: per view (detected, score ≥ min_score), the median over landmarks
+// 17–67 of the distance between its detected pixel and the projection of `points` (triangulated from all views); a
+// view is inconsistent when that median exceeds max(factor × the median of the views' medians, floor_px). A camera
+// that structure from motion placed wrongly (a repetitive backdrop can do that) shows as one such view: its face is
+// detected, but the points everyone else agrees on project far from it. Returns the views' indices, ascending.
+std::vector<int> inconsistent_views(const std::vector<LandmarkView>& views, const Eigen::Matrix<double, 68, 3>& points,
+                                    double min_score = 0.1, double factor = 5, double floor_px = 10);
+
 // A 2D detector's landmarks follow its training annotations (300-W on photos), which differ from a template's own
 // landmark vertices by a few mm per point (brows higher, mouth corners wider, inner lips on the visible lip line). A
 // calibration learns that convention from scans with known landmarks (hand-placed, or `scan synth`'s truth):

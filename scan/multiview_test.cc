@@ -345,6 +345,26 @@ TEST(Multiview, FreeTriangulationWithoutAMesh) {
   EXPECT_LT(err[err.size() / 2], 0.3);  // occlusion is not modelled: a few side points may be worse
 }
 
+TEST(Multiview, AMisplacedCameraIsFoundAndDropped) {
+  // As structure from motion can misplace one photo of a rig: its face is detected where it truly is, but its camera
+  // is 0.44 m off. The triangulation from all views still lands near the truth (robust loss); the wrong camera is
+  // the one view whose detections disagree with the points' projections, and only it.
+  const Scene& s = scene();
+  std::mt19937 rng(11);
+  auto views = observe(s.truth, 12, 1.0, rng);
+  const Eigen::Vector3d centre = -views[5].camera.R.transpose() * views[5].camera.t;
+  const Eigen::Vector3d moved = centre + Eigen::Vector3d(300, -200, 250);
+  views[5].camera = look_at_camera(moved, Eigen::Vector3d::Zero(), 512, 512, views[5].camera.focal);
+  const Eigen::Matrix<double, 68, 3> X = triangulate_free(views);
+  EXPECT_EQ(inconsistent_views(views, X), std::vector<int>{5});
+  // Without the wrong camera, nothing more is dropped, and noise alone drops nothing.
+  views[5].score = 0;
+  EXPECT_TRUE(inconsistent_views(views, triangulate_free(views)).empty());
+  std::mt19937 rng2(12);
+  const auto clean = observe(s.truth, 12, 2.0, rng2, 0.1);
+  EXPECT_TRUE(inconsistent_views(clean, triangulate_free(clean)).empty());
+}
+
 TEST(Multiview, RefusesTooFewDetections) {
   const Scene& s = scene();
   std::mt19937 rng(1);
