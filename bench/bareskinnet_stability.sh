@@ -6,13 +6,14 @@
 # conditions (sRGB, 0-255, mean of R, G, B) on the texels every condition sees, averaged over the face UV and over the
 # subjects. Goal: ≥ 50% lower with G.
 #   bash bench/bareskinnet_stability.sh <bin> <faces split/> <bsn run> <out/> [uv size] [truth]
-# (truth = 1 adds the bare-truth floor: a third pass.)
+# (truth = 1 adds two more passes: the bare truth through the same path, the floor of the fit and unwrap; and the
+# before images (light, no makeup) without G, the spread the light alone causes.)
 # The faces split holds the subjects (e.g. texgen faces --mm-subjects 4 --test 3 --count 120 --seed 77 with poses
 # fixed: 30 conditions per test subject; a new seed gives identities no run has trained on).
 set -euo pipefail
 bin=$1 split=$2 run=$3 out=$4 uv=${5:-256} truth=${6:-0}
 variants=(without with)
-[ "$truth" = 1 ] && variants+=(truth)
+[ "$truth" = 1 ] && variants+=(truth light)
 py=/usr/bin/python3
 mkdir -p "$out"
 "$py" - "$split" "$out/inputs" <<'PY'
@@ -27,7 +28,7 @@ for shard in sorted(glob.glob(os.path.join(split, "*.tar"))):
             key = name[:-len(".json")]
             meta = json.load(tar.extractfile(m))
             subject = meta["subject"].replace("/", "_")
-            for kind in ("makeup", "bare"):
+            for kind in ("makeup", "bare", "before"):
                 d = os.path.join(dst, kind, subject)
                 os.makedirs(d, exist_ok=True)
                 with open(os.path.join(d, key + ".png"), "wb") as f:
@@ -42,6 +43,7 @@ for subject in "$out"/inputs/makeup/*/; do
     flags=()
     [ "$variant" = with ] || flags=(--without-g)
     [ "$variant" = truth ] && src="$out/inputs/bare/$s"
+    [ "$variant" = light ] && src="$out/inputs/before/$s"
     "$bin" -q --threads 2 demakeup "$src" --aligned --run "$run" -o "$dst.tmp" --uv-size "$uv" "${flags[@]}"
     mv "$dst.tmp" "$dst"
   done
@@ -52,7 +54,7 @@ import numpy as np
 from skimage import io
 out = sys.argv[1]
 rows = {}
-for variant in ("without", "with", "truth"):
+for variant in ("without", "with", "truth", "light"):
     if not os.path.isdir(os.path.join(out, variant)):
         continue
     per_subject = {}
@@ -66,15 +68,17 @@ for variant in ("without", "with", "truth"):
         per_subject[os.path.basename(d)] = (float(std[common].mean()), int(common.sum()), len(uvs))
     rows[variant] = per_subject
 subjects = sorted(set(rows["without"]) & set(rows["with"]))
-print("| subject | conditions | texels | std without G | std with G | change | std of the bare truth (floor) |")
-print("|---|---|---|---|---|---|---|")
+print("| subject | conditions | texels | std without G | std with G | change | light only (before, without G) | bare truth (floor) |")
+print("|---|---|---|---|---|---|---|---|")
 for s in subjects:
     a, n, c = rows["without"][s]
     b = rows["with"][s][0]
     t = f"{rows['truth'][s][0]:.2f}" if "truth" in rows else "—"
-    print(f"| {s} | {c} | {n} | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% | {t} |")
+    li = f"{rows['light'][s][0]:.2f}" if "light" in rows and s in rows["light"] else "—"
+    print(f"| {s} | {c} | {n} | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% | {li} | {t} |")
 a = np.mean([rows["without"][s][0] for s in subjects])
 b = np.mean([rows["with"][s][0] for s in subjects])
 t = f"{np.mean([rows['truth'][s][0] for s in subjects]):.2f}" if "truth" in rows else "—"
-print(f"| mean | | | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% (goal −50%) | {t} |")
+li = f"{np.mean([rows['light'][s][0] for s in subjects]):.2f}" if "light" in rows else "—"
+print(f"| mean | | | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% (goal −50%) | {li} | {t} |")
 PY

@@ -1,5 +1,7 @@
 #include "training/nets/unet.h"
 
+#include <ATen/ops/mkldnn_convolution.h>
+#include <ATen/ops/mkldnn_reorder_conv2d_weight.h>
 #include <torch/torch.h>
 
 #include "core/error.h"
@@ -155,11 +157,10 @@ torch::Tensor phase_weight(const torch::Tensor& w) {  // [in, out, 4, 4] → [4�
   return torch::cat(phases, 0).contiguous();
 }
 
-torch::Tensor phase_conv(const torch::Tensor& x, const torch::Tensor& w, const torch::Tensor& b, int64_t out) {
-  namespace F = nn::functional;
-  const int64_t N = x.size(0), H = x.size(2), W = x.size(3);
-  auto y = F::conv2d(F::pad(x, F::PadFuncOptions({1, 1, 1, 1})), w, F::Conv2dFuncOptions().bias(b));  // [N, 4·out, H+1, W+1]
-  auto z = torch::empty({N, out, H, 2, W, 2}, x.options());
+// The phases of the 2×2 convolution (padding 1: [N, 4·out, H + 1, W + 1]) interleaved into [N, out, 2H, 2W].
+torch::Tensor interleave_phases(const torch::Tensor& y, int64_t out) {
+  const int64_t N = y.size(0), H = y.size(2) - 1, W = y.size(3) - 1;
+  auto z = torch::empty({N, out, H, 2, W, 2}, y.options());
   for (int64_t a = 0; a < 2; ++a)
     for (int64_t c = 0; c < 2; ++c)
       z.select(5, c).select(3, a).copy_(y.narrow(1, (a * 2 + c) * out, out).narrow(2, a, H).narrow(3, c, W));
@@ -181,8 +182,7 @@ UNetInference::UNetInference(const UNetImpl& net, int64_t phase_min_side)
     for (const auto& any : *block->model_) {
       const auto m = any.ptr();
       if (auto* conv = m->as<nn::Conv2d>()) {
-        l.down_w = copy(conv->weight);
-        l.down_b = copy(conv->bias);
+        l.down = Conv{copy(conv->weight), copy(conv->bias), {}, 2, 1};
         last_up = false;
       } else if (auto* up = m->as<nn::ConvTranspose2d>()) {
         l.up_w = copy(up->weight);
@@ -199,14 +199,15 @@ UNetInference::UNetInference(const UNetImpl& net, int64_t phase_min_side)
       } else if (auto* bn = m->as<nn::BatchNorm2d>()) {
         // transposed weights hold the output channels in dim 1, ordinary ones in dim 0
         if (last_up) fold_batch_norm(l.up_w, l.up_b, *bn, l.resize_conv ? 0 : 1);
-        else fold_batch_norm(l.down_w, l.down_b, *bn, 0);
+        else fold_batch_norm(l.down.w, l.down.b, *bn, 0);
       } else if (m->as<nn::InstanceNorm2d>()) {
         (last_up ? l.up_norm : l.down_norm) = std::dynamic_pointer_cast<nn::InstanceNorm2dImpl>(m->clone());
       }
     }
+    l.down.pack();
     if (!l.resize_conv && l.up_out >= 16 && phase_min_side_ > 0) {
-      l.phase_w = phase_weight(l.up_w);
-      if (l.up_b.defined()) l.phase_b = l.up_b.repeat({4});
+      l.phase = Conv{phase_weight(l.up_w), l.up_b.defined() ? l.up_b.repeat({4}) : torch::Tensor(), {}, 1, 1};
+      l.phase.pack();
     }
     l.innermost = inner == nullptr;
     levels_.push_back(std::move(l));
@@ -214,9 +215,27 @@ UNetInference::UNetInference(const UNetImpl& net, int64_t phase_min_side)
   }
 }
 
+void UNetInference::Conv::pack() {
+  packed = torch::Tensor();
+  if (w.defined() && w.device().is_cpu() && at::hasMKLDNN())
+    packed = at::mkldnn_reorder_conv2d_weight(w.to_mkldnn(), {padding, padding}, {stride, stride}, {1, 1}, 1);
+}
+
+torch::Tensor UNetInference::Conv::operator()(const torch::Tensor& x) const {
+  if (packed.defined() && x.device().is_cpu() && x.scalar_type() == torch::kFloat)
+    return at::mkldnn_convolution(x.contiguous(), packed, b.defined() ? c10::optional<torch::Tensor>(b) : c10::nullopt,
+                                  {padding, padding}, {stride, stride}, {1, 1}, 1);
+  return nn::functional::conv2d(x, w, nn::functional::Conv2dFuncOptions().bias(b).stride(stride).padding(padding));
+}
+
 UNetInference& UNetInference::to(torch::Device device) {
   for (auto& l : levels_) {
-    for (auto* t : {&l.down_w, &l.down_b, &l.up_w, &l.up_b, &l.phase_w, &l.phase_b})
+    for (auto* c : {&l.down, &l.phase}) {
+      for (auto* t : {&c->w, &c->b})
+        if (t->defined()) *t = t->to(device);
+      c->pack();
+    }
+    for (auto* t : {&l.up_w, &l.up_b})
       if (t->defined()) *t = t->to(device);
     for (auto* n : {&l.down_norm, &l.up_norm})
       if (*n) (*n)->to(device);
@@ -233,8 +252,8 @@ torch::Tensor UNetInference::upsample(const Level& l, const torch::Tensor& x) co
                               .mode(torch::kBilinear)
                               .align_corners(false));
     y = F::conv2d(y, l.up_w, F::Conv2dFuncOptions().bias(l.up_b).padding(1));
-  } else if (l.phase_w.defined() && std::min(x.size(2), x.size(3)) >= phase_min_side_) {
-    y = phase_conv(x, l.phase_w, l.phase_b, l.up_out);
+  } else if (l.phase.w.defined() && std::min(x.size(2), x.size(3)) >= phase_min_side_) {
+    y = interleave_phases(l.phase(x), l.up_out);
   } else {
     y = F::conv_transpose2d(x, l.up_w, F::ConvTranspose2dFuncOptions().bias(l.up_b).stride(2).padding(1));
   }
@@ -248,14 +267,13 @@ torch::Tensor UNetInference::upsample(const Level& l, const torch::Tensor& x) co
 torch::Tensor UNetInference::level_forward(size_t i, torch::Tensor x) const {
   namespace F = nn::functional;
   const Level& l = levels_[i];
-  const auto conv = F::Conv2dFuncOptions().bias(l.down_b).stride(2).padding(1);
   if (l.outermost) {
-    auto h = level_forward(i + 1, F::conv2d(x, l.down_w, conv));
+    auto h = level_forward(i + 1, l.down(x));
     auto y = upsample(l, torch::relu_(h));
     return torch::tanh_(y);
   }
   torch::leaky_relu_(x, 0.2);
-  auto h = F::conv2d(x, l.down_w, conv);
+  auto h = l.down(x);
   if (l.down_norm) h = l.down_norm->forward(h);
   h = l.innermost ? h : level_forward(i + 1, h);
   return torch::cat({x, upsample(l, torch::relu_(h))}, 1);

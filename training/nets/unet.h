@@ -84,6 +84,7 @@ TORCH_MODULE(UNet);
 //    column parity), interleaved afterwards (levels with at least 16 output channels; for the last level's 3 the
 //    transposed convolution is faster). LibTorch 1.13's CPU transposed convolution is an im2col + BLAS path
 //    while its ordinary convolution is mkldnn's (docs/training.md, "BareSkinNet at inference"). 0 = never.
+//  - the convolutions' weights are prepacked for mkldnn once (on the CPU);
 //  - activations in place where the reference's order allows it.
 // The weights are copied: later changes to the module do not reach it. Not differentiable.
 class UNetInference {
@@ -95,11 +96,20 @@ class UNetInference {
   UNetInference& to(torch::Device device);
 
  private:
+  // A convolution's weights, with mkldnn's prepacked copy of them on the CPU (LibTorch's conv2d reorders the weights
+  // on every call otherwise).
+  struct Conv {
+    torch::Tensor w, b, packed;
+    int64_t stride = 1, padding = 0;
+    void pack();
+    torch::Tensor operator()(const torch::Tensor& x) const;
+  };
   struct Level {
-    torch::Tensor down_w, down_b;        // the downsampling convolution (norm folded)
     std::shared_ptr<torch::nn::InstanceNorm2dImpl> down_norm;  // an instance norm (not foldable), else null
     torch::Tensor up_w, up_b;            // transposed [in, out, 4, 4] or resize_conv [out, in, 3, 3] (norm folded)
-    torch::Tensor phase_w, phase_b;      // the transposed one as phases: [4·out, in, 2, 2], [4·out] (else undefined)
+    Conv down, phase;                    // the downsampling convolution (stride 2, padding 1; norm folded), and the
+                                         // transposed one (below) as phases: a 2×2
+                                         // convolution [4·out, in, 2, 2] with padding 1 (else undefined)
     std::shared_ptr<torch::nn::InstanceNorm2dImpl> up_norm;
     int64_t up_out = 0;
     bool resize_conv = false;
