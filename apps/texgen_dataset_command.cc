@@ -93,6 +93,13 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
   app->add_option("--landmark-calibration", opt->calibration, "The detector's landmark convention (`landmarks "
                                                               "calibrate`), applied to the model's landmarks in the fits")
       ->check(CLI::ExistingFile)->group("Fit");
+  app->add_option("--robust-landmarks", o.sample.landmark_robust_rounds, "Reweighted refits of the landmark fit: "
+                                                                        "landmarks far from the fitted shape lose weight "
+                                                                        "(Cauchy weights on the reprojection error)")
+      ->capture_default_str()->group("Fit");
+  app->add_option("--landmark-regularisation", o.sample.landmark_fit.regularisation, "Weight of the shape prior in the "
+                                                                                     "landmark fit (px² per std²)")
+      ->capture_default_str()->group("Fit");
   app->add_option("--fit-size", o.sample.fit_size, "Image size of the photometric fit")->capture_default_str()->group("Fit");
   app->add_option("--shape-components", o.sample.landmark_fit.shape_components, "Identity components fitted")
       ->capture_default_str()->group("Fit");

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -85,6 +86,8 @@ MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const 
   out.alpha = x.segment(6 * poses, Ka);
   out.beta = x.tail(Kb);
   const Eigen::VectorXd s = basis * x.tail(K);
+  out.error_px.resize(V, 68);
+  out.weight.resize(V, 68);
   for (int v = 0; v < V; ++v) {  // each view's pose, and its unweighted reprojection error over the landmarks used
     Eigen::Matrix3d R;
     Eigen::Vector3d t;
@@ -94,14 +97,43 @@ MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const 
     double se = 0;
     int n = 0;
     for (int k = 0; k < 68; ++k) {
-      if (!(views[size_t(v)].weight(k) > 0)) continue;
       const Eigen::Vector3d q = camera.project(R * (mean.row(k).transpose() + s.segment<3>(3 * k)) + t);
-      se += (Eigen::Vector2d(q.x(), q.y()) - views[size_t(v)].landmarks.row(k).transpose()).squaredNorm();
+      const double e = (Eigen::Vector2d(q.x(), q.y()) - views[size_t(v)].landmarks.row(k).transpose()).norm();
+      out.error_px(v, k) = e;
+      out.weight(v, k) = views[size_t(v)].weight(k);
+      if (!(views[size_t(v)].weight(k) > 0)) continue;
+      se += e * e;
       ++n;
     }
     out.rms_px.push_back(n ? std::sqrt(se / n) : 0.0);
   }
   return out;
+}
+
+MultiviewLandmarkFit fit_landmarks_multiview_robust(const MorphableModel& model, std::vector<LandmarkViewInput> views,
+                                                    const Camera& camera, const LandmarkFitOptions& options,
+                                                    bool pose_per_view, const Eigen::Matrix<double, 68, 3>* offsets,
+                                                    int rounds) {
+  if (rounds < 0) throw InvalidInput("", "robust rounds must be >= 0", "");
+  std::vector<Eigen::Matrix<double, 68, 1>> given;
+  for (const LandmarkViewInput& v : views) given.push_back(v.weight);
+  MultiviewLandmarkFit fit = fit_landmarks_multiview(model, views, camera, options, pose_per_view, offsets);
+  for (int round = 0; round < rounds; ++round) {
+    std::vector<double> errors;
+    for (size_t v = 0; v < views.size(); ++v)
+      for (int k = 0; k < 68; ++k)
+        if (given[v](k) > 0) errors.push_back(fit.error_px(Eigen::Index(v), k));
+    if (errors.empty()) break;
+    std::nth_element(errors.begin(), errors.begin() + long(errors.size() / 2), errors.end());
+    const double scale = 2.385 * std::max(1e-6, 1.4826 * errors[errors.size() / 2]);
+    for (size_t v = 0; v < views.size(); ++v)
+      for (int k = 0; k < 68; ++k) {
+        const double r = fit.error_px(Eigen::Index(v), k) / scale;
+        views[v].weight(k) = given[v](k) / (1 + r * r);
+      }
+    fit = fit_landmarks_multiview(model, views, camera, options, pose_per_view, offsets);
+  }
+  return fit;
 }
 
 Eigen::Matrix<double, 68, 3> landmark_offsets(const MorphableModel& model, const Eigen::Matrix<double, 68, 3>& reference,

@@ -31,10 +31,12 @@ void TextureSampleOptions::check() const {
   if (!(merge_sharpness >= 0 && merge_sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
   if (landmark_fit_mode != "shared-shape" && landmark_fit_mode != "rigid" && landmark_fit_mode != "per-view")
     throw InvalidInput("--landmark-fit", "unknown mode '" + landmark_fit_mode + "'", "use shared-shape, rigid or per-view");
+  if (landmark_robust_rounds < 0 || landmark_robust_rounds > 10)
+    throw InvalidInput("--robust-landmarks", "must lie in [0, 10]", "e.g. 2");
   landmark_fit.check();
 }
 
-Subject load_subject(const std::string& dir, const MorphableModel& model) {
+Subject load_subject_mesh(const std::string& dir, const MorphableModel& model) {
   Subject s;
   s.dir = dir;
   s.name = fs::path(dir).filename().string();
@@ -43,11 +45,6 @@ Subject load_subject(const std::string& dir, const MorphableModel& model) {
     if (fs::exists(dir + "/" + name)) mesh_path = dir + "/" + name;
   if (mesh_path.empty())
     throw InvalidInput(dir, "holds no mesh.ply or mesh.obj", "give the folders `bareskin scan register` writes");
-  std::string diffuse_path;
-  for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
-    if (diffuse_path.empty() && fs::exists(dir + "/" + name)) diffuse_path = dir + "/" + name;
-  if (diffuse_path.empty())
-    throw InvalidInput(dir, "has no diffuse map", "register the scan with its maps, or remove the subject");
   const Mesh registered = read_mesh(mesh_path);
   if (registered.V.rows() != model.vertices() || registered.F.rows() != model.topology.F.rows() ||
       registered.F != model.topology.F) {
@@ -63,6 +60,16 @@ Subject load_subject(const std::string& dir, const MorphableModel& model) {
   s.mesh = model.topology;
   s.mesh.V = ((registered.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
   s.mesh.N.resize(0, 3);
+  return s;
+}
+
+Subject load_subject(const std::string& dir, const MorphableModel& model) {
+  std::string diffuse_path;
+  for (const char* name : {"diffuse.png", "diffuse.exr", "diffuse.tif", "diffuse.tiff"})
+    if (diffuse_path.empty() && fs::exists(dir + "/" + name)) diffuse_path = dir + "/" + name;
+  if (diffuse_path.empty())
+    throw InvalidInput(dir, "has no diffuse map", "register the scan with its maps, or remove the subject");
+  Subject s = load_subject_mesh(dir, model);
   Image diffuse = read_image(diffuse_path);
   if (diffuse.width != diffuse.height || diffuse.channels < 3)
     throw InvalidInput(diffuse_path, "is not a square RGB map", "give the registered diffuse map");
@@ -280,14 +287,16 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
   if (options.landmark_fit_mode != "per-view") {
     std::vector<LandmarkViewInput> inputs;
     for (const RenderedView& v : views) inputs.push_back({v.rotation, v.fit.landmarks});
-    const MultiviewLandmarkFit fit = fit_landmarks_multiview(model, inputs, camera, options.landmark_fit,
-                                                             options.landmark_fit_mode == "shared-shape", offsets);
+    const MultiviewLandmarkFit fit =
+        fit_landmarks_multiview_robust(model, inputs, camera, options.landmark_fit,
+                                       options.landmark_fit_mode == "shared-shape", offsets, options.landmark_robust_rounds);
     for (size_t v = 0; v < views.size(); ++v) geometry.push_back(view_coefficients(fit, v));
     rms = fit.rms_px;
   } else if (offsets) {
     for (const RenderedView& v : views) {
-      const MultiviewLandmarkFit fit = fit_landmarks_multiview(model, {{Eigen::Matrix3d::Identity(), v.fit.landmarks}},
-                                                               camera, options.landmark_fit, true, offsets);
+      const MultiviewLandmarkFit fit =
+          fit_landmarks_multiview_robust(model, {{Eigen::Matrix3d::Identity(), v.fit.landmarks}}, camera,
+                                         options.landmark_fit, true, offsets, options.landmark_robust_rounds);
       geometry.push_back(view_coefficients(fit, 0));
       rms.push_back(fit.rms_px[0]);
     }

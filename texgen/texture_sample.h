@@ -47,6 +47,9 @@ struct TextureSampleOptions {
   // The detector's landmark convention in the model frame (landmark_offsets of a `landmarks calibrate` file), added
   // to the model's landmark vertices in the landmark fits; empty: none.
   std::optional<Eigen::Matrix<double, 68, 3>> landmark_offsets;
+  // Reweighted refits of the landmark fit (fit_landmarks_multiview_robust): landmarks far from where the shared shape
+  // puts them lose weight (multi-view modes, and per-view with a calibration).
+  int landmark_robust_rounds = 0;
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range
@@ -63,6 +66,8 @@ struct Subject {
 // InvalidInput naming the file when the mesh is not in the model's topology (another template) or the diffuse is
 // missing or not square.
 Subject load_subject(const std::string& dir, const MorphableModel& model);
+// load_subject without the diffuse (left empty): for callers that decode the maps themselves (make-dataset bakes them).
+Subject load_subject_mesh(const std::string& dir, const MorphableModel& model);
 
 // The head turned by a view's yaw about the model frame's y axis (positive: its left side toward the camera).
 Eigen::Matrix3d view_rotation(const ViewSpec& view);

@@ -347,11 +347,9 @@ MapResizeReport bake_maps(const std::string& in_dir, const UvIslands* islands, c
   const int F = N / sizes.back();                       // the largest factor
   const int band_rows = F * std::max(1, 128 / F);        // input rows per pass: a multiple of every factor
 
-  // 2. Map by map, band by band: read, decode, box-filter into every output size. Normal before roughness, so that
-  // Toksvig can use the normals' lengths.
-  std::stable_sort(maps.begin(), maps.end(), [](const MapFile& a, const MapFile& b) {
-    return a.kind == Kind::Normal && b.kind != Kind::Normal;
-  });
+  // 2. Map by map, band by band: read, decode, box-filter into every output size. Diffuse first (make-dataset renders
+  // with it while the others bake), then normal before roughness, so that Toksvig can use the normals' lengths.
+  std::stable_sort(maps.begin(), maps.end(), [](const MapFile& a, const MapFile& b) { return int(a.kind) < int(b.kind); });
   std::map<int, std::vector<float>> normal_length;  // per output size, for Toksvig
   const int64_t bands = (N + band_rows - 1) / band_rows;
   for (size_t mi = 0; mi < maps.size(); ++mi) {

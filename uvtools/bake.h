@@ -60,7 +60,8 @@ class UvIslands {
 // (diffuse linear RGB; normals encoded (n + 1) / 2; roughness and specular as read).
 using BakedMapSink = std::function<void(const std::string& map, int size, Image image)>;
 
-// The bake of resize_maps without the files: every map and size goes to `sink` (largest size first, map by map).
+// The bake of resize_maps without the files: every map and size goes to `sink`, map by map (diffuse, normal, roughness,
+// specular: those present), largest size first.
 // `islands`: the layout raster at the maps' size (InvalidInput when its size differs), or nullptr for no seam handling.
 MapResizeReport bake_maps(const std::string& in_dir, const UvIslands* islands, const MapResizeOptions& options,
                           const BakedMapSink& sink, const ProgressCallback& progress = {});
