@@ -2,6 +2,7 @@
 #include <chrono>
 #include <iostream>
 #include <memory>
+#include <thread>
 
 #include "apps/cli.h"
 #include "apps/detector.h"
@@ -15,7 +16,8 @@ namespace bareskin::cli {
 
 std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string photo, output, model, texture, bareskin, teacher, device = "cpu", weights, landmarks;
+    std::string photo, output, model, texture, bareskin, teacher, device = "cpu", weights, landmarks,
+        sr_maps = "diffuse,roughness,specular";
     std::vector<std::string> upscale;
     bool no_bareskin = false, no_upscale = false;
     texture::AvatarOptions avatar;
@@ -31,6 +33,10 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   app.add_option("--bareskin", opt->bareskin, "BareSkinNet run (bareskin train bareskin): G before reconstruction");
   app.add_option("--teacher", opt->teacher, "Reconstruction net F (bareskin train recon run): the 3DMM coefficients "
                                             "from G's image; without it mm-fit's landmark and photometric fits");
+  app.add_option("--sr-maps", opt->sr_maps,
+                 "Maps SRGAN upscales where an --upscale run is given for them (comma-separated; the others "
+                 "bicubically: SRGAN gained nothing over bicubic on the smooth normal map, docs/texture.md)")
+      ->capture_default_str();
   app.add_flag("--no-bareskin", opt->no_bareskin, "Skip G: the photo itself is reconstructed and unwrapped");
   app.add_flag("--no-upscale", opt->no_upscale, "Maps at the texture net's size only");
   app.add_option("--input-res", opt->avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
@@ -45,12 +51,23 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
              "or runs that do not fit each other or the model.");
   return [opt, &globals] {
     set_torch_threads(globals);
+    texture::keep_freed_memory();
     if (opt->no_bareskin == !opt->bareskin.empty())
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
+    opt->avatar.sr_maps = texture::parse_map_list(opt->sr_maps, "--sr-maps");
     const auto t0 = std::chrono::steady_clock::now();
+    nlohmann::json load;  // wall seconds per part of the loading
+    auto lap = [&load, t = t0](const char* part) mutable {
+      const auto now = std::chrono::steady_clock::now();
+      load[part] = std::chrono::duration<double>(now - t).count();
+      t = now;
+    };
     const MorphableModel model = read_model(opt->model);
+    lap("model");
     const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);
+    lap("nets");
     const texture::Demakeup G = opt->no_bareskin ? texture::Demakeup{} : texture::load_demakeup(opt->bareskin, opt->device);
+    lap("bareskin");
     const Image photo = read_image(opt->photo);
     texture::FaceFinder detector;
     if (!opt->landmarks.empty()) {
@@ -69,6 +86,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
         return faces;
       };
     }
+    lap("photo_detector");
     const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     opt->avatar.upscale = !opt->no_upscale;
     const auto t1 = std::chrono::steady_clock::now();
@@ -78,7 +96,9 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
                           {{"photo", opt->photo}, {"model", opt->model}, {"texture", opt->texture},
                            {"upscale", opt->upscale}, {"bareskin", opt->no_bareskin ? "" : opt->bareskin},
                            {"teacher", opt->teacher},
-                           {"device", opt->device}, {"load_seconds", load_seconds}, {"pipeline_seconds", seconds}});
+                           {"sr_maps", opt->sr_maps}, {"device", opt->device}, {"load_seconds", load_seconds},
+                           {"load_seconds_by_part", load}, {"pipeline_seconds", seconds}},
+                          std::max(1, globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency())));
     if (!globals.quiet())
       std::cerr << "wrote " << opt->output << " (" << fmt::format("{:.1f}", seconds) << " s; upscaled with "
                 << (avatar.upscaled_with.empty() ? "none" : avatar.upscaled_with) << ")\n";

@@ -1,13 +1,15 @@
 #include "texture_infer/avatar.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <malloc.h>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <future>
 #include <set>
+#include <thread>
 
 #include "core/error.h"
 #include "core/files.h"
@@ -180,7 +182,7 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
     const ColorSpace space = m.name == "diffuse" ? ColorSpace::sRGB : ColorSpace::Data;
     a.maps[m.name] = tensor_image(maps.at(m.name), space);
     if (!options.upscale) continue;
-    auto it = upscalers.find(m.name);
+    auto it = options.sr_maps.count(m.name) ? upscalers.find(m.name) : upscalers.end();
     const auto hr = it != upscalers.end() ? it->second.infer(maps.at(m.name)) : bicubic_x4(maps.at(m.name), m.name);
     a.maps_hr[m.name] = tensor_image(hr, space);
     a.upscaled_with += (a.upscaled_with.empty() ? "" : ", ") + m.name + ": " +
@@ -219,7 +221,55 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
   return a;
 }
 
-void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json& report) {
+void keep_freed_memory() {
+  mallopt(M_MMAP_MAX, 0);         // large blocks from the heap too, not from fresh mappings
+  mallopt(M_TRIM_THRESHOLD, -1);  // and the heap is never trimmed
+}
+
+std::set<std::string> parse_map_list(const std::string& list, const std::string& option) {
+  std::set<std::string> out;
+  size_t start = 0;
+  while (start <= list.size()) {
+    const size_t end = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, end - start);
+    if (!name.empty()) {
+      bool known = false;
+      for (const auto& m : output_maps()) known |= m.name == name;
+      if (!known)
+        throw InvalidInput(option + " " + list, "names '" + name + "', not a texture map",
+                           "list some of diffuse, normal, roughness, specular (comma-separated; empty for none)");
+      out.insert(name);
+    }
+    start = end + 1;
+  }
+  return out;
+}
+
+namespace {
+
+// Runs the jobs on `threads` threads, each taking the next job in order (largest first, so none waits at the
+// end); every job ends before the first error is rethrown.
+void run_jobs(const std::vector<std::function<void()>>& jobs, int threads) {
+  std::atomic<size_t> next{0};
+  std::vector<std::exception_ptr> errors(jobs.size());
+  auto worker = [&] {
+    for (size_t i = next++; i < jobs.size(); i = next++) try {
+        jobs[i]();
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+}  // namespace
+
+void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json& report, int threads) {
   const auto t0 = Clock::now();
   const double cpu0 = cpu_now();
   AtomicDirectory out(dir);
@@ -232,26 +282,30 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   write_image(d + "/confidence.png", a.confidence);
   write_coefficients(d + "/coefficients.json", a.coefficients);
   write_mesh(d + "/mesh.obj", a.mesh);
-  // The maps' PNGs (libpng at level 3, as the shards) and the GLB are encoded concurrently: at 4K they are most of
-  // the folder's writing time. Every job is waited for before the folder is committed (or removed on an error).
-  std::vector<std::future<void>> jobs;
-  auto png = [&jobs](const std::string& path, const Image& image) {
-    jobs.push_back(std::async(std::launch::async, [path, &image] { write_file_atomic(path, encode_png(image, 8)); }));
+  // Each map is encoded once, on `threads` threads, largest first; the GLB embeds the files' bytes (its roughness
+  // texture is the grey roughness PNG itself, glb.h) plus one grey+alpha specular texture.
+  const bool hr = !a.maps_hr.empty();
+  const auto& glb_maps = hr ? a.maps_hr : a.maps;
+  std::map<std::string, std::string> png;  // file name under maps/ -> bytes
+  std::string specular_glb;
+  for (const auto& [name, image] : a.maps_hr) png[name + "_hr.png"];
+  for (const auto& [name, image] : a.maps) png[name + ".png"];
+  std::vector<std::function<void()>> jobs;
+  auto encode = [&](std::string& bytes, const Image& image, const std::string& path) {
+    jobs.push_back([&bytes, &image, path] {
+      bytes = encode_png(image, 8);
+      if (!path.empty()) write_file_atomic(path, bytes);
+    });
   };
-  for (const auto& [name, image] : a.maps) png(d + "/maps/" + name + ".png", image);
-  for (const auto& [name, image] : a.maps_hr) png(d + "/maps/" + name + "_hr.png", image);
-  const auto& glb_maps = a.maps_hr.empty() ? a.maps : a.maps_hr;
-  jobs.push_back(std::async(std::launch::async, [&] {
-    write_glb(d + "/avatar.glb", a.mesh,
-              {glb_maps.at("diffuse"), glb_maps.at("normal"), glb_maps.at("roughness"), glb_maps.at("specular")});
-  }));
-  std::exception_ptr failed;
-  for (auto& job : jobs) try {
-      job.get();
-    } catch (...) {
-      if (!failed) failed = std::current_exception();
-    }
-  if (failed) std::rethrow_exception(failed);
+  for (const auto& m : output_maps())  // the 3-channel maps first
+    if (hr) encode(png[m.name + "_hr.png"], a.maps_hr.at(m.name), d + "/maps/" + m.name + "_hr.png");
+  const Image specular = specular_texture(glb_maps.at("specular"));
+  encode(specular_glb, specular, "");
+  for (const auto& m : output_maps()) encode(png[m.name + ".png"], a.maps.at(m.name), d + "/maps/" + m.name + ".png");
+  run_jobs(jobs, threads);
+  const std::string suffix = hr ? "_hr.png" : ".png";
+  write_glb(d + "/avatar.glb", a.mesh,
+            PbrPngs{png.at("diffuse" + suffix), png.at("normal" + suffix), png.at("roughness" + suffix), specular_glb});
   for (size_t i = 0; i < a.previews.size(); ++i)
     write_image(d + "/preview_light" + std::to_string(i + 1) + ".png", a.previews[i]);
   nlohmann::json r = report;

@@ -6,6 +6,7 @@
 #pragma once
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -35,7 +36,11 @@ Demakeup load_demakeup(const std::string& run, const std::string& device);
 struct AvatarOptions {
   int input_res = 0;        // UV size of the unwrap and 3DMM maps (0: the texture run's training size)
   int preview_size = 512;   // relit previews
-  bool upscale = true;      // 4K maps (SRGAN where a run is given for the map, bicubic otherwise)
+  bool upscale = true;      // 4K maps (SRGAN where a run is given for the map and it is in sr_maps, else bicubic)
+  // The maps SRGAN upscales (when a run is given for them); the others are upscaled bicubically. The default is the
+  // maps where SRGAN beat bicubic on held-out maps (bench/BENCHMARKS.md, demo data: diffuse +2.2 dB, roughness
+  // +1.6, specular +1.8); on the smooth normal map it gained nothing (+0.00 dB) for a net's time.
+  std::set<std::string> sr_maps = {"diffuse", "roughness", "specular"};
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
 };
@@ -81,8 +86,17 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
                          const MorphableModel& model, const AvatarNets& nets, const Demakeup& G,
                          const AvatarOptions& options);
 
-// Writes the avatar folder atomically (AtomicDirectory: all or nothing).
-void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::json& report);
+// Writes the avatar folder atomically (AtomicDirectory: all or nothing). Each map is encoded once, on `threads`
+// threads; the GLB embeds the map files' own PNG bytes.
+void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::json& report, int threads = 2);
+
+// Makes the allocator keep freed memory for reuse instead of returning it to the system: the pipeline allocates
+// and frees many large buffers (4K maps, net activations), and each fresh page costs a page fault, which on the
+// 2-core VM cost more than the arithmetic (bench/BENCHMARKS.md). For one-shot commands (run, evaluate).
+void keep_freed_memory();
+
+// The map types of a comma-separated list ("diffuse,normal"); InvalidInput naming `option` for an unknown one.
+std::set<std::string> parse_map_list(const std::string& list, const std::string& option);
 
 // Torch tensors ↔ images ([1, C, H, W] or [C, H, W] in [0, 1]).
 Image tensor_image(const torch::Tensor& t, ColorSpace space);

@@ -64,44 +64,53 @@ void require_map(const Image& image, const char* name, int channels) {
                        "pass all four maps (diffuse, normal, roughness, specular)");
 }
 
-// metallicRoughness: R unused (1), G roughness, B metallic (0).
-Image metallic_roughness(const Image& roughness) {
-  Image out(roughness.width, roughness.height, 3, ColorSpace::Data);
-  for (int y = 0; y < roughness.height; ++y)
-    for (int x = 0; x < roughness.width; ++x) {
-      out.at(x, y, 0) = 1;
-      out.at(x, y, 1) = roughness.at(x, y, 0);
-      out.at(x, y, 2) = 0;
-    }
-  return out;
+void require_png(const std::string& bytes, const char* name) {
+  static const char kSignature[] = "\x89PNG\r\n\x1a\n";
+  if (bytes.size() < 8 || bytes.compare(0, 8, kSignature, 8) != 0)
+    throw InvalidInput(std::string("avatar ") + name + " texture", "is not PNG data",
+                       "pass the four maps' PNG bytes (core/png.h encode_png)");
 }
 
-// KHR_materials_specular reads the strength from the alpha channel; RGB white.
-Image specular_rgba(const Image& specular) {
-  Image out(specular.width, specular.height, 4, ColorSpace::Data, 1.f);
-  for (int y = 0; y < specular.height; ++y)
-    for (int x = 0; x < specular.width; ++x) out.at(x, y, 3) = specular.at(x, y, 0);
-  return out;
-}
-
-Image rgb(const Image& image) {
-  if (image.channels == 3) return image;
-  Image out(image.width, image.height, 3, image.color_space);
+Image first_channels(const Image& image, int channels) {
+  if (image.channels == channels) return image;
+  Image out(image.width, image.height, channels, image.color_space);
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = image.at(x, y, c);
+      for (int c = 0; c < channels; ++c) out.at(x, y, c) = image.at(x, y, c);
   return out;
 }
 
 }  // namespace
 
+Image specular_texture(const Image& specular) {
+  Image out(specular.width, specular.height, 2, ColorSpace::Data, 1.f);
+  for (int y = 0; y < specular.height; ++y)
+    for (int x = 0; x < specular.width; ++x) out.at(x, y, 1) = specular.at(x, y, 0);
+  return out;
+}
+
 std::string glb_bytes(const Mesh& mesh, const PbrMaps& maps) {
-  validate(mesh, "avatar mesh");
-  if (!mesh.has_uv()) throw InvalidInput("avatar mesh", "has no texture coordinates", "use the model's template UV");
   require_map(maps.diffuse, "diffuse", 3);
   require_map(maps.normal, "normal", 3);
   require_map(maps.roughness, "roughness", 1);
   require_map(maps.specular, "specular", 1);
+  // The four textures are encoded concurrently (at 4K the PNG encoder is most of the file's cost).
+  auto diffuse = std::async(std::launch::async, [&maps] {
+    return encode_png(first_channels(maps.diffuse.color_space == ColorSpace::sRGB ? maps.diffuse : to_srgb(maps.diffuse), 3), 8);
+  });
+  auto normal = std::async(std::launch::async, [&maps] { return encode_png(first_channels(maps.normal, 3), 8); });
+  auto roughness = std::async(std::launch::async, [&maps] { return encode_png(first_channels(maps.roughness, 1), 8); });
+  const std::string specular = encode_png(specular_texture(maps.specular), 8);
+  return glb_bytes(mesh, PbrPngs{diffuse.get(), normal.get(), roughness.get(), specular});
+}
+
+std::string glb_bytes(const Mesh& mesh, const PbrPngs& textures) {
+  validate(mesh, "avatar mesh");
+  if (!mesh.has_uv()) throw InvalidInput("avatar mesh", "has no texture coordinates", "use the model's template UV");
+  require_png(textures.diffuse, "diffuse");
+  require_png(textures.normal, "normal");
+  require_png(textures.metallic_roughness, "metallicRoughness");
+  require_png(textures.specular, "specular");
 
   // glTF attributes are per vertex: one vertex per distinct (position, UV) corner pair, so UV seams split vertices.
   Mesh m = mesh;
@@ -132,25 +141,16 @@ std::string glb_bytes(const Mesh& mesh, const PbrMaps& maps) {
                                {"TANGENT", b.floats(tangent, 4, "VEC4", false)},
                                {"TEXCOORD_0", b.floats(uvs, 2, "VEC2", false)}};
   const int indices = b.indices(index);
-  nlohmann::json images = nlohmann::json::array(), textures = nlohmann::json::array();
-  // The four textures are encoded concurrently (at 4K the PNG encoder is most of the file's cost).
-  std::vector<std::future<std::string>> pngs;
-  pngs.push_back(std::async(std::launch::async, [&maps] {
-    return encode_png(rgb(maps.diffuse.color_space == ColorSpace::sRGB ? maps.diffuse : to_srgb(maps.diffuse)), 8);
-  }));
-  pngs.push_back(std::async(std::launch::async, [&maps] { return encode_png(rgb(maps.normal), 8); }));
-  pngs.push_back(std::async(std::launch::async, [&maps] { return encode_png(metallic_roughness(maps.roughness), 8); }));
-  pngs.push_back(std::async(std::launch::async, [&maps] { return encode_png(specular_rgba(maps.specular), 8); }));
-  auto texture = [&](std::future<std::string>& encoded, const char* name) {
-    const std::string png = encoded.get();
+  nlohmann::json images = nlohmann::json::array(), texture_list = nlohmann::json::array();
+  auto texture = [&](const std::string& png, const char* name) {
     images.push_back({{"name", name}, {"mimeType", "image/png"}, {"bufferView", b.view(png.data(), png.size(), 0)}});
-    textures.push_back({{"sampler", 0}, {"source", int(images.size()) - 1}});
-    return int(textures.size()) - 1;
+    texture_list.push_back({{"sampler", 0}, {"source", int(images.size()) - 1}});
+    return int(texture_list.size()) - 1;
   };
-  const int base = texture(pngs[0], "diffuse");
-  const int normal = texture(pngs[1], "normal");
-  const int mr = texture(pngs[2], "metallicRoughness");
-  const int spec = texture(pngs[3], "specular");
+  const int base = texture(textures.diffuse, "diffuse");
+  const int normal = texture(textures.normal, "normal");
+  const int mr = texture(textures.metallic_roughness, "metallicRoughness");
+  const int spec = texture(textures.specular, "specular");
   while (b.bin.size() % 4) b.bin.push_back('\0');
 
   nlohmann::json gltf = {
@@ -174,7 +174,7 @@ std::string glb_bytes(const Mesh& mesh, const PbrMaps& maps) {
             {{"specularFactor", 1.0}, {"specularTexture", {{"index", spec}}}, {"specularColorFactor", {1.0, 1.0, 1.0}}}}}}}}},
       {"samplers", {{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}}},
       {"images", images},
-      {"textures", textures},
+      {"textures", texture_list},
       {"accessors", b.accessors},
       {"bufferViews", b.views},
       {"buffers", {{{"byteLength", b.bin.size()}}}}};
@@ -193,6 +193,10 @@ std::string glb_bytes(const Mesh& mesh, const PbrMaps& maps) {
   u32(kBinChunk);
   out += b.bin;
   return out;
+}
+
+void write_glb(const std::string& path, const Mesh& mesh, const PbrPngs& textures) {
+  write_file_atomic(path, glb_bytes(mesh, textures));
 }
 
 void write_glb(const std::string& path, const Mesh& mesh, const PbrMaps& maps) {

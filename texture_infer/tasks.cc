@@ -52,9 +52,13 @@ torch::Tensor resize_to(const torch::Tensor& x, int64_t res) {
 }
 
 torch::Tensor renormalise_normals(const torch::Tensor& encoded01) {
-  auto n = encoded01 * 2 - 1;
-  n = n / n.norm(2, 1, true).clamp_min(1e-6);
-  return (n + 1) * 0.5;
+  const auto n = encoded01 * 2 - 1;
+  // The length from the three channels' squares (Tensor::norm over the channel dimension is several times slower on
+  // 4K maps); in place only where autograd keeps what it needs (division and sqrt read their inputs/result).
+  const auto length = (n.slice(1, 0, 1).square() + n.slice(1, 1, 2).square() + n.slice(1, 2, 3).square())
+                          .sqrt()
+                          .clamp_min(1e-6);
+  return (n / length).add_(1).mul_(0.5);
 }
 
 train::OptimizerSpec adam(const std::string& name, std::vector<torch::Tensor> params, double lr, double beta1,
@@ -459,25 +463,48 @@ torch::Tensor bicubic_x4(const torch::Tensor& lr, const std::string& map) {
                                    .scale_factor(std::vector<double>{4, 4})
                                    .mode(torch::kBicubic)
                                    .align_corners(false))
-                .clamp(0, 1);
+                .clamp_(0, 1);
   return map == "normal" ? renormalise_normals(up) : up;
 }
 
-torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile) {
-  torch::NoGradGuard no_grad;
-  const int64_t h = lr.size(2), w = lr.size(3), pad = 8;
-  auto out = torch::empty({lr.size(0), lr.size(1), h * 4, w * 4}, lr.options());
+namespace {
+
+// `fn` on tiles of the low-resolution map with `margin` pixels of context, joined into one output `scale` times
+// larger with `channels` channels: fn(y0, y1, x0, x1) returns the output of lr[y0:y1, x0:x1].
+template <class Fn>
+torch::Tensor tiled(const torch::Tensor& lr, int64_t tile, int64_t margin, int64_t scale, int64_t channels, Fn fn) {
+  const int64_t h = lr.size(2), w = lr.size(3), s = scale;
+  auto out = torch::empty({lr.size(0), channels, h * s, w * s}, lr.options());
   for (int64_t y = 0; y < h; y += tile)
     for (int64_t x = 0; x < w; x += tile) {
-      const int64_t y0 = std::max<int64_t>(0, y - pad), x0 = std::max<int64_t>(0, x - pad);
-      const int64_t y1 = std::min(h, y + tile + pad), x1 = std::min(w, x + tile + pad);
-      auto part = net.forward(lr.slice(2, y0, y1).slice(3, x0, x1));
+      const int64_t y0 = std::max<int64_t>(0, y - margin), x0 = std::max<int64_t>(0, x - margin);
+      const int64_t y1 = std::min(h, y + tile + margin), x1 = std::min(w, x + tile + margin);
+      const torch::Tensor part = fn(y0, y1, x0, x1);
       const int64_t ty = std::min(tile, h - y), tx = std::min(tile, w - x);
-      out.slice(2, y * 4, (y + ty) * 4)
-          .slice(3, x * 4, (x + tx) * 4)
-          .copy_(part.slice(2, (y - y0) * 4, (y - y0 + ty) * 4).slice(3, (x - x0) * 4, (x - x0 + tx) * 4));
+      out.slice(2, y * s, (y + ty) * s)
+          .slice(3, x * s, (x + tx) * s)
+          .copy_(part.slice(2, (y - y0) * s, (y - y0 + ty) * s).slice(3, (x - x0) * s, (x - x0 + tx) * s));
     }
-  out = out.clamp(0, 1);
+  return out;
+}
+
+}  // namespace
+
+torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile) {
+  c10::InferenceMode inference;
+  // Two passes, each in tiles with a margin of at least its reach, so the tiles join into exactly the untiled output
+  // and no tensor grows past a few MB (large tensors cost more in fresh pages than in arithmetic on this CPU):
+  // the trunk (reach 1 + 2·num_block input pixels) in tiles of 4·`tile`, then the ×4 tail (reach 2: msrresnet.h)
+  // in tiles of `tile`, reading the trunk's features once instead of recomputing them in every tile's margin.
+  const auto& o = net.options();
+  const int64_t trunk_margin = 1 + 2 * int64_t(o.num_block), tail_margin = 4;
+  const torch::Tensor features = tiled(lr, 4 * tile, trunk_margin, 1, o.num_feat, [&](auto y0, auto y1, auto x0, auto x1) {
+    return net.features(lr.slice(2, y0, y1).slice(3, x0, x1));
+  });
+  auto out = tiled(lr, tile, tail_margin, o.upscale, lr.size(1), [&](auto y0, auto y1, auto x0, auto x1) {
+    return net.upsample(features.slice(2, y0, y1).slice(3, x0, x1), lr.slice(2, y0, y1).slice(3, x0, x1));
+  });
+  out.clamp_(0, 1);
   return map == "normal" ? renormalise_normals(out) : out;
 }
 
@@ -630,7 +657,7 @@ TextureNet TextureNet::load(const std::string& run, torch::Device device) {
 }
 
 std::map<std::string, torch::Tensor> TextureNet::infer(const std::map<std::string, torch::Tensor>& inputs) const {
-  torch::NoGradGuard no_grad;
+  c10::InferenceMode inference;
   const auto device = G->parameters().front().device();
   auto x = stack_maps(inputs, input_maps(), options.res).to(device) * 2 - 1;
   auto y = ((run_generator(*G, x) + 1) * 0.5).clamp(0, 1).cpu();

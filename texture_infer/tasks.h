@@ -164,8 +164,10 @@ std::pair<torch::Tensor, torch::Tensor> upscale_pair(const data::Batch& batch, c
                                                      bool crop);
 // Bicubic ×4 (the baseline), clamped to [0, 1]; normals renormalised.
 torch::Tensor bicubic_x4(const torch::Tensor& lr, const std::string& map);
-// MSRResNet ×4 of a [0, 1] map, clamped, normals renormalised; tiled (with overlap) so 1K → 4K fits in memory.
-torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile = 256);
+// MSRResNet ×4 of a [0, 1] map, clamped, normals renormalised: the trunk and then the ×4 tail in tiles (`tile`
+// input pixels for the tail, 4× that for the trunk) whose margins cover each pass's reach, so the result is the
+// untiled net's and no tensor grows past a few MB. Runs in inference mode.
+torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile = 64);
 
 class SrganTask : public train::Task {
  public:

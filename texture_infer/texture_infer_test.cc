@@ -380,6 +380,34 @@ TEST(Srgan, BeatsBicubicOnBlockMapsAndTheGanPhaseReachesBothNets) {
   EXPECT_EQ(gan.loss(0, batch).count("gan"), 1u);
 }
 
+TEST(Srgan, TiledInferenceIsTheWholeForward) {
+  // upscale_x4 runs the trunk once and the x4 tail in tiles with a margin: every tile size gives the untiled net's
+  // output (the truth here), for both bases and a map size that no tile divides.
+  torch::manual_seed(3);
+  for (const char* base : {"bicubic", "bilinear"}) {
+    nets::MSRResNetOptions o;
+    o.num_feat = 8;
+    o.num_block = 2;
+    o.base = base;
+    nets::MSRResNet net(o);
+    {
+      torch::NoGradGuard no_grad;
+      for (auto& p : net->named_parameters())
+        if (p.key().rfind("conv_last", 0) == 0) p.value().normal_(0, 0.05);  // the bicubic base starts it at zero
+    }
+    const auto x = torch::rand({1, 3, 37, 45});
+    torch::Tensor whole;
+    {
+      torch::NoGradGuard no_grad;
+      whole = net->forward(x).clamp(0, 1);
+    }
+    ASSERT_GT((whole - bicubic_x4(x, "diffuse")).abs().max().item<double>(), 1e-3);  // the tail does something
+    for (int64_t tile : {5, 16, 64})
+      EXPECT_LT((upscale_x4(*net, x, "diffuse", tile) - whole).abs().max().item<double>(), 1e-5)
+          << base << ", tile " << tile;
+  }
+}
+
 TEST(Glb, AnIndependentReaderFindsTheMeshAndMaterial) {
   // A 10 mm square whose vertex 0 has two UVs (a seam): 5 glTF vertices, 2 triangles.
   Mesh mesh;
@@ -417,6 +445,21 @@ TEST(Glb, AnIndependentReaderFindsTheMeshAndMaterial) {
   EXPECT_EQ(j["normal"], "normal");
   EXPECT_EQ(j["specular"], "specular");
   EXPECT_EQ(j["metallic_factor"], 0.0);
+  // What a glTF reader samples: roughness from G and metallic from B of the grey roughness PNG (× metallicFactor 0),
+  // the specular strength from the alpha channel, the base colour sRGB-encoded.
+  EXPECT_NEAR(j["roughness_mean"].get<double>(), 0.4, 0.5 / 255);
+  EXPECT_NEAR(j["metallic_mean"].get<double>(), 0, 1e-9);
+  EXPECT_NEAR(j["specular_mean"].get<double>(), 0.3, 0.5 / 255);
+  EXPECT_NEAR(j["base_color_mean"][0].get<double>(), linear_to_srgb(0.5f), 0.5 / 255);
+  EXPECT_NEAR(j["normal_mean"][2].get<double>(), 0.5, 0.5 / 255);
+  // The PNG-bytes form takes already encoded textures (the avatar folder's files: one encoding for both) and gives
+  // the same file; it refuses bytes that are not PNG.
+  const PbrPngs pngs{encode_png(to_srgb(maps.diffuse), 8), encode_png(maps.normal, 8), encode_png(maps.roughness, 8),
+                     encode_png(specular_texture(maps.specular), 8)};
+  EXPECT_EQ(glb_bytes(mesh, pngs), read_file(dir + "/a.glb"));
+  PbrPngs broken = pngs;
+  broken.specular = "not a png";
+  EXPECT_THROW(glb_bytes(mesh, broken), InvalidInput);
   // Corrupting the header's length is caught by the oracle (it is not a rubber stamp).
   std::string bytes = read_file(dir + "/a.glb");
   bytes[8] ^= 1;

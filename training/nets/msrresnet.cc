@@ -27,6 +27,7 @@ void init_scaled(const nn::Conv2d& c, double scale) {
 torch::Tensor lrelu(const torch::Tensor& x, double slope) {
   return F::leaky_relu(x, F::LeakyReLUFuncOptions().negative_slope(slope));
 }
+torch::Tensor lrelu_(torch::Tensor x, double slope) { return torch::leaky_relu_(x, slope); }
 
 }  // namespace
 
@@ -69,7 +70,12 @@ ResidualBlockNoBNImpl::ResidualBlockNoBNImpl(int64_t num_feat) {
   init_scaled(conv2_, 0.1);
 }
 
-torch::Tensor ResidualBlockNoBNImpl::forward(torch::Tensor x) { return x + conv2_(torch::relu(conv1_(x))); }
+// In place where autograd allows it (a convolution's backward reads its input, not its output).
+torch::Tensor ResidualBlockNoBNImpl::forward(torch::Tensor x) {
+  torch::Tensor h = conv1_(x);
+  torch::relu_(h);
+  return conv2_(h).add_(x);
+}
 
 MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
   const std::string w = "msrresnet";
@@ -101,19 +107,25 @@ MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
   }
 }
 
-torch::Tensor MSRResNetImpl::forward(torch::Tensor x) {
+torch::Tensor MSRResNetImpl::forward(torch::Tensor x) { return upsample(features(x), x); }
+
+torch::Tensor MSRResNetImpl::features(const torch::Tensor& x) {
+  return body_->forward(lrelu_(conv_first_(x), 0.1));
+}
+
+// The activations are in place: each follows a convolution or pixel shuffle, whose backward does not read its output.
+torch::Tensor MSRResNetImpl::upsample(const torch::Tensor& features, const torch::Tensor& x) {
   const int64_t r = options_.upscale == 4 ? 2 : options_.upscale;
-  torch::Tensor out = body_->forward(lrelu(conv_first_(x), 0.1));
-  out = lrelu(torch::pixel_shuffle(upconv1_(out), r), 0.1);
-  if (upconv2_) out = lrelu(torch::pixel_shuffle(upconv2_(out), 2), 0.1);
-  out = conv_last_(lrelu(conv_hr_(out), 0.1));
+  torch::Tensor out = lrelu_(torch::pixel_shuffle(upconv1_(features), r), 0.1);
+  if (upconv2_) out = lrelu_(torch::pixel_shuffle(upconv2_(out), 2), 0.1);
+  out = conv_last_(lrelu_(conv_hr_(out), 0.1));
   const double s = options_.upscale;
   auto up = F::InterpolateFuncOptions().scale_factor(std::vector<double>{s, s}).align_corners(false);
   if (options_.base == "bicubic")
     up.mode(torch::kBicubic);
   else
     up.mode(torch::kBilinear);
-  return out + F::interpolate(x, up);
+  return out.add_(F::interpolate(x, up));
 }
 
 VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminatorOptions& o) : options_(o) {

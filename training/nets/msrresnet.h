@@ -49,8 +49,14 @@ TORCH_MODULE(ResidualBlockNoBN);
 class MSRResNetImpl : public torch::nn::Module {
  public:
   explicit MSRResNetImpl(const MSRResNetOptions& options = {});
-  // [N, num_in_ch, H, W] → [N, num_out_ch, H·upscale, W·upscale].
+  // [N, num_in_ch, H, W] → [N, num_out_ch, H·upscale, W·upscale]: upsample(features(x), x).
   torch::Tensor forward(torch::Tensor x);
+  // The two halves, so inference can run the low-resolution trunk once over a whole map and the upsampling tail in
+  // tiles: features = body(lrelu(conv_first(x))) at the input's size ([N, num_feat, H, W]); upsample = upconv1 (+
+  // upconv2) with pixel shuffles, conv_hr, conv_last, plus the base upsampling of x. Each output pixel of the tail
+  // depends on features and x within 2 input pixels (one 3×3 conv at 1×, one at 2×, two at 4×; bicubic's 4 taps).
+  torch::Tensor features(const torch::Tensor& x);
+  torch::Tensor upsample(const torch::Tensor& features, const torch::Tensor& x);
   const MSRResNetOptions& options() const { return options_; }
 
  private:
