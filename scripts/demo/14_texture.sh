@@ -75,6 +75,27 @@ if [ -n "${BSN_RUN:-}" ] && [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/table1/tabl
     --model "$model" --texture "$dir/tex" --upscale "$dir/up" --bareskin "$BSN_RUN" --max-samples "$SAMPLES" \
     "${teacher[@]}" -o "$dir/table1"
 fi
+# 4b. Column (b) of Table 1: faces of the texture test split's subjects (the held-out faces above have no true maps),
+# rendered by texgen faces from their registered scans beside one 3DMM subject (the generator keeps a training
+# subject); the split holding the scan subject is evaluated against the true maps.
+registered="$out/registered"
+if [ -n "${BSN_RUN:-}" ] && [ -n "${TEX_TEST:-}" ] && [ -d "$registered" ] && [ ! -f "$dir/table1_truth/table.md" ]; then
+  stage "Table 1 column (b) on faces of the texture test subjects"
+  subjects=$($py "$here/14_texture_find.py" --subjects "$TEX_TEST")
+  rm -rf "$dir/truth_registered" "$dir/truth_faces"
+  mkdir -p "$dir/truth_registered"
+  for s in $subjects; do ln -s "$(cd "$registered/$s" && pwd)" "$dir/truth_registered/$s"; done
+  n=$(echo $subjects | wc -w)
+  timed "truth faces" "$bareskin" -q --threads "$THREADS" texgen faces --registered "$dir/truth_registered" \
+    --model "$model" --mm-subjects 1 --count $((SAMPLES * n + SAMPLES)) --val 0 --test "$n" --seed 14 --align truth \
+    -o "$dir/truth_faces"
+  first=$(echo $subjects | cut -d' ' -f1)
+  truth_split=$($py "$here/14_texture_find.py" --split-of "$dir/truth_faces" "scan/$first")
+  echo $subjects > "$dir/truth_subjects.txt"
+  timed "table 1 (b)" "$bareskin" -q --threads "$THREADS" evaluate --faces "$truth_split" --textures "$TEX_TEST" \
+    --model "$model" --texture "$dir/tex" --upscale "$dir/up" --bareskin "$BSN_RUN" --max-samples "$SAMPLES" \
+    "${teacher[@]}" -o "$dir/table1_truth"
+fi
 # 5. Figures and the report fragment -------------------------------------------------------------------------------
 $py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" "$UP_GAN_STEPS" \
   > "$out/sections/14_texture.html"

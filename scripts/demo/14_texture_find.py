@@ -4,6 +4,9 @@
                                               BareSkinNet run and the reconstruction run F under OUT, found by manifest
                                               kind/split and checkpoint task
   14_texture_find.py --extract FACES PNG      the first sample's makeup.png of a faces split
+  14_texture_find.py --subjects SPLIT         the subjects of a shard split (json "subject"), one a line, sorted
+  14_texture_find.py --split-of FACES SUBJECT the split folder of a faces set (FACES/{train,val,test}) that holds
+                                              SUBJECT's samples
   14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES UP_GAN_STEPS   figures into OUT/img, the HTML
                                               fragment on stdout"""
 import csv
@@ -72,6 +75,25 @@ def extract(faces, png):
     open(png, "wb").write(members["makeup.png"])
     points = json.loads(members["json"])["landmarks"]
     json.dump({"scheme": "ibug68", "units": "px", "points": points}, open(png[:-4] + "_lm.json", "w"))
+
+
+def split_subjects(split):
+    subjects = set()
+    manifest = json.load(open(os.path.join(split, "manifest.json")))
+    for shard in manifest["shards"]:
+        with tarfile.open(os.path.join(split, shard["name"])) as tar:
+            for member in tar:
+                if member.name.endswith(".json"):
+                    subjects.add(json.loads(tar.extractfile(member).read()).get("subject", ""))
+    return sorted(s for s in subjects if s)
+
+
+def split_of(faces, subject):
+    for split in ("test", "val", "train"):
+        folder = os.path.join(faces, split)
+        if os.path.exists(os.path.join(folder, "manifest.json")) and subject in split_subjects(folder):
+            return folder
+    sys.exit(f"error: {faces}: no split holds {subject}")
 
 
 def tile(path, size=150, grey=False):
@@ -175,6 +197,15 @@ def report(out, d, res, steps, up_steps, samples, up_gan_steps):
         parts.append(f"<figure><img src='{rel}/table1/psnr.svg' style='width:420px'></figure>")
     else:
         parts.append("<p>Table 1 needs a BareSkinNet run and held-out faces from the earlier sections; not run.</p>")
+    t1b = os.path.join(d, "table1_truth", "table.md")
+    if os.path.exists(t1b):
+        subjects = ", ".join(html.escape(s) for s in open(os.path.join(d, "truth_subjects.txt")).read().split())
+        parts.append(f"<h3>Table 1 against the true maps (column b): faces of the texture test subject ({subjects})</h3>"
+                     "<p>The held-out faces above belong to subjects without true maps in the texture test split, so "
+                     "column (b) is measured on faces rendered here (<code>texgen faces</code>, the texture test "
+                     "subject only, new makeup, light and pose draws): held out from pix2pixHD and SRGAN; at demo "
+                     "size the faces and texture splits are drawn separately, so BareSkinNet may have seen other "
+                     "images of this subject.</p>" + md_table_to_html(open(t1b).read()))
     a = os.path.join(d, "avatar_astronaut")
     if os.path.isdir(a):
         target = os.path.join(img, "texture_astronaut.png")
@@ -194,6 +225,10 @@ def report(out, d, res, steps, up_steps, samples, up_gan_steps):
 if __name__ == "__main__":
     if sys.argv[1] == "--extract":
         extract(sys.argv[2], sys.argv[3])
+    elif sys.argv[1] == "--subjects":
+        print("\n".join(split_subjects(sys.argv[2])))
+    elif sys.argv[1] == "--split-of":
+        print(split_of(sys.argv[2], sys.argv[3]))
     elif sys.argv[1] == "--report":
         report(*sys.argv[2:9])
     else:
