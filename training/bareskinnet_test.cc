@@ -248,6 +248,21 @@ TEST(BareSkinNet, LossFallsOnAFixedBatch) {
   EXPECT_LT(last, 0.5 * first) << "L1 x100 from " << first << " to " << last;
 }
 
+TEST(BareSkinNet, BareTargetIsTheAlbedoOnTheFaceAndTheInputElsewhere) {
+  const auto dir = write_faces(4, 5);
+  Options o = small_options(1);
+  o.target = "bare";
+  BareSkinTask task(o);
+  const data::Batch batch = load_batch(dir, o, 4);  // needs face.png: required_members asks for it
+  const auto t = task.target(batch), face = batch.at("face") > 0.5;
+  const auto bare = batch.at("bare"), makeup = batch.at("makeup");
+  ASSERT_TRUE(face.any().item<bool>() && (~face).any().item<bool>());
+  EXPECT_TRUE(torch::allclose(t.masked_select(face.expand_as(t)), bare.masked_select(face.expand_as(t)), 0, 1e-6));
+  EXPECT_TRUE(torch::allclose(t.masked_select((~face).expand_as(t)), makeup.masked_select((~face).expand_as(t)), 0, 1e-6));
+  // the unmasked bare image differs off the face: the check can fail
+  EXPECT_GT((bare - makeup).abs().masked_select((~face).expand_as(t)).mean().item<double>(), 0.05);
+}
+
 std::map<std::string, torch::Tensor> weights(const std::string& checkpoint, const std::string& module, BareSkinTask& task) {
   auto m = task.modules().at(module);
   train::load_module_weights(checkpoint, module, *m);
