@@ -69,6 +69,14 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-weight", t.weight, "Texture correspondences against the closest-point term")
       ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-min-confidence", t.min_confidence, "Flow confidence below which a vertex gets no texture target")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-smoothing", t.smoothing, "Flow regulariser: confidence-weighted smoothing (texels)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-stiffness", t.stiffness, "NICP stiffness during the refinement")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-data-weight", t.data_weight, "Closest-point term's weight during the refinement")
+      ->capture_default_str()->group("Texture refinement");
   app->add_option("--maps-res", f.maps.resolution,
                   "Transfer the maps the scan has (diffuse, normal, roughness, specular) into the template UV at this "
                   "resolution (0: no maps)")

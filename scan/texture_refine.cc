@@ -250,7 +250,7 @@ UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_
     out.confidence = lucas_kanade(mv[size_t(l)], fx[size_t(l)], w[size_t(l)], dx, dy, o.window, o.smoothing, o.confidence_quantile, 3);
   }
   out.dx = dx, out.dy = dy;
-  out.confidence = blur(out.confidence, o.smoothing);
+  out.confidence = blur(out.confidence, o.window);
   return out;
 }
 

@@ -32,12 +32,12 @@ struct TextureRefineOptions {
   double structure_floor = 0.3; // its deviation's floor (log units): plain skin stays flat
   double confidence_quantile = 0.8;  // confidence 1/2 at this quantile (over the face) of the reference's structure
   double window = 3;            // texels: Lucas-Kanade's window (Gaussian sigma) at every level
-  double smoothing = 16;        // texels: the flow's confidence-weighted smoothing (the regulariser) at every level
+  double smoothing = 8;         // texels: the flow's confidence-weighted smoothing (the regulariser) at every level
   int nicp_iterations = 3;      // NICP iterations per round, at `stiffness`
-  double weight = 2;            // texture correspondences against the closest-point term (per node, on average)
+  double weight = 8;            // texture correspondences against the closest-point term (per node, on average)
   double data_weight = 0.3;     // the closest-point term's weight during refinement (it resists tangential moves)
   double stiffness = 0.4;       // NICP stiffness during refinement (stiffer than the schedule's end: slides are smooth)
-  double min_confidence = 0.2;  // vertices whose flow confidence is lower get no texture correspondence
+  double min_confidence = 0.5;  // vertices whose flow confidence is lower get no texture correspondence
   double max_move_mm = 5;       // larger moves are treated as mismatches
   void check() const;           // InvalidInput when out of range
 };
