@@ -49,7 +49,7 @@ struct TextureSampleOptions {
   std::optional<Eigen::Matrix<double, 68, 3>> landmark_offsets;
   // Reweighted refits of the landmark fit (fit_landmarks_multiview_robust): landmarks far from where the shared shape
   // puts them lose weight (multi-view modes, and per-view with a calibration).
-  int landmark_robust_rounds = 0;
+  int landmark_robust_rounds = 2;
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range
