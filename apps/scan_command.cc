@@ -64,7 +64,7 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-reference", f.texture_reference,
                   "Reference diffuse in the template UV (e.g. the mean of a first pass's diffuse maps; "
-                  "docs/registration.md)")->group("Texture refinement");
+                  "docs/pipeline.md)")->group("Texture refinement");
   app->add_option("--texture-res", t.resolution, "UV size of the flow (power of two)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-weight", t.weight, "Texture correspondences against the closest-point term")

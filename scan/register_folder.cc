@@ -303,7 +303,7 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
   if (options.nicp.texture.iterations > 0 && !todo.empty()) {
     if (options.texture_reference.empty()) {
       throw InvalidInput("--texture-refine", "needs a reference diffuse in the template UV",
-                         "give --texture-reference UV.png (docs/registration.md says how to make one)");
+                         "give --texture-reference UV.png (docs/pipeline.md says how to make one)");
     }
     reference = read_image(options.texture_reference);
     if (reference->width != reference->height || reference->channels < 3 || reference->color_space == ColorSpace::Data) {

@@ -40,7 +40,7 @@ struct RegisterFolderOptions {
     return o;
   }();
   RegisterOptions nicp;
-  // The reference diffuse in the template UV for nicp.texture (docs/registration.md: the mean of a first pass's
+  // The reference diffuse in the template UV for nicp.texture (docs/pipeline.md: the mean of a first pass's
   // transferred diffuse maps); required when nicp.texture.iterations > 0.
   std::string texture_reference;
   // For scans without landmarks.json (unless no_landmarks); empty: the fallback alignment.

@@ -1,4 +1,4 @@
-// Texture-aware registration refinement (`scan register --texture-refine N`, docs/registration.md). After NICP the
+// Texture-aware registration refinement (`scan register --texture-refine N`, docs/pipeline.md). After NICP the
 // registered surface lies on the scan to < 0.001 mm, but points may slide along it: geometry does not say where on a
 // smooth cheek a template point belongs; the scan's texture does. One round:
 //   1. the scan's diffuse is transferred into the template UV through the current registration (render's UV raster of
@@ -6,8 +6,8 @@
 //   2. it and a reference diffuse in the template UV (e.g. the mean of other scans' first-pass transfers) are reduced
 //      to their structure, so that skin tone and shading drop out: log-luminance minus its local mean, over its local
 //      standard deviation;
-//   3. a dense flow d in UV, coarse to fine (pyramidal Lucas-Kanade, regularised by confidence-weighted smoothing),
-//      takes the subject's structure onto the reference's: T(u + d(u)) ~ R(u);
+//   3. a dense flow d in UV, coarse to fine (pyramidal Lucas-Kanade on the reference's gradients, regularised by
+//      confidence-weighted smoothing), takes the subject's structure onto the reference's: T(u + d(u)) ~ R(u);
 //   4. so template UV u belongs where the registration now puts u + d(u): each confident template vertex gets that
 //      point (the registered triangle under u + d, by its barycentrics, then projected onto the scan) as a soft
 //      correspondence for a few NICP iterations.
@@ -64,9 +64,11 @@ Image resample_square(const Image& image, int size);
 // standard deviation, over the valid texels (0 elsewhere). A multiplicative skin tone and slow shading drop out.
 Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor);
 
-// Displacement field (texels, x right, y down) with moving(u + d) ~ fixed(u), and a confidence in [0, 1] per texel
-// (the Lucas-Kanade structure tensor's smaller eigenvalue against its median over the mask). `mask`: texels where both
-// images are defined.
+// Displacement field (texels, x right, y down) with moving(u + d) ~ fixed(u), and a confidence in [0, 1] per texel:
+// lambda / (lambda + kappa), lambda the smaller eigenvalue of the windowed structure tensor of `fixed` (the reference:
+// its features are the ones every face shares), kappa its confidence_quantile over the mask. Coarse to fine, three
+// warps per level, each update at most a texel, then d smoothed with the confidence as weight (the regulariser).
+// `mask`: texels where both images are defined.
 struct UvFlow {
   Plane dx, dy, confidence;
   // Bilinear at template uv (origin bottom-left).
