@@ -16,6 +16,7 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
+#include "core/scan_folder.h"
 #include "render/preview.h"
 #include "scan/transfer.h"
 
@@ -185,7 +186,9 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
                             const Image* texture_reference) {
   // 1. Read the scan and its landmarks (given, detected or none).
   const auto t0 = std::chrono::steady_clock::now();
-  const std::string id = fs::path(scan_dir).filename().string(), mesh_path = scan_mesh_path(scan_dir);
+  const std::string id = fs::path(scan_dir).filename().string(), mesh_path = find_scan_mesh(scan_dir);
+  if (mesh_path.empty())
+    throw InvalidInput(scan_dir, "holds no mesh.obj or mesh.ply", "point --scans at a folder of scan folders");
   const Mesh scan = read_mesh(mesh_path);
   const ScanLandmarkSource lm = scan_landmarks(face, scan, scan_dir, options);
   const Landmarks* landmarks = lm.landmarks ? &*lm.landmarks : nullptr;
@@ -277,13 +280,6 @@ void log_report(const nlohmann::json& r) {
 }
 
 }  // namespace
-
-std::string scan_mesh_path(const std::string& dir) {
-  for (const char* name : {"/mesh.obj", "/mesh.ply"}) {
-    if (fs::exists(dir + name)) return dir + name;
-  }
-  throw InvalidInput(dir, "holds no mesh.obj or mesh.ply", "point --scans at a folder of scan folders");
-}
 
 std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
                                          const ProgressCallback& progress) {

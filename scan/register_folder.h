@@ -53,7 +53,4 @@ struct RegisterFolderOptions {
 std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
                                          const ProgressCallback& progress = {});
 
-// The scan folder's mesh file: mesh.obj, else mesh.ply; InvalidInput naming the folder when it has neither.
-std::string scan_mesh_path(const std::string& scan_dir);
-
 }  // namespace bareskin

@@ -16,6 +16,7 @@
 #include "core/log.h"
 #include "core/png.h"
 #include "core/png_encoding.h"
+#include "core/scan_folder.h"
 #include "texgen/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
 #include "texgen/shards.h"
@@ -77,24 +78,18 @@ std::vector<std::string> list_subjects(const std::string& registered) {
   return names;
 }
 
-std::string map_path(const std::string& dir, const char* map) {
-  for (const char* ext : {".png", ".exr", ".tif", ".tiff"})
-    if (fs::exists(dir + "/" + map + ext)) return dir + "/" + map + ext;
-  return "";
-}
-
 // What can be seen without reading a subject's data: its maps exist and are large enough for the targets.
 void check_subject_files(const std::string& dir, const TextureDatasetOptions& o) {
   std::string missing;
   for (const char* m : kMaps)
-    if (map_path(dir, m).empty()) missing += std::string(missing.empty() ? "" : ", ") + m;
+    if (find_scan_map(dir, m).empty()) missing += std::string(missing.empty() ? "" : ", ") + m;
   if (!missing.empty())
     throw InvalidInput(dir, "has no " + missing + " map", "register the scan with its four maps, or pass --keep-going");
-  const ImageFileInfo info = probe_image(map_path(dir, "diffuse"));
+  const ImageFileInfo info = probe_image(find_scan_map(dir, "diffuse"));
   for (int size : {o.target_res, o.hr_res}) {
     if (size <= 0) continue;
     if (size > info.width || info.width % size != 0)
-      throw InvalidInput(map_path(dir, "diffuse"),
+      throw InvalidInput(find_scan_map(dir, "diffuse"),
                          "is " + std::to_string(info.width) + "², which " + std::to_string(size) + " does not divide",
                          "pass --target-res/--hr-res that divide the maps' size (--hr-res 0: no high-res targets)");
   }
@@ -178,7 +173,7 @@ class TargetBake {
       bake_maps(dir, &rasters.at(map_set_size(dir)), bake, [&](const std::string& map, int size, Image image) {
         if (map == "diffuse" && size == texture_size) {
           if (image.channels < 3)
-            throw InvalidInput(map_path(dir, "diffuse"), "is not an RGB map", "give the registered diffuse map");
+            throw InvalidInput(find_scan_map(dir, "diffuse"), "is not an RGB map", "give the registered diffuse map");
           texture_.set_value(image);
           texture_set = true;
         }
@@ -512,11 +507,8 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
     }
   }
   for (const std::string& s : subjects) {
-    std::string mesh;
-    for (const char* name : {"mesh.ply", "mesh.obj"})
-      if (mesh.empty() && fs::exists(o.registered + "/" + s + "/" + name)) mesh = o.registered + "/" + s + "/" + name;
-    if (mesh.empty()) continue;
-    if (map_path(o.registered + "/" + s, "diffuse").empty()) continue;
+    if (find_scan_mesh(o.registered + "/" + s).empty()) continue;
+    if (find_scan_map(o.registered + "/" + s, "diffuse").empty()) continue;
     try {
       load_subject_mesh(o.registered + "/" + s, model);
     } catch (const InvalidInput&) {

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
+#include "core/scan_folder.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
 #include "render/shade.h"
@@ -40,9 +41,7 @@ Subject load_subject_mesh(const std::string& dir, const MorphableModel& model) {
   Subject s;
   s.dir = dir;
   s.name = fs::path(dir).filename().string();
-  std::string mesh_path;
-  for (const char* name : {"mesh.ply", "mesh.obj"})
-    if (fs::exists(dir + "/" + name)) mesh_path = dir + "/" + name;
+  const std::string mesh_path = find_scan_mesh(dir);
   if (mesh_path.empty())
     throw InvalidInput(dir, "holds no mesh.ply or mesh.obj", "give the folders `bareskin scan register` writes");
   const Mesh registered = read_mesh(mesh_path);
