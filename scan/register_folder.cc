@@ -49,7 +49,7 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   }
   if (!options.detect) return out;
   std::optional<Image> diffuse;
-  if (const std::string p = find_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) diffuse = to_linear(read_image(p));
+  if (const std::string p = find_scan_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) diffuse = to_linear(read_image(p));
   const DetectedLandmarks found = options.detect(scan, diffuse ? &*diffuse : nullptr);
   out.landmarks = found.landmarks;
   // Calibrated points follow the template's convention, jaw included; otherwise the jaw contour (where a 2D
@@ -198,7 +198,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   std::optional<Image> scan_diffuse;
   RegistrationTexture texture;
   if (options.nicp.texture.iterations > 0 && texture_reference) {
-    if (const std::string p = find_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) {
+    if (const std::string p = find_scan_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) {
       scan_diffuse = to_linear(read_image(p));
       texture = {&*scan_diffuse, texture_reference};
     }

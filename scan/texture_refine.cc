@@ -101,7 +101,7 @@ Plane lucas_kanade(const Plane& moving, const Plane& fixed, const Plane& mask, P
     for (int y = 1; y < n - 1; ++y)
       for (int x = 1; x < n - 1; ++x) {
         if (w.at(x, y) <= 0 || w.at(x - 1, y) <= 0 || w.at(x + 1, y) <= 0 || w.at(x, y - 1) <= 0 || w.at(x, y + 1) <= 0) continue;
-        // Gradient: the mean of both images' central differences (symmetric in the two).
+        // Gradient: the fixed image's central differences.
         const float gx = 0.5f * (fixed.at(x + 1, y) - fixed.at(x - 1, y));
         const float gy = 0.5f * (fixed.at(x, y + 1) - fixed.at(x, y - 1));
         const float gt = warped.at(x, y) - fixed.at(x, y);

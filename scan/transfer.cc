@@ -7,16 +7,10 @@
 #include "core/error.h"
 #include "core/stats.h"
 #include "core/image_io.h"
+#include "core/scan_folder.h"
 #include "template/surface.h"
 
 namespace bareskin {
-
-std::string find_map(const std::string& dir, const std::string& name) {
-  for (const char* ext : {".png", ".tif", ".tiff", ".exr"}) {
-    if (std::filesystem::exists(dir + "/" + name + ext)) return dir + "/" + name + ext;
-  }
-  return "";
-}
 
 MapSelection ScanMaps::present() const {
   MapSelection s;
@@ -39,16 +33,16 @@ std::vector<std::string> ScanMaps::names() const {
 
 ScanMaps read_scan_maps(const std::string& dir) {
   ScanMaps maps;
-  if (const std::string p = find_map(dir, "diffuse"); !p.empty()) maps.diffuse = to_linear(read_image(p));
-  if (const std::string p = find_map(dir, "normal"); !p.empty()) {
+  if (const std::string p = find_scan_map(dir, "diffuse"); !p.empty()) maps.diffuse = to_linear(read_image(p));
+  if (const std::string p = find_scan_map(dir, "normal"); !p.empty()) {
     maps.normal = read_image(p, ColorSpace::Data);
     if (maps.normal.channels < 3) {
       throw InvalidInput(p, "a normal map needs 3 channels, it has " + std::to_string(maps.normal.channels),
                          "give a tangent-space RGB normal map, or remove it");
     }
   }
-  if (const std::string p = find_map(dir, "roughness"); !p.empty()) maps.roughness = read_image(p, ColorSpace::Data);
-  if (const std::string p = find_map(dir, "specular"); !p.empty()) maps.specular = read_image(p, ColorSpace::Data);
+  if (const std::string p = find_scan_map(dir, "roughness"); !p.empty()) maps.roughness = read_image(p, ColorSpace::Data);
+  if (const std::string p = find_scan_map(dir, "specular"); !p.empty()) maps.specular = read_image(p, ColorSpace::Data);
   return maps;
 }
 
@@ -107,8 +101,8 @@ TransferResult transfer_maps(const Mesh& registered, const Mesh& scan, const Sca
 TransferErrors compare_maps(const std::string& transferred_dir, const std::string& truth_dir,
                             const std::vector<uint8_t>& texel_class) {
   TransferErrors e;
-  const std::string d_path = find_map(transferred_dir, "diffuse"), n_path = find_map(transferred_dir, "normal");
-  const std::string dt_path = find_map(truth_dir, "diffuse"), nt_path = find_map(truth_dir, "normal");
+  const std::string d_path = find_scan_map(transferred_dir, "diffuse"), n_path = find_scan_map(transferred_dir, "normal");
+  const std::string dt_path = find_scan_map(truth_dir, "diffuse"), nt_path = find_scan_map(truth_dir, "normal");
   e.has_diffuse = !d_path.empty() && !dt_path.empty();
   e.has_normal = !n_path.empty() && !nt_path.empty();
   const auto same_size = [&](const Image& a, const Image& b) {

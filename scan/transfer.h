@@ -21,9 +21,6 @@ struct ScanMaps {
   std::vector<std::string> names() const;  // the present maps' names, in the order above
 };
 
-// The path of dir/<name>.{png,tif,tiff,exr} (the first extension found), or "" when there is none.
-std::string find_map(const std::string& dir, const std::string& name);
-
 // Reads whichever of dir/{diffuse,normal,roughness,specular}.{png,tif,tiff,exr} exist (none is fine).
 ScanMaps read_scan_maps(const std::string& dir);
 

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
+#include "core/scan_folder.h"
 #include "render/sh.h"
 
 namespace bareskin::texgen {
@@ -95,16 +96,8 @@ Image resample(const Image& in, int size) {
   return out;
 }
 
-std::string find_map(const fs::path& dir, const std::string& name) {
-  for (const char* ext : {".png", ".exr", ".tif", ".tiff"}) {
-    const fs::path p = dir / (name + ext);
-    if (fs::exists(p)) return p.string();
-  }
-  return "";
-}
-
 std::shared_ptr<const Image> read_map(const fs::path& dir, const std::string& name, bool colour, int size) {
-  const std::string path = find_map(dir, name);
+  const std::string path = find_scan_map(dir.string(), name);
   if (path.empty())
     throw InvalidInput(dir.string(), "has no " + name + " map (" + name + ".png|exr|tif)",
                        "give a folder written by 'scan register' from scans with all four maps");
