@@ -285,7 +285,6 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
                                          const ProgressCallback& progress) {
   // 1. The scan folders, and which of them still need registering.
   const std::vector<std::string> dirs = scan_folders(options.scans);
-  make_directories(options.output);
   const auto out_dir = [&](const std::string& d) { return options.output + "/" + fs::path(d).filename().string(); };
   std::vector<std::string> todo;
   for (const std::string& d : dirs)
@@ -307,6 +306,7 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
                          "give the template-UV diffuse (e.g. the mean of registered diffuse.png maps)");
     }
   }
+  make_directories(options.output);  // after the inputs are checked: bad input leaves no output folder
   std::atomic<int> done{0};
   std::mutex failures_mutex;
   std::vector<std::pair<std::string, std::string>> failures;
