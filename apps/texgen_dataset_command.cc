@@ -99,7 +99,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->capture_default_str()->group("Fit");
   app->add_option("--landmark-regularisation", o.sample.landmark_fit.regularisation, "Weight of the shape prior in the "
                                                                                      "landmark fit (px² per std²)")
-      ->capture_default_str()->group("Fit");
+      ->capture_default_str()->check(CLI::Range(0.0, 1e6))->group("Fit");
   app->add_option("--fit-size", o.sample.fit_size, "Image size of the photometric fit")->capture_default_str()->group("Fit");
   app->add_option("--shape-components", o.sample.landmark_fit.shape_components, "Identity components fitted")
       ->capture_default_str()->group("Fit");
