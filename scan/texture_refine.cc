@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/stats.h"
+#include "scan/transfer.h"
 
 namespace bareskin {
 namespace {
@@ -160,19 +161,9 @@ Image transfer_diffuse(const RasterOutput& raster, const Mesh& template_mesh, co
       const int32_t f = raster.triangle[size_t(i)];
       if (f < 0) continue;
       const double b1 = raster.bary[2 * size_t(i)], b2 = raster.bary[2 * size_t(i) + 1];
-      const Eigen::Vector3d p = (1 - b1 - b2) * V.row(F(f, 0)).transpose() + b1 * V.row(F(f, 1)).transpose() +
-                                b2 * V.row(F(f, 2)).transpose();
-      if (!p.allFinite()) continue;
-      const SurfacePoint s = scan_locator.locate(p);
-      // The locator's face and weights index the scan's F, so its FUV: check that they give its point back.
-      if (s.face < 0 || s.face >= scan.FUV.rows() || !s.barycentric.allFinite()) continue;
-      Eigen::Vector3d q = Eigen::Vector3d::Zero();
-      Eigen::Vector2d uv = Eigen::Vector2d::Zero();
-      for (int k = 0; k < 3; ++k) {
-        q += s.barycentric[k] * scan.V.row(scan.F(s.face, k)).transpose();
-        uv += s.barycentric[k] * scan.UV.row(scan.FUV(s.face, k)).transpose();
-      }
-      if ((q - s.point).norm() > 1e-3) continue;
+      const ScanAtlasPoint a = scan_atlas_point(V, F, f, Eigen::Vector3d(1 - b1 - b2, b1, b2), scan, scan_locator);
+      if (!a.ok) continue;
+      const Eigen::Vector2d& uv = a.uv;
       const Eigen::Vector3f c = sample_bilinear(scan_diffuse, uv);
       for (int k = 0; k < 3; ++k) out.pixels[size_t(i) * 3 + size_t(k)] = c[k];
       valid[size_t(i)] = c.sum() > 1e-4f;  // 0: outside the scan's charts

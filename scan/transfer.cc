@@ -31,6 +31,24 @@ std::vector<std::string> ScanMaps::names() const {
   return out;
 }
 
+ScanAtlasPoint scan_atlas_point(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int face, const Eigen::Vector3d& b,
+                                const Mesh& scan, const SurfaceLocator& scan_locator) {
+  ScanAtlasPoint out;
+  const Eigen::Vector3d p = b[0] * V.row(F(face, 0)).transpose() + b[1] * V.row(F(face, 1)).transpose() +
+                            b[2] * V.row(F(face, 2)).transpose();
+  if (!p.allFinite()) return out;
+  out.on_scan = scan_locator.locate(p);
+  const SurfacePoint& s = out.on_scan;
+  if (s.face < 0 || s.face >= scan.FUV.rows() || !s.barycentric.allFinite()) return out;
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    q += s.barycentric[k] * scan.V.row(scan.F(s.face, k)).transpose();
+    out.uv += s.barycentric[k] * scan.UV.row(scan.FUV(s.face, k)).transpose();
+  }
+  out.ok = (q - s.point).norm() <= 1e-3;
+  return out;
+}
+
 ScanMaps read_scan_maps(const std::string& dir) {
   ScanMaps maps;
   if (const std::string p = find_scan_map(dir, "diffuse"); !p.empty()) maps.diffuse = to_linear(read_image(p));
@@ -73,17 +91,14 @@ TransferResult transfer_maps(const Mesh& registered, const Mesh& scan, const Sca
   const int R = options.resolution;
   result.texel_class.assign(size_t(R) * size_t(R), 0);
   write_uv_maps(target, options, out_dir, [&](int f, const Eigen::Vector3f& b, int x, int y) {
-    Eigen::Vector3d p = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k) p += double(b[k]) * target.V.row(target.F(f, k)).transpose();
-    const SurfacePoint s = locator.locate(p);
-    Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+    const ScanAtlasPoint a = scan_atlas_point(target.V, target.F, f, b.cast<double>(), source, locator);
+    const SurfacePoint& s = a.on_scan;
+    if (s.face < 0) return MapTexel{};  // a non-finite registered point: no chart (class 0)
+    const Eigen::Vector2d& uv = a.uv;
     bool seam = false;
-    for (int k = 0; k < 3; ++k) {
-      uv += s.barycentric[k] * source.UV.row(source.FUV(s.face, k)).transpose();
-      seam = seam || seam_vertex[size_t(source.F(s.face, k))];
-    }
+    for (int k = 0; k < 3; ++k) seam = seam || seam_vertex[size_t(source.F(s.face, k))];
     result.texel_class[size_t(y) * size_t(R) + size_t(x)] = seam ? 2 : 1;
-    MapTexel t;
+    MapTexel t{};
     if (which.diffuse) t.diffuse = sample_bilinear(maps.diffuse, uv);
     if (which.roughness) t.roughness = sample_bilinear(maps.roughness, uv).x();
     if (which.specular) t.specular = sample_bilinear(maps.specular, uv).x();

@@ -10,8 +10,20 @@
 #include "core/mesh.h"
 #include "core/progress.h"
 #include "scan/uv_maps.h"
+#include "template/surface.h"
 
 namespace bareskin {
+
+// The one per-texel lookup of a transfer (scan/transfer.cc's maps and texture_refine's diffuse): the point of the
+// registered surface (rows of V, triangle `face` of F at barycentrics b), its closest scan point and the scan's atlas
+// UV there. `ok` is false when the locator's face and weights do not give its point back (they index scan.F and FUV).
+struct ScanAtlasPoint {
+  bool ok = false;
+  SurfacePoint on_scan;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();
+};
+ScanAtlasPoint scan_atlas_point(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int face, const Eigen::Vector3d& b,
+                                const Mesh& scan, const SurfaceLocator& scan_locator);
 
 // A scan's maps; an empty image is a map the scan does not have (photogrammetry gives a diffuse map alone).
 struct ScanMaps {
