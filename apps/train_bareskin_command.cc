@@ -71,6 +71,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--lr-g", o->task.lr_g, "G's learning rate (the paper: 2e-5)")->capture_default_str();
   app->add_option("--lr-e", o->task.lr_e, "E's learning rate (the paper: 1e-4)")->capture_default_str();
   app->add_option("--lr-d", o->task.lr_d, "D's learning rate")->capture_default_str();
+  app->add_option("--ema-g", o->task.ema, "Decay of a moving average of G's weights that eval.json and inference use "
+                  "(ours; 0: off, G as trained)")->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
   app->add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();

@@ -25,7 +25,8 @@ void to_json(nlohmann::json& j, const Options& o) {
        {"w1", o.w1},             {"w2", o.w2},           {"w3", o.w3},           {"w_coeff", o.w_coeff},
        {"w_land", o.w_land},     {"w_diff", o.w_diff},   {"w_light", o.w_light}, {"w_reg", o.w_reg},
        {"recon", o.recon},       {"tune_f", o.tune_f},   {"lr_g", o.lr_g},       {"lr_d", o.lr_d},
-       {"lr_e", o.lr_e},         {"lr_f", o.lr_f},       {"beta1", o.beta1},     {"beta2", o.beta2}};
+       {"lr_e", o.lr_e},         {"lr_f", o.lr_f},       {"beta1", o.beta1},     {"beta2", o.beta2},
+       {"ema", o.ema}};
 }
 
 void from_json(const nlohmann::json& j, Options& o) {
@@ -54,6 +55,7 @@ void from_json(const nlohmann::json& j, Options& o) {
   o.lr_f = j.value("lr_f", d.lr_f);
   o.beta1 = j.value("beta1", d.beta1);
   o.beta2 = j.value("beta2", d.beta2);
+  o.ema = j.value("ema", d.ema);
   o.face_api = j.value("face_api", d.face_api);
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
@@ -62,6 +64,8 @@ void from_json(const nlohmann::json& j, Options& o) {
     throw InvalidInput("recon '" + o.recon + "'", "is not a reconstruction network", "use E (the paper) or F");
   if (o.size < 32 || (o.size & (o.size - 1)) != 0)
     throw InvalidInput("size " + std::to_string(o.size), "is not a power of two ≥ 32", "use 64, 128 or 256");
+  if (!(o.ema >= 0 && o.ema < 1))
+    throw InvalidInput("ema " + std::to_string(o.ema), "is not a decay in [0, 1)", "use e.g. 0.99, or 0 for no average");
   losses::parse_gan_kind(o.gan, "gan");
 }
 
@@ -83,6 +87,23 @@ void ablation_preset(const std::string& row, Options& o) {
 }
 
 bool ablation_has_stage2(const std::string& row) { return row != "b" && row != "c"; }
+
+double ema_decay(double decay, int64_t n) { return std::min(decay, double(1 + n) / double(10 + n)); }
+
+void ema_update(torch::nn::Module& average, torch::nn::Module& model, double d) {
+  torch::NoGradGuard no_grad;
+  auto blend = [d](torch::Tensor& a, const torch::Tensor& m) {
+    if (a.is_floating_point())
+      a.mul_(d).add_(m.detach(), 1 - d);
+    else
+      a.copy_(m);
+  };
+  auto ap = average.named_parameters(), mp = model.named_parameters();
+  auto ab = average.named_buffers(), mb = model.named_buffers();
+  BS_CHECK(ap.size() == mp.size() && ab.size() == mb.size(), "ema_update: the modules differ in layout");
+  for (auto& item : ap) blend(item.value(), mp[item.key()]);
+  for (auto& item : ab) blend(item.value(), mb[item.key()]);
+}
 
 torch::Tensor srgb_to_linear(const torch::Tensor& x) {
   auto c = x.clamp(0, 1);
@@ -148,7 +169,18 @@ nlohmann::json generator_options(const nlohmann::json& g, int64_t size) {
   return o;
 }
 
+// G_ema and its update count, one module so that checkpoints keep both ("G_ema.G.*", "G_ema.updates").
+struct GeneratorEmaImpl : torch::nn::Module {
+  explicit GeneratorEmaImpl(std::shared_ptr<nets::UNetImpl> g)
+      : G(register_module("G", std::move(g))), updates(register_buffer("updates", torch::zeros({}, torch::kLong))) {
+    for (auto& p : G->parameters()) p.set_requires_grad(false);
+  }
+  std::shared_ptr<nets::UNetImpl> G;
+  torch::Tensor updates;
+};
+
 struct BareSkinTask::Nets {
+  std::shared_ptr<GeneratorEmaImpl> G_ema;  // Options::ema > 0
   std::shared_ptr<nets::UNetImpl> G;
   std::shared_ptr<nets::PatchGANImpl> D;
   losses::Lpips lpips{nullptr};
@@ -170,6 +202,11 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
   nets_->D = std::dynamic_pointer_cast<nets::PatchGANImpl>(nets::find_model("patchgan").make(d));
   BS_CHECK(nets_->G && nets_->D, "the zoo's unet256 / patchgan have unexpected types");
   if (options_.residual) zero_last_layer(*nets_->G);
+  if (options_.ema > 0) {
+    nets_->G_ema = std::make_shared<GeneratorEmaImpl>(std::dynamic_pointer_cast<nets::UNetImpl>(
+        nets::find_model("unet256").make(generator_options(options_.g, options_.size))));
+    reset_ema();
+  }
   nets_->gan = losses::parse_gan_kind(options_.gan, "gan");
   if (options_.w3 > 0) nets_->lpips = losses::Lpips(options_.lpips_trunk, options_.face_api);
   if (options_.stage == 2) {
@@ -183,8 +220,23 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
 
 std::shared_ptr<torch::nn::Module> BareSkinTask::generator() const { return nets_->G; }
 
+std::shared_ptr<torch::nn::Module> BareSkinTask::generator_ema() const {
+  return nets_->G_ema ? nets_->G_ema->G : nullptr;
+}
+
+int64_t BareSkinTask::ema_updates() const { return nets_->G_ema ? nets_->G_ema->updates.item<int64_t>() : 0; }
+
+void BareSkinTask::reset_ema() {
+  if (!nets_->G_ema) return;
+  nets_->G_ema->to(nets_->G->parameters().front().device());
+  ema_update(*nets_->G_ema->G, *nets_->G, 0);
+  torch::NoGradGuard no_grad;
+  nets_->G_ema->updates.zero_();
+}
+
 std::map<std::string, std::shared_ptr<torch::nn::Module>> BareSkinTask::modules() {
   std::map<std::string, std::shared_ptr<torch::nn::Module>> m{{"G", nets_->G}, {"D", nets_->D}};
+  if (nets_->G_ema) m["G_ema"] = nets_->G_ema;
   if (options_.stage == 2) {
     m["F"] = teacher_.module;
     if (options_.recon == "E") m["E"] = student_.module;
@@ -220,6 +272,10 @@ torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
   return generator_forward(*nets_->G, images, options_.residual);
 }
 
+torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
+  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.residual);
+}
+
 torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
   if (options_.target != "bare") return member(batch, options_.target);
   // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
@@ -233,6 +289,12 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   auto makeup = member(batch, "makeup");
   auto target = this->target(batch);
   auto D = [&](const torch::Tensor& out) { return nets_->D->forward(torch::cat({makeup * 2 - 1, out * 2 - 1}, 1)); };
+  if (phase == 0 && nets_->G_ema) {  // G as the previous step left it joins the average
+    torch::NoGradGuard no_grad;
+    auto& n = nets_->G_ema->updates;
+    ema_update(*nets_->G_ema->G, *nets_->G, ema_decay(options_.ema, n.item<int64_t>()));
+    n.add_(1);
+  }
   if (phase == 0) {  // D: real pairs vs G's output
     cached_output_ = generate(makeup);
     auto fake = cached_output_.detach();
@@ -270,7 +332,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
 }
 
 std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
-  auto out = generate(member(batch, "makeup"));
+  auto out = generate_eval(member(batch, "makeup"));
   auto skin = member(batch, "skin");
   std::map<std::string, double> m;
   for (const char* truth : {"bare", "before"}) {
@@ -284,7 +346,7 @@ std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
 
 std::vector<std::vector<torch::Tensor>> BareSkinTask::samples(const data::Batch& batch) {
   auto makeup = member(batch, "makeup");
-  auto out = generate(makeup);
+  auto out = generate_eval(makeup);
   std::vector<std::vector<torch::Tensor>> rows;
   for (int64_t i = 0; i < std::min<int64_t>(batch.size(), 4); ++i) {
     std::vector<torch::Tensor> row{makeup[i], out[i], target(batch)[i]};
@@ -306,6 +368,7 @@ void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint)
   auto modules = task.modules();
   train::load_module_weights(stage1_checkpoint, "G", *modules.at("G"));
   train::load_module_weights(stage1_checkpoint, "D", *modules.at("D"));
+  task.reset_ema();
 }
 
 namespace {

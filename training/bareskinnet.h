@@ -74,6 +74,11 @@ struct Options {
   bool tune_f = false;  // F trained along (row e) instead of frozen
   double lr_g = 2e-5, lr_d = 2e-5, lr_e = 1e-4, lr_f = 1e-5;
   double beta1 = 0.5, beta2 = 0.999;
+  // Ours, not the paper's: an exponential moving average of G's weights and batch-norm statistics (0: off). Each
+  // stage keeps G_ema ← d·G_ema + (1 − d)·G with d = ema_decay(ema, n) at the start of every step (so after N steps
+  // it averages G after steps 0 … N − 1), starting from the G the stage starts with; the validation metrics, the
+  // sample grids, eval.json and inference use G_ema. The trained G itself is unchanged by it.
+  double ema = 0;
 };
 void to_json(nlohmann::json& j, const Options& o);
 void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
@@ -94,6 +99,13 @@ torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_l
 torch::Tensor landmark_loss(const torch::Tensor& projected, const torch::Tensor& target, double scale);
 torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teacher);
 torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout);
+
+// The EMA's decay at update n (0-based): min(decay, (1 + n) / (10 + n)), so the first updates follow G closely and
+// the starting weights are forgotten within a few dozen steps even at decay 0.999.
+double ema_decay(double decay, int64_t n);
+// average ← d·average + (1 − d)·model over every parameter and floating-point buffer (batch-norm running mean and
+// variance); integer buffers (batch counts) are copied. The two modules must have the same layout. d = 0 copies.
+void ema_update(torch::nn::Module& average, torch::nn::Module& model, double d);
 
 // sRGB-encoded [0, 1] → linear light (the IEC 61966-2-1 curve), differentiable.
 torch::Tensor srgb_to_linear(const torch::Tensor& x);
@@ -127,6 +139,11 @@ class BareSkinTask : public train::Task {
 
   const Options& options() const { return options_; }
   std::shared_ptr<torch::nn::Module> generator() const;
+  // G_ema (Options::ema > 0), else null; and the number of updates it has had.
+  std::shared_ptr<torch::nn::Module> generator_ema() const;
+  int64_t ema_updates() const;
+  // Restarts the average at G's current weights (the start of a stage).
+  void reset_ema();
 
  private:
   struct Nets;
@@ -136,10 +153,12 @@ class BareSkinTask : public train::Task {
   CoeffLayout layout_;
   std::shared_ptr<Nets> nets_;
   torch::Tensor cached_output_;  // G's output of the D phase, reused by the G phase of the same step
+  torch::Tensor generate_eval(const torch::Tensor& images);  // G_ema when on, else G
 };
 
 // Stage 2 starts from stage 1's G and D: copies them from a finished stage-1 run's checkpoint into the task
-// (before its Trainer starts). InvalidInput naming the file when it is not a BareSkinNet checkpoint.
+// (before its Trainer starts); G_ema, when on, restarts at that G. InvalidInput naming the file when it is not a
+// BareSkinNet checkpoint.
 void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint);
 
 // What stage 2 needs besides G and D, made after seeding (the teacher loaded from its run, a fresh student).
@@ -199,7 +218,8 @@ struct Demakeup {
   std::shared_ptr<recon::FaceModel> model;
   torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex
   torch::Device device = torch::kCPU;
-  // G from run/stage2 (else run/stage1); F and the model from `teacher` / `model`, or from the run's configuration
+  // G from run/stage2 (else run/stage1), its moving average G_ema where the run kept one; F and the model from
+  // `teacher` / `model`, or from the run's configuration
   // when empty. InvalidInput naming the file for a checkpoint of another task; IoError for missing files.
   static Demakeup load(const std::string& run, const std::string& teacher = "", const std::string& model = "",
                        torch::Device device = torch::kCPU);
@@ -268,7 +288,7 @@ void to_json(nlohmann::json& j, const EvalResult& r);
 // G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json),
 // at G's training resolution (the samples area-resized to it; skin where the resized mask is ≥ 0.5).
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
-// G alone from a run (stage2, else stage1): the Demakeup evaluate_generator takes.
+// G alone from a run (stage2, else stage1; G_ema where the run kept one): the Demakeup evaluate_generator takes.
 Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
 
 // G's image from the U-Net's output: input + Δ (residual) or the U-Net's Tanh image, both in [0, 1] units; `images`

@@ -401,6 +401,82 @@ TEST(BareSkinNet, BadOptionsAndAblationRows) {
   EXPECT_THROW(BareSkinTask task(s2), InvalidInput);  // stage 2 without teacher and renderer
 }
 
+// G_ema (Options::ema) against an average computed here from G's weights along its trajectory (the oracle: the
+// formula applied to snapshots, not ema_update); a two-stage run keeps it in the checkpoint and load_generator
+// (eval.json, demakeup) reads it instead of G.
+TEST(BareSkinNet, EmaOfGIsTheMovingAverageOfItsTrajectoryAndInferenceUsesIt) {
+  EXPECT_DOUBLE_EQ(ema_decay(0.99, 0), 0.1);
+  EXPECT_DOUBLE_EQ(ema_decay(0.99, 10), 11.0 / 20);
+  EXPECT_DOUBLE_EQ(ema_decay(0.9, 1000), 0.9);
+  Options bad;
+  EXPECT_THROW(from_json({{"ema", 1.0}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"ema", -0.1}}, bad), InvalidInput);
+
+  const auto dir = write_faces(4, 11);
+  torch::manual_seed(0);
+  Options o = small_options(1);
+  o.ema = 0.5;
+  BareSkinTask task(o);
+  const data::Batch batch = load_batch(dir, o, 4);
+  auto state = [](torch::nn::Module& m) {  // floating parameters and buffers by name
+    std::map<std::string, torch::Tensor> s;
+    for (auto& item : m.named_parameters()) s[item.key()] = item.value().detach().clone().to(torch::kDouble);
+    for (auto& item : m.named_buffers())
+      if (item.value().is_floating_point()) s[item.key()] = item.value().clone().to(torch::kDouble);
+    return s;
+  };
+  auto G = task.generator();
+  auto expected = state(*G);  // the average starts at G
+  torch::optim::Adam adam(G->parameters(), torch::optim::AdamOptions(1e-2));
+  const int steps = 4;
+  for (int n = 0; n < steps; ++n) {
+    const double d = std::min(0.5, (1.0 + n) / (10.0 + n));
+    for (auto& [name, w] : state(*G)) expected[name] = d * expected[name] + (1 - d) * w;
+    task.loss(0, batch);
+    adam.zero_grad();
+    train::Losses l = task.loss(1, batch);
+    torch::Tensor total = torch::zeros({});
+    for (auto& [name, v] : l) total = total + v;
+    total.backward();
+    adam.step();
+  }
+  EXPECT_EQ(task.ema_updates(), steps);
+  const auto got = state(*task.generator_ema()), now = state(*G);
+  double moved = 0;
+  ASSERT_EQ(got.size(), expected.size());
+  for (auto& [name, t] : expected) {
+    EXPECT_LT((got.at(name) - t).abs().max().item<double>(), 1e-6) << name;
+    moved = std::max(moved, (got.at(name) - now.at(name)).abs().max().item<double>());
+  }
+  EXPECT_GT(moved, 1e-4) << "the average lags G: the check can fail";
+
+  // Through a run: the checkpoint holds G_ema, and load_generator gives it (not G) to inference.
+  RunOptions ro;
+  ro.task = o;
+  ro.train_data = dir;
+  ro.steps1 = 3;
+  ro.steps2 = 0;
+  ro.run_dir = testing::temp_dir() + "/ema";
+  ro.trainer.checkpoint_every = 3;
+  ro.trainer.eval_every = 0;
+  ro.trainer.sample_every = 0;
+  ro.trainer.progress = false;
+  train_two_stages(ro, toy_parts);
+  const std::string ck = ro.run_dir + "/stage1/checkpoint.safetensors";
+  BareSkinTask probe(o);
+  auto g = weights(ck, "G", probe);
+  auto ema = weights(ck, "G_ema", probe);
+  EXPECT_EQ(ema.at("updates").item<int64_t>(), 3);
+  Demakeup loaded = load_generator(ro.run_dir);
+  double to_ema = 0, to_g = 0;
+  for (auto& item : loaded.G->named_parameters()) {
+    to_ema = std::max(to_ema, (item.value() - ema.at("G." + item.key())).abs().max().item<double>());
+    to_g = std::max(to_g, (item.value() - g.at(item.key())).abs().max().item<double>());
+  }
+  EXPECT_EQ(to_ema, 0);
+  EXPECT_GT(to_g, 1e-5);
+}
+
 // G at inference (nets::UNetInference: batch norms folded, transposed convolutions as phase convolutions) against
 // the module itself in eval mode, with non-trivial batch statistics, for every norm and upsampler; and through
 // run_generator.

@@ -79,7 +79,14 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   d.size = o.size;
   d.residual = o.residual;
   d.G = nets::find_model("unet256").make(generator_options(o.g, o.size));
-  train::load_module_weights(path, "G", *d.G);
+  if (o.ema > 0) {  // the moving average the run kept (checkpoint names "G_ema.G.*")
+    auto holder = std::make_shared<torch::nn::Module>();
+    holder->register_module("G", d.G);
+    holder->register_buffer("updates", torch::zeros({}, torch::kLong));
+    train::load_module_weights(path, "G_ema", *holder);
+  } else {
+    train::load_module_weights(path, "G", *d.G);
+  }
   d.G->to(device);
   d.G->eval();
   // The phase form of the upsampling pays off with LibTorch's CPU convolutions only; cuDNN has its own.
