@@ -44,7 +44,8 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
     const auto summary = texture::evaluate_table1(opt->evaluate, model, nets, G);
     if (!globals.quiet())
       std::cerr << "wrote " << opt->evaluate.output << ": " << summary.value("improved_of_12", 0)
-                << " of 12 reference figures improve with BareSkinNet\n";
+                << " of 12 figures of column (a) and " << summary.value("improved_of_12_same_pipeline", 0)
+                << " of 12 of column (a') improve with BareSkinNet\n";
   };
 }
 

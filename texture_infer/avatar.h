@@ -110,9 +110,11 @@ struct EvaluateOptions {
   int64_t max_samples = 0;  // 0: all
   AvatarOptions avatar;
 };
-// Runs the pipeline on every sample's makeup image with and without G and on its before image without G (the
-// reference (a)); RMSE (0–255), PSNR, SSIM per map against (a) and against the true maps (b); SRGAN vs bicubic vs
-// the true 4K diffuse where the texture split has it. Returns the summary table as JSON.
+// Runs the pipeline on every sample's makeup image with and without G and on its before image without and with G;
+// RMSE (0–255), PSNR, SSIM per map against three references: (a) the before image's maps without G for both rows
+// (the paper's wording), (a') the before image's maps through the row's own pipeline (with G for the with-G row:
+// stability under makeup), (b) the true maps; SRGAN vs bicubic vs the true 4K diffuse where the texture split has
+// it. Returns the summary table as JSON.
 nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableModel& model, const AvatarNets& nets,
                                const Demakeup& G);
 

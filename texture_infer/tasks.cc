@@ -1,5 +1,7 @@
 #include "texture_infer/tasks.h"
 
+#include <ATen/Parallel.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -470,13 +472,20 @@ torch::Tensor bicubic_x4(const torch::Tensor& lr, const std::string& map) {
 namespace {
 
 // `fn` on tiles of the low-resolution map with `margin` pixels of context, joined into one output `scale` times
-// larger with `channels` channels: fn(y0, y1, x0, x1) returns the output of lr[y0:y1, x0:x1].
+// larger with `channels` channels: fn(y0, y1, x0, x1) returns the output of lr[y0:y1, x0:x1]. With `parallel`, the
+// tiles are shared out over LibTorch's intra-op threads, each tile computed whole by one thread with one thread per
+// operation inside (at::parallel_for does not nest), so the result does not depend on the thread count or schedule,
+// and the threads do not meet at a barrier after every convolution of a small tile.
 template <class Fn>
-torch::Tensor tiled(const torch::Tensor& lr, int64_t tile, int64_t margin, int64_t scale, int64_t channels, Fn fn) {
+torch::Tensor tiled(const torch::Tensor& lr, int64_t tile, int64_t margin, int64_t scale, int64_t channels,
+                    bool parallel, Fn fn) {
   const int64_t h = lr.size(2), w = lr.size(3), s = scale;
+  const int64_t rows = (h + tile - 1) / tile, cols = (w + tile - 1) / tile;
   auto out = torch::empty({lr.size(0), channels, h * s, w * s}, lr.options());
-  for (int64_t y = 0; y < h; y += tile)
-    for (int64_t x = 0; x < w; x += tile) {
+  auto run = [&](int64_t begin, int64_t end) {
+    c10::InferenceMode inference;  // thread-local: set in every worker
+    for (int64_t i = begin; i < end; ++i) {
+      const int64_t y = i / cols * tile, x = i % cols * tile;
       const int64_t y0 = std::max<int64_t>(0, y - margin), x0 = std::max<int64_t>(0, x - margin);
       const int64_t y1 = std::min(h, y + tile + margin), x1 = std::min(w, x + tile + margin);
       const torch::Tensor part = fn(y0, y1, x0, x1);
@@ -485,7 +494,18 @@ torch::Tensor tiled(const torch::Tensor& lr, int64_t tile, int64_t margin, int64
           .slice(3, x * s, (x + tx) * s)
           .copy_(part.slice(2, (y - y0) * s, (y - y0 + ty) * s).slice(3, (x - x0) * s, (x - x0 + tx) * s));
     }
+  };
+  if (parallel && lr.device().is_cpu())
+    at::parallel_for(0, rows * cols, 1, run);
+  else
+    run(0, rows * cols);
   return out;
+}
+
+// A tile's input in the layout the convolutions run fastest in on the CPU (channels last: mkldnn convolves it without
+// reordering to its blocked layout and back around every convolution).
+torch::Tensor conv_layout(const torch::Tensor& x) {
+  return x.is_cpu() ? x.contiguous(at::MemoryFormat::ChannelsLast) : x;
 }
 
 }  // namespace
@@ -494,15 +514,17 @@ torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, cons
   c10::InferenceMode inference;
   // Two passes, each in tiles with a margin of at least its reach, so the tiles join into exactly the untiled output
   // and no tensor grows past a few MB (large tensors cost more in fresh pages than in arithmetic on this CPU):
-  // the trunk (reach 1 + 2·num_block input pixels) in tiles of 4·`tile`, then the ×4 tail (reach 2: msrresnet.h)
-  // in tiles of `tile`, reading the trunk's features once instead of recomputing them in every tile's margin.
+  // the trunk (reach 1 + 2·num_block input pixels) in tiles of 2·`tile`, then the ×4 tail (reach 2: msrresnet.h)
+  // in tiles of `tile`, reading the trunk's features once instead of recomputing them in every tile's margin. On the
+  // CPU the tiles of each pass run in parallel, one thread per tile (tiled() above).
   const auto& o = net.options();
-  const int64_t trunk_margin = 1 + 2 * int64_t(o.num_block), tail_margin = 4;
-  const torch::Tensor features = tiled(lr, 4 * tile, trunk_margin, 1, o.num_feat, [&](auto y0, auto y1, auto x0, auto x1) {
-    return net.features(lr.slice(2, y0, y1).slice(3, x0, x1));
-  });
-  auto out = tiled(lr, tile, tail_margin, o.upscale, lr.size(1), [&](auto y0, auto y1, auto x0, auto x1) {
-    return net.upsample(features.slice(2, y0, y1).slice(3, x0, x1), lr.slice(2, y0, y1).slice(3, x0, x1));
+  const int64_t trunk_margin = 1 + 2 * int64_t(o.num_block), tail_margin = 2;
+  const torch::Tensor features =
+      tiled(lr, 2 * tile, trunk_margin, 1, o.num_feat, true, [&](auto y0, auto y1, auto x0, auto x1) {
+        return net.features(conv_layout(lr.slice(2, y0, y1).slice(3, x0, x1)));
+      });
+  auto out = tiled(lr, tile, tail_margin, o.upscale, lr.size(1), true, [&](auto y0, auto y1, auto x0, auto x1) {
+    return net.upsample(conv_layout(features.slice(2, y0, y1).slice(3, x0, x1)), lr.slice(2, y0, y1).slice(3, x0, x1));
   });
   out.clamp_(0, 1);
   return map == "normal" ? renormalise_normals(out) : out;

@@ -165,9 +165,11 @@ std::pair<torch::Tensor, torch::Tensor> upscale_pair(const data::Batch& batch, c
 // Bicubic ×4 (the baseline), clamped to [0, 1]; normals renormalised.
 torch::Tensor bicubic_x4(const torch::Tensor& lr, const std::string& map);
 // MSRResNet ×4 of a [0, 1] map, clamped, normals renormalised: the trunk and then the ×4 tail in tiles (`tile`
-// input pixels for the tail, 4× that for the trunk) whose margins cover each pass's reach, so the result is the
-// untiled net's and no tensor grows past a few MB. Runs in inference mode.
-torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile = 64);
+// input pixels for the tail, 2× that for the trunk) whose margins cover each pass's reach, so the result is the
+// untiled net's and no tensor grows past a few tens of MB. On the CPU each pass's tiles run in parallel, one intra-op
+// thread per tile (deterministic: a tile is computed whole by one thread), in the channels-last layout. Runs in
+// inference mode.
+torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile = 128);
 
 class SrganTask : public train::Task {
  public:

@@ -405,6 +405,14 @@ TEST(Srgan, TiledInferenceIsTheWholeForward) {
     for (int64_t tile : {5, 16, 64})
       EXPECT_LT((upscale_x4(*net, x, "diffuse", tile) - whole).abs().max().item<double>(), 1e-5)
           << base << ", tile " << tile;
+    // The tiles run in parallel, each whole on one thread: the same bits on every call and with one thread.
+    const auto parallel = upscale_x4(*net, x, "diffuse", 5);
+    EXPECT_TRUE(torch::equal(parallel, upscale_x4(*net, x, "diffuse", 5))) << base;
+    const int threads = at::get_num_threads();
+    at::set_num_threads(1);
+    const auto serial = upscale_x4(*net, x, "diffuse", 5);
+    at::set_num_threads(threads);
+    EXPECT_TRUE(torch::equal(parallel, serial)) << base;
   }
 }
 
