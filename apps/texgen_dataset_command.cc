@@ -97,6 +97,12 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
                                                                         "landmarks far from the fitted shape lose weight "
                                                                         "(Cauchy weights on the reprojection error)")
       ->capture_default_str()->group("Fit");
+  app->add_option("--silhouette-rounds", o.sample.silhouette.rounds, "Rounds of the silhouette term: each view's "
+                                                                      "fitted outline onto the render's (0: off)")
+      ->capture_default_str()->group("Fit");
+  app->add_option("--silhouette-weight", o.sample.silhouette.weight, "A view's outline points together weigh this "
+                                                                      "times its 68 landmarks")
+      ->capture_default_str()->group("Fit");
   app->add_option("--landmark-regularisation", o.sample.landmark_fit.regularisation, "Weight of the shape prior in the "
                                                                                      "landmark fit (px² per std²)")
       ->capture_default_str()->check(CLI::Range(0.0, 1e6))->group("Fit");

@@ -96,10 +96,7 @@ std::string encode_png(const Image& image, int bits) { return encode_png(image, 
 std::string encode_png(const Image& image, int bits, const PngEncoding& encoding) {
   BS_CHECK(image.channels >= 1 && image.channels <= 4, "PNG holds 1-4 channels");
   BS_CHECK(bits == 8 || bits == 16, "PNG bit depth is 8 or 16");
-  static const int kColorType[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
-                                   PNG_COLOR_TYPE_RGBA};
-  const size_t row_values = size_t(image.width) * image.channels;
-  std::vector<unsigned char> data(row_values * image.height * (bits / 8));
+  std::vector<unsigned char> data(image.pixels.size() * size_t(bits / 8));
   const float scale = bits == 16 ? 65535.f : 255.f;
   for (size_t i = 0; i < image.pixels.size(); ++i) {
     const float v = image.pixels[i];
@@ -111,6 +108,16 @@ std::string encode_png(const Image& image, int bits, const PngEncoding& encoding
       data[i] = static_cast<unsigned char>(q);
     }
   }
+  return encode_png_samples(data.data(), image.width, image.height, image.channels, bits, encoding);
+}
+
+std::string encode_png_samples(const unsigned char* data, int width, int height, int channels, int bits,
+                               const PngEncoding& encoding) {
+  BS_CHECK(channels >= 1 && channels <= 4, "PNG holds 1-4 channels");
+  BS_CHECK(bits == 8 || bits == 16, "PNG bit depth is 8 or 16");
+  static const int kColorType[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
+                                   PNG_COLOR_TYPE_RGBA};
+  const size_t row_bytes = size_t(width) * size_t(channels) * size_t(bits / 8);
   std::string out, message;
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, error_callback, warning_callback);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
@@ -118,14 +125,14 @@ std::string encode_png(const Image& image, int bits, const PngEncoding& encoding
     png_destroy_write_struct(&png, nullptr);
     throw std::bad_alloc();
   }
-  std::vector<png_bytep> rows(image.height);
-  for (int y = 0; y < image.height; ++y) rows[y] = data.data() + y * row_values * (bits / 8);
+  std::vector<png_bytep> rows(static_cast<size_t>(height));
+  for (int y = 0; y < height; ++y) rows[size_t(y)] = const_cast<png_bytep>(data + size_t(y) * row_bytes);
   if (setjmp(png_jmpbuf(png))) {
     png_destroy_write_struct(&png, &info);
     throw InternalError("PNG encoding failed: " + message);
   }
   png_set_write_fn(png, &out, write_callback, nullptr);
-  png_set_IHDR(png, info, image.width, image.height, bits, kColorType[image.channels - 1], PNG_INTERLACE_NONE,
+  png_set_IHDR(png, info, width, height, bits, kColorType[channels - 1], PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_set_compression_level(png, encoding.level);  // shards favour speed; level 3 is ~2x faster than 6 for a few % size
   if (encoding.fast) {

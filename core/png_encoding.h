@@ -17,4 +17,9 @@ struct PngEncoding {
 // encode_png (core/png.h) with `encoding`; the default encoding gives encode_png's bytes.
 std::string encode_png(const Image& image, int bits, const PngEncoding& encoding);
 
+// The same from samples already quantised: width × height × channels values of `bits` bits, row by row (16-bit
+// big-endian), as encode_png would have made them.
+std::string encode_png_samples(const unsigned char* data, int width, int height, int channels, int bits,
+                               const PngEncoding& encoding);
+
 }  // namespace bareskin

@@ -17,6 +17,7 @@
 #include "core/png.h"
 #include "core/png_encoding.h"
 #include "core/scan_folder.h"
+#include "texgen/member_quantize.h"
 #include "texgen/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
 #include "texgen/shards.h"
@@ -128,18 +129,18 @@ class LayoutRasters {
 };
 
 // A baked map as the 8-bit PNG member: the value a 16-bit PNG file of the bake would hold (diffuse sRGB-encoded),
-// then 8 bits (the members were once made through such files; the bytes stay the same).
-// In place: no second copy of a 4K map.
+// then 8 bits (the members were once made through such files; the bytes stay the same), by MemberQuantizer's tables.
 std::string baked_member(Image image) {
   const bool encode = image.color_space == ColorSpace::Linear;
-  const size_t C = size_t(image.channels), colour = C == 4 ? 3 : C;
-  for (size_t i = 0; i < image.pixels.size(); ++i) {
-    float v = image.pixels[i];
-    if (encode && i % C < colour) v = linear_to_srgb(v);
-    image.pixels[i] = float(std::lround(std::clamp(v, 0.f, 1.f) * 65535.f)) * (1.0f / 65535.f);
-  }
-  if (encode) image.color_space = ColorSpace::sRGB;
-  return png8(image);
+  const size_t C = size_t(image.channels), colour = C == 4 ? 3 : C, n = image.pixels.size();
+  const MemberQuantizer& as_colour = encode ? MemberQuantizer::colour() : MemberQuantizer::data();
+  const MemberQuantizer& as_data = MemberQuantizer::data();
+  std::unique_ptr<unsigned char[]> samples(new unsigned char[n]);  // every byte written below
+  for (size_t i = 0; i < n; i += C)
+    for (size_t c = 0; c < C; ++c) samples[i + c] = (c < colour ? as_colour : as_data)(image.pixels[i + c]);
+  const int width = image.width, height = image.height;
+  std::vector<float>().swap(image.pixels);  // the float map goes before deflate
+  return encode_png_samples(samples.get(), width, height, int(C), 8, kMemberEncoding);
 }
 
 // The subject's four maps baked to the target sizes (in memory, through the cached layout raster) as PNG members, on

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 
 #include "core/error.h"
@@ -16,7 +17,10 @@
 #include "morphable/coefficients.h"
 #include "render/shade.h"
 #include "template/template_face.h"
+#include "texgen/member_quantize.h"
 #include "texgen/multiview_fit.h"
+#include "texgen/silhouette_fit.h"
+#include "render/rasterize.h"
 #include "texgen/texture_sample.h"
 
 namespace bareskin::texgen {
@@ -243,9 +247,124 @@ TEST(MultiviewFit, JointFitOfTheThreeViewsBeatsIndependentFits) {
   std::printf("shape error with 8 slipped landmarks (60 px) in one view: plain %.2f mm, reweighted %.2f mm\n", plain, robust);
 }
 
+// The signed distance against brute force on a small mask with two blobs and a hole.
+TEST(Silhouette, SignedDistanceMatchesBruteForce) {
+  const int S = 40;
+  std::vector<uint8_t> mask(size_t(S * S), 0);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      const double a = std::hypot(x - 12, y - 15), b = std::hypot(x - 29, y - 26);
+      mask[size_t(y * S + x)] = (a < 9 && a > 3) || (std::abs(x - 29) < 6 && std::abs(y - 26) < 4) || b < 3;
+    }
+  const std::vector<float> sdf = signed_distance(mask, S);
+  double worst = 0;
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      double best = 1e9;
+      for (int v = 0; v < S; ++v)
+        for (int u = 0; u < S; ++u)
+          if (mask[size_t(v * S + u)] != mask[size_t(y * S + x)]) best = std::min(best, std::hypot(u - x, v - y));
+      const double expect = (mask[size_t(y * S + x)] ? -1 : 1) * (best - 0.5);
+      worst = std::max(worst, std::abs(sdf[size_t(y * S + x)] - expect));
+    }
+  EXPECT_LT(worst, 1e-4);
+  // The region of a render on black: its hole (dark skin) stays in, the background joined to the border does not.
+  Image render(S, S, 3, ColorSpace::sRGB);
+  for (size_t i = 0; i < mask.size(); ++i)
+    for (int c = 0; c < 3; ++c) render.pixels[3 * i + size_t(c)] = mask[i] ? 0.5f : 0.f;
+  const std::vector<uint8_t> region = face_silhouette(render);
+  EXPECT_EQ(region[size_t(15 * S + 12)], 1);  // the hole of the ring
+  EXPECT_EQ(region[size_t(2 * S + 2)], 0);
+  EXPECT_EQ(region[size_t(15 * S + 5)], 1);
+}
+
+// The three views of a known head, as make-dataset's renders (the head on black) and landmarks with 8 px of noise:
+// the silhouette term brings the shared-shape fit's shape closer to the truth.
+TEST(Silhouette, OutlinesBringTheShapeCloserToTheTruth) {
+  const MorphableModel model = depth_model();
+  const Eigen::VectorXd alpha = Eigen::Vector3d(2.0, -1.0, 1.5), beta = Eigen::Vector2d(0.5, -0.5);
+  const Eigen::Vector3d rotation(0.05, -0.03, 0.02), translation(2, -3, 5);
+  const Eigen::MatrixX3d truth = model.shape(alpha, beta);
+  const int size = 512;
+  const Camera camera = view_camera("front", size, Eigen::Vector3d::Zero(), 1000);
+  LandmarkFitOptions options;
+  options.shape_components = 3;
+  options.expression_components = 2;
+  const auto shape_error = [&](const MultiviewLandmarkFit& f) {
+    return (model.shape(f.alpha, f.beta) - truth).rowwise().norm().mean();
+  };
+  double plain = 0, outlined = 0;
+  const int draws = 4;
+  for (int d = 0; d < draws; ++d) {
+    std::mt19937_64 rng(400 + uint64_t(d));
+    std::normal_distribution<double> noise(0, 8 * size / 1024.0);
+    std::vector<LandmarkViewInput> views;
+    std::vector<Image> renders;
+    for (const ViewSpec& view : TextureSampleOptions().views) {
+      LandmarkViewInput v;
+      v.rotation = view_rotation(view);
+      Mesh head = model.topology;
+      head.V = (((truth * euler_rotation(rotation).transpose()).rowwise() + translation.transpose()) *
+                v.rotation.transpose()).eval();
+      for (int k = 0; k < 68; ++k) {
+        const Eigen::Vector3d q = camera.project(head.V.row(model.landmark_vertices[size_t(k)]).transpose());
+        v.landmarks.row(k) << q.x() + noise(rng), q.y() + noise(rng);
+      }
+      const RasterOutput raster = rasterize_mesh(head, camera);
+      Image render(size, size, 3, ColorSpace::sRGB);
+      for (size_t i = 0; i < raster.triangle.size(); ++i)
+        if (raster.triangle[i] >= 0)
+          for (int c = 0; c < 3; ++c) render.pixels[3 * i + size_t(c)] = 0.6f;
+      views.push_back(v);
+      renders.push_back(std::move(render));
+    }
+    const MultiviewLandmarkFit start = fit_landmarks_multiview(model, views, camera, options, true);
+    SilhouetteFitOptions silhouette;
+    silhouette.rounds = 2;
+    const MultiviewLandmarkFit refined = refine_with_silhouettes(
+        model, views, {&renders[0], &renders[1], &renders[2]}, camera, options, nullptr, start, silhouette, false);
+    plain += shape_error(start) / draws;
+    outlined += shape_error(refined) / draws;
+  }
+  EXPECT_LT(outlined, 0.7 * plain) << "with silhouettes " << outlined << " mm, landmarks only " << plain << " mm";
+  std::printf("shape error with 8 px landmark noise: landmarks only %.2f mm, with the silhouettes %.2f mm\n", plain,
+              outlined);
+}
+
 TEST(MultiviewFit, EulerAnglesInvertTheRotation) {
   for (const Eigen::Vector3d a : {Eigen::Vector3d(0.1, -0.4, 0.3), Eigen::Vector3d(-1.2, 0.9, 2.5), Eigen::Vector3d(0, 0, 0)})
     EXPECT_LT((euler_angles(euler_rotation(a)) - a).norm(), 1e-12) << a.transpose();
+}
+
+// The members' 8-bit table against its formula: random floats over [0, 1] (uniform in value and in bit pattern), the
+// floats next to every threshold, and the ends.
+TEST(MemberQuantizer, TableMatchesTheFormula) {
+  std::mt19937 rng(5);
+  for (const bool srgb : {true, false}) {
+    const MemberQuantizer& q = srgb ? MemberQuantizer::colour() : MemberQuantizer::data();
+    std::vector<float> values = {0.f, -1.f, 1.f, 2.f, std::nanf(""), 1e-30f, 0.0031308f, 0.5f / 255, 254.5f / 255};
+    std::uniform_real_distribution<float> unit(0.f, 1.f);
+    std::uniform_int_distribution<uint32_t> pattern(0, 0x3F800000u);
+    for (int i = 0; i < 200000; ++i) {
+      values.push_back(unit(rng));
+      const uint32_t u = pattern(rng);
+      float v;
+      std::memcpy(&v, &u, sizeof(v));
+      values.push_back(v);
+    }
+    for (int k = 0; k < 256; ++k)  // around each step of the output: where the table's thresholds must sit
+      for (float centre : {(k + 0.5f) / 255.f, srgb ? srgb_to_linear((k + 0.5f) / 255.f) : 0.f}) {
+        float up = centre, down = centre;
+        for (int n = 0; n < 64; ++n) {
+          values.push_back(up = std::nextafter(up, 2.f));
+          values.push_back(down = std::nextafter(down, -1.f));
+        }
+      }
+    int64_t wrong = 0;
+    for (float v : values) wrong += q(v) != MemberQuantizer::direct(v, srgb);
+    EXPECT_EQ(wrong, 0) << "srgb " << srgb << " over " << values.size() << " values";
+    EXPECT_EQ(q(0.5f), srgb ? 188 : 128);  // linear 0.5 is sRGB 0.7354 → 188 (187.5 rounds up)
+  }
 }
 
 }  // namespace

@@ -32,12 +32,30 @@ struct MultiviewLandmarkFit {
   int iterations = 0;
 };
 
+// A view's silhouette term (texgen/silhouette_fit.h): `vertices` of the model that lie on the view's outline should
+// project onto the image's outline: residual sqrt(weight) · sdf(π(R_v S_i + t_v)), sdf the image's signed distance
+// to its face outline (px, negative inside; bilinear, clamped at the border).
+struct SilhouetteResiduals {
+  const std::vector<float>* sdf = nullptr;  // size² row-major
+  int size = 0;
+  std::vector<int> vertices;
+  double weight = 1;  // per vertex
+};
+
 // Levenberg–Marquardt on a forward-difference Jacobian (options: components, λ, iterations; options.start is not
 // used). `offsets`: d_k (68 × 3 mm, model frame) or nullptr. InvalidInput for a model without 68 landmarks, no views,
 // or non-finite landmarks.
 MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const std::vector<LandmarkViewInput>& views,
                                              const Camera& camera, const LandmarkFitOptions& options,
                                              bool pose_per_view, const Eigen::Matrix<double, 68, 3>* offsets = nullptr);
+
+// The same with per-view silhouette residuals beside the landmarks (one per view, pose_per_view only), started at
+// `start` (a fit of the same views and components).
+MultiviewLandmarkFit fit_landmarks_multiview(const MorphableModel& model, const std::vector<LandmarkViewInput>& views,
+                                             const Camera& camera, const LandmarkFitOptions& options,
+                                             const Eigen::Matrix<double, 68, 3>* offsets,
+                                             const MultiviewLandmarkFit& start,
+                                             const std::vector<SilhouetteResiduals>& silhouettes);
 
 // Per-landmark confidence by iteratively reweighted least squares: after the plain fit, `rounds` refits with each
 // landmark's weight times the Cauchy weight 1 / (1 + (e_vk / (c σ))²) of its reprojection error e_vk in the previous
@@ -48,6 +66,11 @@ MultiviewLandmarkFit fit_landmarks_multiview_robust(const MorphableModel& model,
                                                     const Camera& camera, const LandmarkFitOptions& options,
                                                     bool pose_per_view, const Eigen::Matrix<double, 68, 3>* offsets,
                                                     int rounds);
+
+// The Cauchy weights of fit_landmarks_multiview_robust from a fit's reprojection errors: given(v, k) / (1 + (e_vk /
+// (c σ))²) over the landmarks with given weight > 0 (the rest keep theirs).
+void reweight_landmarks(const MultiviewLandmarkFit& fit, const std::vector<Eigen::Matrix<double, 68, 1>>& given,
+                        std::vector<LandmarkViewInput>& views);
 
 // View v's coefficients: the shared shape and expression with the view's pose (delta and gamma left empty).
 Coefficients view_coefficients(const MultiviewLandmarkFit& fit, size_t v);

@@ -34,6 +34,10 @@ void TextureSampleOptions::check() const {
     throw InvalidInput("--landmark-fit", "unknown mode '" + landmark_fit_mode + "'", "use shared-shape, rigid or per-view");
   if (landmark_robust_rounds < 0 || landmark_robust_rounds > 10)
     throw InvalidInput("--robust-landmarks", "must lie in [0, 10]", "e.g. 2");
+  silhouette.check();
+  if (silhouette.rounds > 0 && landmark_fit_mode != "shared-shape")
+    throw InvalidInput("--silhouette-rounds", "the silhouette term refines the shared-shape fit only",
+                       "pass --landmark-fit shared-shape or --silhouette-rounds 0");
   landmark_fit.check();
 }
 
@@ -286,9 +290,15 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
   if (options.landmark_fit_mode != "per-view") {
     std::vector<LandmarkViewInput> inputs;
     for (const RenderedView& v : views) inputs.push_back({v.rotation, v.fit.landmarks});
-    const MultiviewLandmarkFit fit =
+    MultiviewLandmarkFit fit =
         fit_landmarks_multiview_robust(model, inputs, camera, options.landmark_fit,
                                        options.landmark_fit_mode == "shared-shape", offsets, options.landmark_robust_rounds);
+    if (options.silhouette.rounds > 0) {  // reweighted each round when the landmark fit was
+      std::vector<const Image*> renders;
+      for (const RenderedView& v : views) renders.push_back(&v.fit.render);
+      fit = refine_with_silhouettes(model, inputs, renders, camera, options.landmark_fit, offsets, std::move(fit),
+                                    options.silhouette, options.landmark_robust_rounds > 0);
+    }
     for (size_t v = 0; v < views.size(); ++v) geometry.push_back(view_coefficients(fit, v));
     rms = fit.rms_px;
   } else if (offsets) {

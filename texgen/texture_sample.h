@@ -18,6 +18,7 @@
 #include "morphable/fit.h"
 #include "morphable/model.h"
 #include "render/camera.h"
+#include "texgen/silhouette_fit.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::texgen {
@@ -50,6 +51,9 @@ struct TextureSampleOptions {
   // Reweighted refits of the landmark fit (fit_landmarks_multiview_robust): landmarks far from where the shared shape
   // puts them lose weight (multi-view modes, and per-view with a calibration).
   int landmark_robust_rounds = 2;
+  // Rounds of the silhouette term on the shared-shape fit (texgen/silhouette_fit.h): each view's fitted outline onto
+  // the render's outline of the face on black; 0: off.
+  SilhouetteFitOptions silhouette;
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range

@@ -136,15 +136,40 @@ int check_map_set(const std::vector<MapFile>& maps, std::vector<int>& sizes) {
   return N;
 }
 
+// srgb_to_linear of the floats an 8-bit file decodes to (k / 255, however the reader rounds it), from a table; other
+// values (16-bit, float files) through the formula. Same values as the formula, without a pow per texel.
+class SrgbDecodeTable {
+ public:
+  SrgbDecodeTable() {
+    for (int k = 0; k < 256; ++k) {
+      key_[0][k] = float(k) / 255.f;
+      key_[1][k] = float(k) * (1.f / 255.f);
+      for (int i = 0; i < 2; ++i) value_[i][k] = srgb_to_linear(key_[i][k]);
+    }
+  }
+  float operator()(float p) const {
+    const long k = std::lround(p * 255.f);
+    if (k >= 0 && k < 256) {
+      if (p == key_[0][k]) return value_[0][k];
+      if (p == key_[1][k]) return value_[1][k];
+    }
+    return srgb_to_linear(p);
+  }
+
+ private:
+  float key_[2][256], value_[2][256];
+};
+
 // Decodes a band in place: sRGB → linear, normals (v + 1) / 2 → v; a zero normal inside an island is an error.
 void decode_band(const MapFile& m, bool decode_srgb, int C, int Cin, int N, int y0, int rows, std::vector<float>& band,
                  const std::vector<uint8_t>& mask) {
+  static const SrgbDecodeTable srgb;
   parallel_for(0, rows, [&](int64_t r0, int64_t r1) {
     for (int64_t r = r0; r < r1; ++r)
       for (int x = 0; x < N; ++x) {
         float* p = &band[(size_t(r) * size_t(N) + size_t(x)) * size_t(Cin)];
         if (decode_srgb) {
-          for (int c = 0; c < std::min(C, 3); ++c) p[c] = srgb_to_linear(p[c]);
+          for (int c = 0; c < std::min(C, 3); ++c) p[c] = srgb(p[c]);
         } else if (m.kind == Kind::Normal) {
           for (int c = 0; c < 3; ++c) p[c] = 2 * p[c] - 1;
           if (mask[size_t(r) * size_t(N) + size_t(x)] && p[0] * p[0] + p[1] * p[1] + p[2] * p[2] < 0.0025f) {
