@@ -58,6 +58,25 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                   "Stiffness: weight of Amberg's affine difference (--consistency 0 --affine-stiffness 1: Amberg's)")
       ->capture_default_str()->group("NICP");
   app->add_option("--huber", n.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
+  ModelPriorOptions& mp = n.prior;
+  app->add_option("--model", f.model,
+                  "3DMM (mm-build's model.safetensors, same template): fit its shape before NICP (docs/pipeline.md)")
+      ->group("Model prior");
+  app->add_option("--model-iterations", mp.iterations, "ICP rounds of the model fit")
+      ->capture_default_str()->group("Model prior");
+  app->add_option("--model-components", mp.components, "Identity components fitted (0: all)")
+      ->capture_default_str()->group("Model prior");
+  app->add_option("--model-regularisation", mp.regularisation,
+                  "Prior on the coefficients against the mean squared point-to-plane residual (mm^2)")
+      ->capture_default_str()->group("Model prior");
+  app->add_option("--model-landmark-weight", mp.landmark_weight, "Landmarks' weight in the model fit (weak)")
+      ->capture_default_str()->group("Model prior");
+  app->add_option("--model-nicp-landmark-scale", mp.nicp_landmark_scale,
+                  "NICP's landmark weights times this after the model fit")
+      ->capture_default_str()->group("Model prior");
+  app->add_flag("--sigma-weighted-landmarks", n.sigma_weighted_nicp,
+                "NICP weights each detected landmark by (median sigma / sigma)^2 (the model fit always does)")
+      ->group("NICP");
   TextureRefineOptions& t = n.texture;
   app->add_option("--texture-refine", t.iterations,
                   "Rounds of texture-aware refinement after NICP (flow in UV to --texture-reference; 0: off)")

@@ -65,6 +65,7 @@ class BoundaryTest {
 
 struct Correspondences {
   Eigen::MatrixX3d target;
+  Eigen::VectorXi face;    // the scan triangle each target lies on
   Eigen::VectorXd weight;  // 0: rejected
 };
 
@@ -74,11 +75,13 @@ Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   const Eigen::MatrixX3d N = vertex_normals(V, F);
   Correspondences c;
   c.target.resize(V.rows(), 3);
+  c.face.resize(V.rows());
   c.weight.setZero(V.rows());
   parallel_for(0, V.rows(), [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       const SurfacePoint p = locator.locate(V.row(i).transpose());
       c.target.row(i) = p.point.transpose();
+      c.face(i) = p.face;
       const double d = (p.point - V.row(i).transpose()).norm();
       if (d > trim || boundary.on_boundary(p)) continue;
       if (N.row(i).dot(scan_normals.row(p.face)) < min_cos) continue;
@@ -255,11 +258,13 @@ class Nicp {
     stats.nodes = int(m_);
     v_ = homogeneous(e_.V);
     v_dense_ = homogeneous(V0);
+    const std::vector<double> sigma_weight =
+        options.sigma_weighted_nicp ? landmark_sigma_weights(options.landmark_sigma_mm) : std::vector<double>{};
     if (landmarks) {
       for (const int k : ids_) {
         landmarks_.vertex.push_back(face.landmark_vertices[size_t(k)]);
         landmarks_.point.push_back(landmarks->points.row(k).transpose());
-        landmarks_.weight.push_back(1.0);
+        landmarks_.weight.push_back(sigma_weight.empty() ? 1.0 : sigma_weight[size_t(k)]);
       }
     }
     K_ = stiffness_matrix(v_, e_, face.landmark_vertices, options);
@@ -282,7 +287,7 @@ class Nicp {
   // `extra` dense correspondences. Returns the change of the affines (RMS per node).
   double iterate(int s, double data_scale, const DenseTerm* extra, double stiffness = 0) {
     const double alpha = stiffness > 0 ? stiffness : options_.stiffness[size_t(s)];
-    const double beta = landmarks_.vertex.empty() ? 0.0 : options_.landmark_weight[size_t(s)];
+    const double beta = landmarks_.vertex.empty() ? 0.0 : landmark_scale_ * options_.landmark_weight[size_t(s)];
     const auto t_c = std::chrono::steady_clock::now();
     const Correspondences c = correspond(nodes_mm(), e_.F, surface_, options_.trim_mm[size_t(s)], options_.huber_mm);
     stats_.seconds_correspond += seconds_since(t_c);
@@ -321,6 +326,7 @@ class Nicp {
     return to_mm(out);
   }
   Eigen::Index node_count() const { return m_; }
+  void scale_landmark_weights(double scale) { landmark_scale_ = scale; }
 
  private:
   Eigen::MatrixX4d homogeneous(const Eigen::MatrixX3d& P) const {
@@ -373,10 +379,36 @@ class Nicp {
   Eigen::Index m_;
   Eigen::MatrixX4d v_, v_dense_;
   DenseTerm landmarks_;
+  double landmark_scale_ = 1;
   Eigen::SparseMatrix<double> K_;
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver_;
   Eigen::MatrixXd X_;
 };
+
+// Phase 1b (with a model, model_prior.h): the model's shape fitted to the scan from the similarity's placement.
+Eigen::MatrixX3d fit_model_prior(const MorphableModel& model, const Eigen::MatrixX3d& V0, const Landmarks* landmarks,
+                                 const RegisterOptions& options, const ScanSurface& surface, RegistrationStats& stats) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Eigen::MatrixX3i& F = model.topology.F;
+  const ScanTargetQuery query = [&](const Eigen::MatrixX3d& V, double trim) {
+    const Correspondences c = correspond(V, F, surface, trim, options.huber_mm);
+    ScanTargets t;
+    t.point = c.target;
+    t.weight = c.weight;
+    t.normal.resize(V.rows(), 3);
+    for (Eigen::Index i = 0; i < V.rows(); ++i) t.normal.row(i) = surface.normals.row(c.face(i)).normalized();
+    return t;
+  };
+  const Eigen::MatrixX3d points = landmarks ? Eigen::MatrixX3d(landmarks->points) : Eigen::MatrixX3d();
+  const ModelPriorFit fit = fit_model_to_scan(model, V0, query, landmarks ? &points : nullptr, landmark_ids(options),
+                                              options.landmark_sigma_mm, options.prior);
+  stats.used_model = true;
+  stats.model_rms_mm = fit.rms_mm;
+  stats.model_alpha_norm = fit.alpha.norm();
+  stats.model_landmark_rms_mm = fit.landmark_rms_mm;
+  stats.seconds_model = seconds_since(t0);
+  return fit.V;
+}
 
 // Phase 3: accepted vertices go onto the scan (the last step's rejection rules).
 void project_onto_scan(Registration& out, const Eigen::MatrixX3i& F, const ScanSurface& surface,
@@ -437,6 +469,10 @@ void RegisterOptions::check() const {
     }
   }
   texture.check();
+  prior.check();
+  if (!landmark_sigma_mm.empty() && landmark_sigma_mm.size() != 68) {
+    throw InvalidInput("", "landmark uncertainties must be 68 values (one per iBUG point) or none", "");
+  }
   if (nodes < 0 || (nodes > 0 && nodes < 500)) throw InvalidInput("", "--nodes must be 0 (every vertex) or >= 500", "");
   if (iterations_per_step < 1 || iterations_per_step > 100) throw InvalidInput("", "--iterations must lie in [1, 100]", "");
   if (!(affine_stiffness > 0) || !(consistency >= 0)) {
@@ -485,7 +521,7 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
                            const RegisterOptions& options, const ProgressCallback& progress,
-                           const RegistrationTexture& texture) {
+                           const RegistrationTexture& texture, const MorphableModel* model) {
   options.check();
   const auto t_start = std::chrono::steady_clock::now();
   Registration out;
@@ -493,12 +529,20 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   const ScanSurface surface(scan, options.max_normal_angle_deg);
 
   // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then similarity ICP).
-  const Eigen::MatrixX3d V0 = similarity_alignment(face, scan, landmarks, options, surface, stats);
+  Eigen::MatrixX3d V0 = similarity_alignment(face, scan, landmarks, options, surface, stats);
   stats.seconds_similarity = seconds_since(t_start);
+
+  // 1b. With a model: its shape fitted to the scan; NICP starts there and leans less on the landmarks.
+  if (model) {
+    check_model_template(*model, face.mesh, face.landmark_vertices, "--model");
+    V0 = fit_model_prior(*model, V0, landmarks, options, surface, stats);
+    out.V_model = V0;
+  }
 
   // 2. Optimal-step NICP on the nodes, the dense template following them.
   const auto t_nicp = std::chrono::steady_clock::now();
   Nicp nicp(face, V0, landmarks, options, surface, stats);
+  if (model) nicp.scale_landmark_weights(options.prior.nicp_landmark_scale);
   nicp.run(progress);
   out.V = nicp.dense();
 

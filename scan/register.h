@@ -16,6 +16,8 @@
 #include "core/landmarks.h"
 #include "core/mesh.h"
 #include "core/progress.h"
+#include "morphable/model.h"
+#include "scan/model_prior.h"
 #include "scan/texture_refine.h"
 #include "template/template_face.h"
 
@@ -39,6 +41,12 @@ struct RegisterOptions {
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
   int nodes = 2000;
+  // Per landmark (68 values, or empty: unknown): the detector's uncertainty (mm). The model prior weights each landmark
+  // by (median σ / σ_k)², and so does NICP's landmark term when sigma_weighted_nicp is set.
+  std::vector<double> landmark_sigma_mm;
+  bool sigma_weighted_nicp = false;
+  // With a model (register_scan's `model`): its fit before NICP (model_prior.h).
+  ModelPriorOptions prior;
   // After NICP: rounds of texture-aware refinement (texture_refine.h; needs the scan's diffuse and a reference).
   TextureRefineOptions texture;
   void check() const;                // InvalidInput when inconsistent
@@ -51,6 +59,10 @@ struct RegistrationStats {
   double landmark_rms_after_similarity_mm = 0;
   int iterations = 0;
   double accepted_fraction = 0;  // of template vertices with an accepted correspondence at the end
+  // Model prior: point-to-plane RMS per round, |α|, landmark RMS after the fit (used_model false: no model given).
+  bool used_model = false;
+  std::vector<double> model_rms_mm;
+  double model_alpha_norm = 0, model_landmark_rms_mm = 0, seconds_model = 0;
   double seconds_similarity = 0, seconds_nicp = 0, seconds_factorize = 0, seconds_correspond = 0;
   // Texture refinement, per round: template vertices with a texture correspondence, their median move (mm).
   std::vector<int> texture_targets;
@@ -62,6 +74,7 @@ struct Registration {
   Eigen::MatrixX3d V;  // template topology, on the scan (mm, the scan's frame)
   std::vector<bool> accepted;  // per template vertex: had an accepted correspondence at the end
   Eigen::MatrixX3d V_before_texture;  // V before the texture refinement (empty when it did not run)
+  Eigen::MatrixX3d V_model;           // the model prior's fitted shape, NICP's start (empty without a model)
   RegistrationStats stats;
 };
 
@@ -79,10 +92,12 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 // Registers the template to `scan`. Without landmarks (nullptr) the fallback is documented: the template is centred
 // and scaled onto the scan's centroid and RMS radius, assuming the scan is in the template's orientation (+y up, +z
 // out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
-// With options.texture.iterations > 0 and both texture images, the texture refinement runs last.
+// With options.texture.iterations > 0 and both texture images, the texture refinement runs last. With a `model` (built
+// on this template: check_model_template), its shape is fitted after the similarity and NICP starts from it, with its
+// landmark weights times options.prior.nicp_landmark_scale.
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
                            const RegisterOptions& options = {}, const ProgressCallback& progress = {},
-                           const RegistrationTexture& texture = {});
+                           const RegistrationTexture& texture = {}, const MorphableModel* model = nullptr);
 
 // The texture refinement alone, from an existing registration V (template topology, on the scan): NICP is set up
 // around V (its affines start at the identity, at the last stiffness) and options.texture.iterations rounds run.

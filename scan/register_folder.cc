@@ -60,6 +60,7 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
     if (!found.landmarks.points.row(k).allFinite()) out.landmarks->points.row(k).setZero();  // unused, kept finite
   for (size_t i = 0; i < out.nicp.landmark_weight.size(); ++i)
     out.nicp.landmark_weight[i] = i < 3 ? 10.0 / std::pow(3.0, double(i)) : 0;
+  if (found.sigma_mm.size() == 68) out.nicp.landmark_sigma_mm = found.sigma_mm;
   out.detected = {{"detector_score", found.detector_score},
                   {"used", found.calibrated ? "calibrated, " + std::to_string(out.nicp.landmark_ids.size()) + " points"
                                             : std::to_string(out.nicp.landmark_ids.size()) +
@@ -182,8 +183,26 @@ nlohmann::json texture_report(const TemplateFace& face, const Registration& reg,
   return j;
 }
 
+// The model prior's report entry: rounds' point-to-plane RMS, |α|, landmark RMS after the fit, time, and the fitted
+// shape's own correspondence error (against the truth, before NICP).
+nlohmann::json model_report(const TemplateFace& face, const Registration& reg, const Mesh& scan, const Truth& truth,
+                            const std::string& model_path) {
+  const RegistrationStats& s = reg.stats;
+  nlohmann::json j = {{"model", model_path},
+                      {"point_to_plane_rms_mm", s.model_rms_mm},
+                      {"alpha_norm", s.model_alpha_norm},
+                      {"landmark_rms_after_fit_mm", s.model_landmark_rms_mm},
+                      {"seconds", s.seconds_model}};
+  if (truth.point) {
+    const RegistrationErrors fit = measure_registration(face, reg.V_model, scan, nullptr, &*truth.point,
+                                                        truth.face ? &*truth.face : nullptr);
+    j["correspondence_error_after_fit_mm"] = {{"median", fit.correspondence_median}, {"p95", fit.correspondence_p95}};
+  }
+  return j;
+}
+
 nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const RegisterFolderOptions& options,
-                            const Image* texture_reference) {
+                            const Image* texture_reference, const MorphableModel* model) {
   // 1. Read the scan and its landmarks (given, detected or none).
   const auto t0 = std::chrono::steady_clock::now();
   const std::string id = fs::path(scan_dir).filename().string(), mesh_path = find_scan_mesh(scan_dir);
@@ -203,7 +222,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
       texture = {&*scan_diffuse, texture_reference};
     }
   }
-  const Registration reg = register_scan(face, scan, landmarks, lm.nicp, {}, texture);
+  const Registration reg = register_scan(face, scan, landmarks, lm.nicp, {}, texture, model);
   const Truth truth = read_truth(scan_dir, face.mesh.V.rows());
   const RegistrationErrors err = measure_registration(face, reg.V, scan, landmarks, truth.point ? &*truth.point : nullptr,
                                                       truth.face ? &*truth.face : nullptr);
@@ -227,11 +246,13 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   const RegistrationStats& s = reg.stats;
   report["seconds"] = {{"read", read_seconds},
                        {"similarity", s.seconds_similarity},
+                       {"model_fit", s.seconds_model},
                        {"nicp", s.seconds_nicp},
                        {"nicp_correspondences", s.seconds_correspond},
                        {"nicp_factorize_solve", s.seconds_factorize},
                        {"total", seconds_since(t0)}};
   if (!maps.is_null()) report["maps"] = maps;
+  if (s.used_model) report["model_prior"] = model_report(face, reg, scan, truth, options.model);
   if (reg.V_before_texture.rows() > 0) report["texture_refine"] = texture_report(face, reg, scan, truth);
   else if (options.nicp.texture.iterations > 0) report["texture_refine"] = {{"note", "the scan has no diffuse map or no UVs: not refined"}};
   report["seconds"]["texture_refine"] = s.seconds_texture;
@@ -306,13 +327,21 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
                          "give the template-UV diffuse (e.g. the mean of registered diffuse.png maps)");
     }
   }
+  std::optional<MorphableModel> model;
+  if (!options.model.empty() && !todo.empty()) {
+    model = read_model(options.model);
+    check_model_template(*model, face.mesh, face.landmark_vertices, options.model);
+    if (model->shape_basis.rows() == 0) {
+      throw InvalidInput(options.model, "has no identity components", "build it from at least two registered subjects");
+    }
+  }
   make_directories(options.output);  // after the inputs are checked: bad input leaves no output folder
   std::atomic<int> done{0};
   std::mutex failures_mutex;
   std::vector<std::pair<std::string, std::string>> failures;
   const auto one = [&](int64_t k) {
     try {
-      register_one(face, todo[size_t(k)], options, reference ? &*reference : nullptr);
+      register_one(face, todo[size_t(k)], options, reference ? &*reference : nullptr, model ? &*model : nullptr);
     } catch (const std::exception& e) {
       if (!options.keep_going) throw;
       std::lock_guard<std::mutex> lock(failures_mutex);

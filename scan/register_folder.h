@@ -43,6 +43,8 @@ struct RegisterFolderOptions {
   // The reference diffuse in the template UV for nicp.texture (docs/pipeline.md: the mean of a first pass's
   // transferred diffuse maps); required when nicp.texture.iterations > 0.
   std::string texture_reference;
+  // The 3DMM (mm-build's model.safetensors, built on this template) whose shape is fitted before NICP (empty: none).
+  std::string model;
   // For scans without landmarks.json (unless no_landmarks); empty: the fallback alignment.
   ScanLandmarkDetector detect;
 };
