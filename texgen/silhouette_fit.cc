@@ -160,6 +160,47 @@ std::vector<int> outline_vertices(const MorphableModel& model, const Coefficient
   return out;
 }
 
+namespace {
+
+// A view whose landmarks the shared shape cannot follow at all (face-api collapsed on it: its median reprojection error
+// over 3x the median of the views' medians) keeps none of them: its pose comes from the best view through the rig
+// (R_v = Q_v Q_b^T R_b, t_v = Q_v Q_b^T t_b), and its outline alone aligns it.
+bool drop_lost_views(MultiviewLandmarkFit& fit, std::vector<LandmarkViewInput>& views,
+                     std::vector<Eigen::Matrix<double, 68, 1>>& given) {
+  const size_t V = views.size();
+  if (V < 2) return false;
+  std::vector<double> median(V, -1);  // -1: a view without landmarks (dropped before)
+  std::vector<double> usable;
+  for (size_t v = 0; v < V; ++v) {
+    std::vector<double> e;
+    for (int k = 0; k < 68; ++k)
+      if (given[v](k) > 0) e.push_back(fit.error_px(Eigen::Index(v), k));
+    if (e.empty()) continue;
+    std::nth_element(e.begin(), e.begin() + long(e.size() / 2), e.end());
+    median[v] = e[e.size() / 2];
+    usable.push_back(median[v]);
+  }
+  if (usable.size() < 2) return false;
+  std::sort(usable.begin(), usable.end());
+  const double typical = usable[usable.size() / 2];
+  size_t best = V;
+  for (size_t v = 0; v < V; ++v)
+    if (median[v] >= 0 && (best == V || median[v] < median[best])) best = v;
+  bool dropped = false;
+  for (size_t v = 0; v < V; ++v) {
+    if (median[v] < 0 || !(median[v] > 3 * typical) || v == best) continue;
+    dropped = true;
+    const Eigen::Matrix3d rig = views[v].rotation * views[best].rotation.transpose();
+    fit.rotation[v] = euler_angles(rig * euler_rotation(fit.rotation[best]));
+    fit.translation[v] = rig * fit.translation[best];
+    views[v].weight.setZero();
+    given[v].setZero();
+  }
+  return dropped;
+}
+
+}  // namespace
+
 void SilhouetteFitOptions::check() const {
   if (rounds < 0 || rounds > 10) throw InvalidInput("--silhouette-rounds", "must lie in [0, 10]", "e.g. 2");
   if (!(weight >= 0 && weight <= 1000)) throw InvalidInput("--silhouette-weight", "must lie in [0, 1000]", "e.g. 1");
@@ -181,7 +222,8 @@ MultiviewLandmarkFit refine_with_silhouettes(const MorphableModel& model, std::v
   }
   std::vector<Eigen::Matrix<double, 68, 1>> given;
   for (const LandmarkViewInput& v : views) given.push_back(v.weight);
-  for (int round = 0; round < silhouette.rounds; ++round) {
+  drop_lost_views(fit, views, given);
+  for (int round = 0, rounds = silhouette.rounds; round < rounds; ++round) {
     if (robust) reweight_landmarks(fit, given, views);
     std::vector<SilhouetteResiduals> terms(views.size());
     for (size_t v = 0; v < views.size(); ++v) {
@@ -191,6 +233,8 @@ MultiviewLandmarkFit refine_with_silhouettes(const MorphableModel& model, std::v
       terms[v].weight = silhouette.weight * 68.0 / double(std::max<size_t>(1, terms[v].vertices.size()));
     }
     fit = fit_landmarks_multiview(model, views, camera, options, offsets, fit, terms);
+    // Once the outlines hold the poses, a view whose landmarks collapsed stands out; it gets a round without them.
+    if (drop_lost_views(fit, views, given) && round + 1 == rounds && rounds <= silhouette.rounds) ++rounds;
   }
   return fit;
 }
