@@ -193,7 +193,13 @@ def report(out, d, res, steps, up_steps, samples, up_gan_steps):
         parts += rows
     t1 = os.path.join(d, "table1", "table.md")
     if os.path.exists(t1):
-        parts.append(f"<h3>Table 1 at demo size ({samples} held-out samples)</h3>" + md_table_to_html(open(t1).read()))
+        parts.append(f"<h3>Table 1 at demo size ({samples} held-out samples)</h3>"
+                     "<p>Two readings of the paper's reference (the maps of the before-makeup image): (a) the before "
+                     "image through the pipeline without G, one reference for both rows — anything G changes besides "
+                     "the makeup (e.g. removing the light) counts as error; (a&prime;) the before image through the "
+                     "row's own pipeline (with G for the with-G row) — how far makeup moves the maps, what the paper "
+                     "says the table shows; a G that erased everything would win it, so read it with column (b) "
+                     "(docs/texture.md).</p>" + md_table_to_html(open(t1).read()))
         parts.append(f"<figure><img src='{rel}/table1/psnr.svg' style='width:420px'></figure>")
     else:
         parts.append("<p>Table 1 needs a BareSkinNet run and held-out faces from the earlier sections; not run.</p>")
