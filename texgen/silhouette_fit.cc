@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -126,18 +125,26 @@ std::vector<int> outline_vertices(const MorphableModel& model, const Coefficient
     const Eigen::Vector3d a = posed.V.row(posed.F(f, 0)), b = posed.V.row(posed.F(f, 1)), d = posed.V.row(posed.F(f, 2));
     front[size_t(f)] = (b - a).cross(d - a).dot(eye - a) > 0;
   }
-  // Each undirected edge: its triangles' facings (bit 0: a front-facing one, bit 1: a back-facing one) and count.
-  std::map<std::pair<int, int>, std::pair<int, int>> edges;
+  // Each undirected edge with its triangles' facings: sorted, a run of equal edges is one edge; a border edge has one
+  // triangle, a contour edge a front- and a back-facing one.
+  std::vector<std::pair<int64_t, int8_t>> edges;
+  edges.reserve(size_t(3 * F));
+  const int64_t nv = posed.V.rows();
   for (Eigen::Index f = 0; f < F; ++f)
     for (int k = 0; k < 3; ++k) {
       const int a = posed.F(f, k), b = posed.F(f, (k + 1) % 3);
-      auto& e = edges[{std::min(a, b), std::max(a, b)}];
-      e.first |= front[size_t(f)] ? 1 : 2;
-      ++e.second;
+      edges.push_back({int64_t(std::min(a, b)) * nv + std::max(a, b), front[size_t(f)]});
     }
+  std::sort(edges.begin(), edges.end());
   std::vector<uint8_t> candidate(size_t(posed.V.rows()), 0);
-  for (const auto& [edge, e] : edges)
-    if (e.second == 1 || e.first == 3) candidate[size_t(edge.first)] = candidate[size_t(edge.second)] = 1;
+  for (size_t i = 0; i < edges.size();) {
+    size_t j = i;
+    int facings = 0;
+    for (; j < edges.size() && edges[j].first == edges[i].first; ++j) facings |= edges[j].second ? 1 : 2;
+    if (j - i == 1 || facings == 3)
+      candidate[size_t(edges[i].first / nv)] = candidate[size_t(edges[i].first % nv)] = 1;
+    i = j;
+  }
   std::vector<int> out;
   const int W = raster.width, H = raster.height, r = 2;
   for (Eigen::Index i = 0; i < posed.V.rows(); ++i) {
