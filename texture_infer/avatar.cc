@@ -586,16 +586,19 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
   write_file_atomic(out.path() + "/summary.json", summary.dump(2) + "\n");
   for (const auto& [metric, field] : {std::pair{"PSNR", &Scores::psnr}, std::pair{"RMSE", &Scores::rmse}}) {
     Chart chart;
-    chart.title = std::string(metric) + " per map against the before-makeup output (x: map 1 diffuse, 2 normal, "
+    chart.title = std::string(metric) + " per map vs the before-makeup output (a), (a') (x: 1 diffuse, 2 normal, "
                   "3 roughness, 4 specular)";
     chart.x_label = "map";
     chart.y_label = metric;
     chart.y_from_zero = false;
-    for (const char* condition : {"without", "with"}) {
-      ChartSeries s{std::string(condition) + " BareSkinNet", {}, {}};
+    // Without G, (a) and (a') are the same reference: one line; with G, one line per reading.
+    for (const auto& [row, label] : {std::pair{"without/ref", "without BareSkinNet"},
+                                     std::pair{"with/ref", "with, vs (a)"},
+                                     std::pair{"with/same", "with, vs (a')"}}) {
+      ChartSeries s{label, {}, {}};
       for (size_t k = 0; k < output_maps().size(); ++k) {
         s.x.push_back(double(k + 1));
-        s.y.push_back(mean(rows[std::string(condition) + "/ref"][output_maps()[k].name], field));
+        s.y.push_back(mean(rows[row][output_maps()[k].name], field));
       }
       chart.series.push_back(s);
     }
