@@ -94,7 +94,7 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 // out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
 // With options.texture.iterations > 0 and both texture images, the texture refinement runs last. With a `model` (built
 // on this template: check_model_template), its shape is fitted after the similarity and NICP starts from it, with its
-// landmark weights times options.prior.nicp_landmark_scale.
+// landmark weights times options.prior.nicp_landmark_scale (default 1).
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,
                            const RegisterOptions& options = {}, const ProgressCallback& progress = {},
                            const RegistrationTexture& texture = {}, const MorphableModel* model = nullptr);
