@@ -5,6 +5,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "texture_infer/avatar.h"
 
 namespace bareskin::cli {
@@ -37,7 +38,7 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
              "--texture runs/tex --upscale runs/up --bareskin runs/bsn -o report/table1");
   return [opt, &globals] {
     set_torch_threads(globals);
-    texture::keep_freed_memory();
+    keep_freed_memory();
     const MorphableModel model = read_model(opt->model);
     const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);
     const auto G = texture::load_demakeup(opt->bareskin, opt->device);

@@ -7,6 +7,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "detect/face_api.h"
@@ -51,7 +52,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
              "or runs that do not fit each other or the model.");
   return [opt, &globals] {
     set_torch_threads(globals);
-    texture::keep_freed_memory();
+    keep_freed_memory();
     if (opt->no_bareskin == !opt->bareskin.empty())
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
     opt->avatar.sr_maps = texture::parse_map_list(opt->sr_maps, "--sr-maps");

@@ -8,6 +8,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"  // set_torch_threads
 #include "core/error.h"
+#include "core/parallel.h"
 #include "scan/multiview.h"
 #include "texgen/make_dataset.h"
 #ifdef BARESKIN_WITH_DETECT
@@ -143,6 +144,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
 
   return [opt, app, shard, shards, &globals] {
     if (!app->parsed()) return;
+    keep_freed_memory();  // before the bake and encode threads start: one heap, no fresh pages per subject
     texgen::TextureDatasetOptions& o = opt->o;
     o.sample.views = {{"front", 0}, {"left", opt->yaw_left}, {"right", -opt->yaw_right}};
     o.occluders = parse_occluders(opt->occluders);

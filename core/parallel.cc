@@ -1,5 +1,7 @@
 #include "core/parallel.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -124,6 +126,12 @@ void parallel_for(int64_t begin, int64_t end, const std::function<void(int64_t, 
   std::unique_lock<std::mutex> lock(done_mutex);
   done_cv.wait(lock, [&] { return remaining == 0; });
   if (first_error) std::rethrow_exception(first_error);
+}
+
+void keep_freed_memory() {
+  mallopt(M_MMAP_MAX, 0);         // large blocks from the heap too, not from fresh mappings
+  mallopt(M_TRIM_THRESHOLD, -1);  // and the heap is never trimmed
+  mallopt(M_ARENA_MAX, 1);        // one heap for all threads, so that each thread reuses the pages others freed
 }
 
 }  // namespace bareskin

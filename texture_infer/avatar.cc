@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <malloc.h>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -222,12 +221,6 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
   a.seconds["detect_align"] = detect_seconds;
   a.cpu_seconds["detect_align"] = detect_cpu;
   return a;
-}
-
-void keep_freed_memory() {
-  mallopt(M_MMAP_MAX, 0);         // large blocks from the heap too, not from fresh mappings
-  mallopt(M_TRIM_THRESHOLD, -1);  // and the heap is never trimmed
-  mallopt(M_ARENA_MAX, 1);        // one heap for all threads: the tiles' worker threads reuse its pages too
 }
 
 std::set<std::string> parse_map_list(const std::string& list, const std::string& option) {

@@ -90,11 +90,6 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
 // ones with core/png_encoding.h's fast encoding, on `threads` threads; the GLB embeds the map files' own PNG bytes.
 void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::json& report, int threads = 2);
 
-// Makes the allocator keep freed memory for reuse instead of returning it to the system: the pipeline allocates
-// and frees many large buffers (4K maps, net activations), and each fresh page costs a page fault, which on the
-// 2-core VM cost more than the arithmetic (bench/BENCHMARKS.md). For one-shot commands (run, evaluate).
-void keep_freed_memory();
-
 // The map types of a comma-separated list ("diffuse,normal"); InvalidInput naming `option` for an unknown one.
 std::set<std::string> parse_map_list(const std::string& list, const std::string& option);
 
