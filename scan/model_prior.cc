@@ -70,7 +70,8 @@ std::vector<double> landmark_sigma_weights(const std::vector<double>& sigma_mm) 
 
 void check_model_template(const MorphableModel& model, const Mesh& template_mesh, const std::vector<int>& landmark_vertices,
                           const std::string& model_path) {
-  const bool same = model.topology.V.rows() == template_mesh.V.rows() && model.topology.F == template_mesh.F &&
+  const bool same = model.topology.V.rows() == template_mesh.V.rows() &&
+                    model.topology.F.rows() == template_mesh.F.rows() && model.topology.F == template_mesh.F &&
                     model.landmark_vertices == landmark_vertices;
   if (same) return;
   throw InvalidInput(model_path,

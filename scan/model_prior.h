@@ -2,7 +2,7 @@
 // face models (e.g. LSFM: register with NICP, build a 3DMM, re-register with the model as prior). After the landmark
 // similarity, the model's identity shape S(α) = S̄ + U diag(σ) α is fitted to the scan by a few ICP rounds: closest
 // points on the scan, point-to-plane residuals n·(s R S_i(α) + t − c_i), solved as a regularised linear least squares
-// in α, then the similarity (s, R, t) by Umeyama on the same closest points; the landmarks pull only weakly, each
+// in α together with a linearised step of the similarity (s, R, t); the landmarks pull only weakly, each
 // weighted by its σ when known. NICP then starts from the fitted shape: the model already puts each vertex where the
 // population's registrations have it, so NICP only has to take up what the model cannot express.
 #pragma once

@@ -189,7 +189,7 @@ bool drop_lost_views(MultiviewLandmarkFit& fit, std::vector<LandmarkViewInput>& 
   }
   if (usable.size() < 2) return false;
   std::sort(usable.begin(), usable.end());
-  const double typical = usable[usable.size() / 2];
+  const double typical = usable[(usable.size() - 1) / 2];  // the lower median: with two views, the better one
   size_t best = V;
   for (size_t v = 0; v < V; ++v)
     if (median[v] >= 0 && (best == V || median[v] < median[best])) best = v;
@@ -211,7 +211,7 @@ bool drop_lost_views(MultiviewLandmarkFit& fit, std::vector<LandmarkViewInput>& 
 void SilhouetteFitOptions::check() const {
   if (rounds < 0 || rounds > 10) throw InvalidInput("--silhouette-rounds", "must lie in [0, 10]", "e.g. 2");
   if (!(weight >= 0 && weight <= 1000)) throw InvalidInput("--silhouette-weight", "must lie in [0, 1000]", "e.g. 1");
-  if (max_points < 8 || max_points > 100000) throw InvalidInput("--silhouette-points", "must lie in [8, 100000]", "");
+  if (max_points < 8 || max_points > 100000) throw InvalidInput("silhouette fit", "its outline point count must lie in [8, 100000]", "");
 }
 
 MultiviewLandmarkFit refine_with_silhouettes(const MorphableModel& model, std::vector<LandmarkViewInput> views,

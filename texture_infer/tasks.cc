@@ -513,7 +513,7 @@ torch::Tensor conv_layout(const torch::Tensor& x) {
 torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, const std::string& map, int64_t tile) {
   c10::InferenceMode inference;
   // Two passes, each in tiles with a margin of at least its reach, so the tiles join into exactly the untiled output
-  // and no tensor grows past a few MB (large tensors cost more in fresh pages than in arithmetic on this CPU):
+  // and no tensor grows past a few tens of MB (large tensors cost more in fresh pages than in arithmetic on this CPU):
   // the trunk (reach 1 + 2·num_block input pixels) in tiles of 2·`tile`, then the ×4 tail (reach 2: msrresnet.h)
   // in tiles of `tile`, reading the trunk's features once instead of recomputing them in every tile's margin. On the
   // CPU the tiles of each pass run in parallel, one thread per tile (tiled() above).

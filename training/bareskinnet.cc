@@ -1,5 +1,7 @@
 #include "training/bareskinnet.h"
 
+#include <ATen/CPUGeneratorImpl.h>
+
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -203,8 +205,13 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
   BS_CHECK(nets_->G && nets_->D, "the zoo's unet256 / patchgan have unexpected types");
   if (options_.residual) zero_last_layer(*nets_->G);
   if (options_.ema > 0) {
+    // The average's net is made with the random stream put back afterwards, so that everything drawn later (the
+    // LPIPS trunk, dropout) is the same with and without --ema-g: the average never changes how G trains.
+    at::Generator rng = at::detail::getDefaultCPUGenerator();
+    const at::Tensor rng_state = rng.get_state();
     nets_->G_ema = std::make_shared<GeneratorEmaImpl>(std::dynamic_pointer_cast<nets::UNetImpl>(
         nets::find_model("unet256").make(generator_options(options_.g, options_.size))));
+    rng.set_state(rng_state);
     reset_ema();
   }
   nets_->gan = losses::parse_gan_kind(options_.gan, "gan");

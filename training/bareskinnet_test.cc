@@ -412,6 +412,17 @@ TEST(BareSkinNet, EmaOfGIsTheMovingAverageOfItsTrajectoryAndInferenceUsesIt) {
   EXPECT_THROW(from_json({{"ema", 1.0}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"ema", -0.1}}, bad), InvalidInput);
 
+  // Making the average draws nothing from the random stream: what is drawn after (LPIPS trunk, dropout) is the same
+  // with and without it, so --ema-g never changes how G trains.
+  auto next_draw = [](double ema) {
+    Options oe = small_options(1);
+    oe.ema = ema;
+    torch::manual_seed(5);
+    BareSkinTask t(oe);
+    return torch::rand({8});
+  };
+  EXPECT_TRUE(torch::equal(next_draw(0), next_draw(0.5)));
+
   const auto dir = write_faces(4, 11);
   torch::manual_seed(0);
   Options o = small_options(1);
