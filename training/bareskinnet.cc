@@ -171,16 +171,6 @@ nlohmann::json generator_options(const nlohmann::json& g, int64_t size) {
   return o;
 }
 
-// G_ema and its update count, one module so that checkpoints keep both ("G_ema.G.*", "G_ema.updates").
-struct GeneratorEmaImpl : torch::nn::Module {
-  explicit GeneratorEmaImpl(std::shared_ptr<nets::UNetImpl> g)
-      : G(register_module("G", std::move(g))), updates(register_buffer("updates", torch::zeros({}, torch::kLong))) {
-    for (auto& p : G->parameters()) p.set_requires_grad(false);
-  }
-  std::shared_ptr<nets::UNetImpl> G;
-  torch::Tensor updates;
-};
-
 struct BareSkinTask::Nets {
   std::shared_ptr<GeneratorEmaImpl> G_ema;  // Options::ema > 0
   std::shared_ptr<nets::UNetImpl> G;

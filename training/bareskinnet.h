@@ -107,6 +107,17 @@ double ema_decay(double decay, int64_t n);
 // variance); integer buffers (batch counts) are copied. The two modules must have the same layout. d = 0 copies.
 void ema_update(torch::nn::Module& average, torch::nn::Module& model, double d);
 
+// G_ema and its update count, one module so that checkpoints keep both ("G_ema.G.*", "G_ema.updates"); training
+// writes it, load_generator reads it.
+struct GeneratorEmaImpl : torch::nn::Module {
+  explicit GeneratorEmaImpl(std::shared_ptr<nets::UNetImpl> g)
+      : G(register_module("G", std::move(g))), updates(register_buffer("updates", torch::zeros({}, torch::kLong))) {
+    for (auto& p : G->parameters()) p.set_requires_grad(false);
+  }
+  std::shared_ptr<nets::UNetImpl> G;
+  torch::Tensor updates;
+};
+
 // sRGB-encoded [0, 1] → linear light (the IEC 61966-2-1 curve), differentiable.
 torch::Tensor srgb_to_linear(const torch::Tensor& x);
 

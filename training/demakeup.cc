@@ -79,11 +79,10 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   d.size = o.size;
   d.residual = o.residual;
   d.G = nets::find_model("unet256").make(generator_options(o.g, o.size));
-  if (o.ema > 0) {  // the moving average the run kept (checkpoint names "G_ema.G.*")
-    auto holder = std::make_shared<torch::nn::Module>();
-    holder->register_module("G", d.G);
-    holder->register_buffer("updates", torch::zeros({}, torch::kLong));
-    train::load_module_weights(path, "G_ema", *holder);
+  if (o.ema > 0) {  // the moving average the run kept
+    GeneratorEmaImpl average(std::dynamic_pointer_cast<nets::UNetImpl>(d.G));
+    BS_CHECK(average.G, "the zoo's unet256 has an unexpected type");
+    train::load_module_weights(path, "G_ema", average);
   } else {
     train::load_module_weights(path, "G", *d.G);
   }
