@@ -343,6 +343,10 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
     try {
       register_one(face, todo[size_t(k)], options, reference ? &*reference : nullptr, model ? &*model : nullptr);
     } catch (const std::exception& e) {
+      const std::string& dir = todo[size_t(k)];  // name the scan in messages that do not ("scan: ICP found no overlap")
+      const bool named = std::string(e.what()).find(dir) != std::string::npos;
+      if (!options.keep_going && !named && dynamic_cast<const InvalidInput*>(&e)) throw InvalidInput(dir + ": " + e.what());
+      if (!options.keep_going && !named && dynamic_cast<const IoError*>(&e)) throw IoError(dir + ": " + e.what());
       if (!options.keep_going) throw;
       std::lock_guard<std::mutex> lock(failures_mutex);
       failures.emplace_back(todo[size_t(k)], e.what());
