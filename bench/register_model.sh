@@ -11,39 +11,34 @@ set -euo pipefail
 bin=$1 template=$2 out=$3 model=$4
 shift 4
 mkdir -p "$out"
+# shellcheck source=bench/register_common.sh
+source "$(dirname "$0")/register_common.sh"
 detected_weights="--landmark-weight 10 3.33333 1.11111 0 0 0"
 for spec in "$@"; do
   kind=${spec%%=*} scans=${spec#*=}
   name=$(basename "$scans")
   flags=""
   [ "$kind" = detected ] && flags=$detected_weights
-  [ -d "$out/before_${kind}_$name" ] || nice "$bin/bareskin" scan register -q --template "$template" --scans "$scans" \
-      -o "$out/before_${kind}_$name" --maps-res 0 $flags ${REGISTER_FLAGS:-}
-  [ -d "$out/after_${kind}_$name" ] || nice "$bin/bareskin" scan register -q --template "$template" --scans "$scans" \
-      -o "$out/after_${kind}_$name" --maps-res 0 $flags --model "$model" ${MODEL_FLAGS:-} ${REGISTER_FLAGS:-}
+  # shellcheck disable=SC2086  # flags and MODEL_FLAGS hold several flags
+  register_into "$bin" "$template" "$scans" "$out/before_${kind}_$name" $flags
+  # shellcheck disable=SC2086
+  register_into "$bin" "$template" "$scans" "$out/after_${kind}_$name" $flags --model "$model" ${MODEL_FLAGS:-}
 done
-/usr/bin/python3 - "$out" <<'PY'
-import glob, json, os, statistics as st, sys
-out = sys.argv[1]
-print(f"{'landmarks':<9} {'scan':<24} | {'median before':>13} {'after':>6} | {'p95 before':>10} {'after':>6} | "
-      f"{'fit alone':>9} | {'s/scan before':>13} {'after':>6}")
-for kind in ("true", "detected"):
-    rows = []
-    for before_path in sorted(glob.glob(f"{out}/before_{kind}_*/subject_*/report.json")):
-        after_path = before_path.replace(f"/before_{kind}_", f"/after_{kind}_")
-        if not os.path.exists(after_path):
-            continue
-        b, a = json.load(open(before_path)), json.load(open(after_path))
-        fit = a["model_prior"].get("correspondence_error_after_fit_mm", {}).get("median", float("nan"))
-        row = (b["correspondence_error_mm"]["median"], a["correspondence_error_mm"]["median"],
-               b["correspondence_error_mm"]["p95"], a["correspondence_error_mm"]["p95"], fit,
-               b["seconds"]["total"], a["seconds"]["total"])
-        rows.append(row)
-        scan = before_path.split("/")[-3].split("_", 2)[2] + "/" + before_path.split("/")[-2]
-        print(f"{kind:<9} {scan:<24} | {row[0]:13.3f} {row[1]:6.3f} | {row[2]:10.3f} {row[3]:6.3f} | {row[4]:9.3f} | "
-              f"{row[5]:13.1f} {row[6]:6.1f}")
-    if rows:
-        m = [st.median(c) for c in zip(*rows)]
-        print(f"{kind:<9} {'MEDIAN of ' + str(len(rows)) + ' scans':<24} | {m[0]:13.3f} {m[1]:6.3f} | {m[2]:10.3f} "
-              f"{m[3]:6.3f} | {m[4]:9.3f} | {m[5]:13.1f} {m[6]:6.1f}")
+register_table "$out" <<'PY'
+import json, os, sys
+from register_table import table
+
+def row(kind, before_path, b):
+    after_path = before_path.replace(f"/before_{kind}_", f"/after_{kind}_")
+    if not os.path.exists(after_path):
+        return None
+    a = json.load(open(after_path))
+    fit = a["model_prior"].get("correspondence_error_after_fit_mm", {}).get("median", float("nan"))
+    return (b["correspondence_error_mm"]["median"], a["correspondence_error_mm"]["median"],
+            b["correspondence_error_mm"]["p95"], a["correspondence_error_mm"]["p95"], fit,
+            b["seconds"]["total"], a["seconds"]["total"])
+
+table(sys.argv[1], "before_", [[("median before", 13, 3, 0), ("after", 6, 3, 1)],
+                               [("p95 before", 10, 3, 2), ("after", 6, 3, 3)], [("fit alone", 9, 3, 4)],
+                               [("s/scan before", 13, 1, 5), ("after", 6, 1, 6)]], row, 24)
 PY

@@ -1,0 +1,18 @@
+# shellcheck shell=bash
+# Sourced by bench/register_model.sh and bench/register_texture.sh: the per-scan registration and table they share.
+
+# register_into BIN TEMPLATE SCANS OUT [FLAGS...]: `scan register` SCANS into OUT, geometry only (--maps-res 0), niced,
+# with $REGISTER_FLAGS last. Scans OUT already holds a report.json for are skipped (scan register resumes), so a row is
+# rerun by deleting its folder.
+register_into() {
+  local bin=$1 template=$2 scans=$3 out=$4
+  shift 4
+  # shellcheck disable=SC2086  # REGISTER_FLAGS holds several flags
+  nice "$bin/bareskin" scan register -q --template "$template" --scans "$scans" -o "$out" --maps-res 0 "$@" \
+      ${REGISTER_FLAGS:-}
+}
+
+# register_table OUT: runs the Python on stdin with OUT as sys.argv[1] and bench/register_table.py importable.
+register_table() {
+  PYTHONPATH="$(dirname "${BASH_SOURCE[0]}")${PYTHONPATH:+:$PYTHONPATH}" /usr/bin/python3 - "$1"
+}
