@@ -31,15 +31,16 @@ const std::vector<Command>& commands() {
        setup_mm_build_command},
       {"mm-eval", "Model", "Model metrics: compactness, generalisation, specificity (CSV, JSON, SVG charts)",
        setup_mm_eval_command},
-      {"uvtools", "Maps", "UV-space tools: bake (16K map sets to 4K/1K, seam-aware), unwarp (image into UV, visibility)",
+      {"uvtools", "Maps", "UV-space tools: bake (map sets resized, seam-aware), unwarp (image into UV), mask (UV masks)",
        setup_uvtools_command},
-      {"mm-fit", "Model", "Fit the model's pose and identity to 68 image landmarks (coefficients for render, uvtools)",
+      {"mm-fit", "Model", "Fit the model to a photo: pose and shape from 68 landmarks, then appearance and light",
        setup_mm_fit_command},
-      {"texgen", "Data", "Dataset generators: face images with makeup, light and truth (faces)", setup_texgen_command},
+      {"texgen", "Data", "Training data: faces with makeup and truth, texture samples, real photo pairs, contact sheets",
+       setup_texgen_command},
 #ifdef BARESKIN_WITH_DETECT
-      {"landmarks", "Images", "Detect faces and their 68 landmarks in a photo (face-api's networks in LibTorch)",
+      {"landmarks", "Images", "68 landmarks: in a photo (detect), on a scan (scan, calibrate), synthetic rig photos",
        setup_landmarks_command},
-      {"train", "Training", "The network zoo (--list-models, --print-model) and run weights for Python (export)",
+      {"train", "Training", "Train F/E, BareSkinNet, pix2pixHD, SRGAN; the network zoo; run weights for Python (export)",
        setup_train_command},
       {"recon", "Images", "3DMM coefficients, light, mesh and a confidence from one photo by the network F or E",
        setup_recon_command},
@@ -52,7 +53,8 @@ const std::vector<Command>& commands() {
       {"evaluate", "Avatar", "The paper's Table 1: texture maps with and without BareSkinNet (RMSE, PSNR, SSIM)",
        setup_evaluate_command},
 #endif
-      {"render", "Rendering", "Draw a mesh: shaded/wireframe views with landmarks, or its UV layout", setup_render_command},
+      {"render", "Rendering", "Draw a mesh or the model: previews with landmarks, UV layout, camera passes (colour, depth...)",
+       setup_render_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };
   return table;
