@@ -51,6 +51,11 @@ nlohmann::json app_to_json(const CLI::App* app, bool default_also) {
   return out;
 }
 
+// The file given to --config, or "--config" before one is.
+std::string config_file_name(const CLI::Option* config) {
+  return config && !config->results().empty() ? config->results().back() : "--config";
+}
+
 void flatten(const nlohmann::json& j, std::vector<std::string> parents, std::vector<CLI::ConfigItem>& items) {
   for (const auto& [key, value] : j.items()) {
     if (value.is_object()) {
@@ -80,7 +85,10 @@ std::string JsonConfig::to_config(const CLI::App* app, bool default_also, bool, 
 
 std::vector<CLI::ConfigItem> JsonConfig::from_config(std::istream& input) const {
   nlohmann::json j = nlohmann::json::parse(input, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) throw CLI::ConversionError("--config", "the file is not a JSON object");
+  if (j.is_discarded() || !j.is_object()) {
+    throw InvalidInput(config_file_name(file_option), "is not a JSON object of flags",
+                       "write e.g. {\"threads\": 2, \"render\": {\"size\": 512}} (docs/file_formats.md, Configuration)");
+  }
   std::vector<CLI::ConfigItem> items;
   flatten(j, {}, items);
   return items;
@@ -119,8 +127,11 @@ int run(int argc, char** argv) {
   app.set_version_flag("--version", std::string("bareskin ") + BARESKIN_VERSION);
   app.require_subcommand(1);
   app.fallthrough();
-  app.config_formatter(std::make_shared<JsonConfig>());
-  app.set_config("--config", "", "Read flags from a JSON file (flags on the command line win)")->group("Global");
+  auto config = std::make_shared<JsonConfig>();
+  app.config_formatter(config);
+  config->file_option = app.set_config("--config", "", "Read flags from a JSON file (flags on the command line win)");
+  config->file_option->group("Global");
+  app.allow_config_extras(CLI::config_extras_mode::error);  // a misspelt key is refused, not ignored (subcommands inherit)
   app.add_flag("-v,--verbose", globals.verbose, "More log output")->group("Global");
   app.add_flag("-q,--quiet", globals.quiet_flag, "Only warnings and errors; no progress bars")->group("Global");
   app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber)->group("Global");
@@ -151,6 +162,12 @@ int run(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::ConfigError& e) {  // a key of the --config file that is no flag of bareskin or of its command
+    const std::string prefix = "INI was not able to parse ", what = e.what();
+    std::cerr << "error: " << config_file_name(app.get_config_ptr()) << ": "
+              << (what.rfind(prefix, 0) == 0 ? "'" + what.substr(prefix.size()) + "' is not a flag" : what)
+              << "; spell flags as --help does, a command's in its object: {\"template\": {\"vertices\": 30000}}\n";
+    return kUsageError;
   } catch (const CLI::ParseError& e) {
     std::cerr << "bareskin: " << e.what() << " (see --help)\n";
     return kUsageError;

@@ -51,6 +51,7 @@ class JsonConfig : public CLI::Config {
  public:
   std::string to_config(const CLI::App* app, bool default_also, bool write_description, std::string prefix) const override;
   std::vector<CLI::ConfigItem> from_config(std::istream& input) const override;
+  CLI::Option* file_option = nullptr;  // --config: names the file in errors
 };
 
 // Parses argv, runs the chosen command, and turns exceptions into one line + exit code.

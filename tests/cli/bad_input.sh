@@ -48,6 +48,9 @@ expect 4 "nowhere/face.obj" "scans" -- "$bin" scan synth --template nowhere -o s
 expect 3 "--count" "scans" -- "$bin" scan synth --count 0 -o scans
 printf '{"render": {"size": "big"}}' > bad_config.json
 expect 2 "size" "out.png" -- "$bin" --config bad_config.json render good.obj -o out.png
+printf '{"render": {"sise": 64}}' > misspelt_config.json  # an unknown key was ignored: the run went on with defaults
+expect 2 "misspelt_config.json: 'render.sise' is not a flag" "out.png" -- "$bin" --config misspelt_config.json render good.obj -o out.png
+expect 3 "cut.json: is not a JSON object" "out.png" -- "$bin" --config cut.json render good.obj -o out.png
 
 echo "$passed passed, $failures failed"
 [ "$failures" -eq 0 ]
