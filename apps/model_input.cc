@@ -26,7 +26,8 @@ ModelInstance model_instance(const std::string& model_path, const std::string& c
 
 std::vector<int> read_landmark_vertex_ids(const std::string& path, const Mesh& mesh, size_t count) {
   const auto doc = nlohmann::json::parse(read_file(path), nullptr, false);
-  if (doc.is_discarded() || !doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
+  if (doc.is_discarded()) throw InvalidInput(path, "is not JSON (empty or truncated?)", "pass the template's landmarks.json");
+  if (!doc.contains("vertex_ids") || !doc["vertex_ids"].is_array()) {
     throw InvalidInput(path, "has no \"vertex_ids\" list", "pass the template's landmarks.json");
   }
   if (count > 0 && doc["vertex_ids"].size() != count) {

@@ -116,7 +116,10 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
       if (!fs::exists(ckpt)) throw IoError(ckpt, "does not exist", "give --run the folder of 'bareskin train recon'");
       const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
       if (fs::exists(cfg)) model_path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
-      if (model_path.empty()) throw InvalidInput(o->run, "names no model file", "give --model");
+      if (model_path.empty()) {
+        throw InvalidInput(cfg, "is missing or names no model file (the one the run was trained with)",
+                           "give --run the folder of 'bareskin train recon', or --model");
+      }
     }
     if (!o->eval.data.empty()) {
       recon::EvalOptions e = o->eval;

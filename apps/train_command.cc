@@ -77,7 +77,8 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
   app.add_option("--options", opt->options, "With --print-model: JSON options over the defaults, e.g. '{\"ngf\": 32}'");
   app.add_flag("--structure", opt->structure, "With --print-model: also print the module tree");
   CLI::App* e = app.add_subcommand("export", "Write a run's module as a plain state dict (reference parameter names)");
-  e->add_option("checkpoint", opt->checkpoint, "A run folder or its checkpoint.safetensors")->required();
+  e->add_option("checkpoint", opt->checkpoint, "A run folder (a BareSkinNet run's: its last stage) or its checkpoint")
+      ->required();
   e->add_option("--module", opt->module, "Which module of the run (e.g. G, D, E)")->required();
   e->add_option("-o,--output", opt->output, "Output .safetensors (load with safetensors + load_state_dict)")->required();
   app.footer("Examples:\n  bareskin train --list-models\n  bareskin train --print-model unet256 --options "
@@ -94,7 +95,12 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
     } else if (recon()) {
     } else if (app.got_subcommand("export")) {
       std::string path = opt->checkpoint;
-      if (std::filesystem::is_directory(path)) path = train::checkpoint_path(path);
+      if (std::filesystem::is_directory(path)) {  // a BareSkinNet run keeps its stages in stage2/ and stage1/
+        for (const char* stage : {"/stage2", "/stage1", ""}) {
+          path = train::checkpoint_path(opt->checkpoint + stage);
+          if (std::filesystem::exists(path)) break;
+        }
+      }
       train::export_module(path, opt->module, opt->output);
       if (!globals.quiet()) std::cerr << "wrote " << opt->output << "\n";
     } else if (opt->list) {

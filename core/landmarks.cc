@@ -26,7 +26,7 @@ Landmarks parse_landmarks_json(const std::string& text, const std::string& sourc
   nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
   if (doc.is_discarded()) throw InvalidInput(source, "is not valid JSON", "check the file (truncated?)");
   if (!doc.is_object() || !doc.contains("points") || !doc["points"].is_array()) {
-    throw InvalidInput(source, "has no \"points\" array", R"(expected {"scheme":"ibug68","points":[[x,y,z],...]})");
+    throw InvalidInput(source, "has no \"points\" array", R"(expected {"scheme":"ibug68","points":[[x,y] or [x,y,z],...]})");
   }
   Landmarks lm;
   if (doc.contains("scheme")) {

@@ -115,7 +115,13 @@ nlohmann::json read_metadata(const SafeTensors& file) {
   auto it = file.metadata().find(kMetadata);
   if (it == file.metadata().end())
     throw InvalidInput(file.source(), "is not a training checkpoint (no '" + std::string(kMetadata) + "' metadata)", kHint);
-  return nlohmann::json::parse(it->second);
+  nlohmann::json meta = nlohmann::json::parse(it->second, nullptr, false);
+  if (meta.is_discarded() || !meta.is_object() || !meta.contains("step") || !meta["step"].is_number_integer() ||
+      !meta.contains("task") || !meta["task"].is_string() || !meta.contains("config")) {
+    throw InvalidInput(file.source(), "has damaged checkpoint metadata (not JSON with step, task and config)",
+                       "the file is not what training wrote: use the run's checkpoint or retrain");
+  }
+  return meta;
 }
 }  // namespace
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bareskin train: the zoo listing (the issue's reference parameter counts), one model's options, and bad input.
+# bareskin train: the zoo listing (the issue's reference parameter counts), one model's options, export, and bad input.
 source "$(dirname "$0")/lib.sh" "$@"
 
 "$bin" train --list-models > "$work/list" || fail "train --list-models failed"
@@ -26,4 +26,34 @@ expect_failure 3 "--options" "" -- "$bin" train --print-model unet256 --options 
 expect_failure 3 "ngff" "" -- "$bin" train --print-model unet256 --options '{"ngff": 8}'
 expect_failure 2 "--list-models" "" -- "$bin" train
 expect_failure 4 "nothing.safetensors" "$work/G.safetensors" -- "$bin" train export "$work/nothing.safetensors" --module G -o "$work/G.safetensors"
+# train export: a BareSkinNet run folder (stage1/, stage2/) exports its last stage; damaged checkpoint metadata is
+# refused in one line. The checkpoints are written by numpy per the safetensors specification (no code of ours).
+$py - "$here/../python" "$work/bsn" <<'PY' || fail "writing the checkpoints"
+import json, os, struct, sys
+import numpy as np
+def write(path, tensors, meta):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    header, data = {"__metadata__": meta}, b""
+    for name, a in tensors.items():
+        a = a.astype("<f4")
+        header[name] = {"dtype": "F32", "shape": list(a.shape), "data_offsets": [len(data), len(data) + a.nbytes]}
+        data += a.tobytes()
+    h = json.dumps(header).encode()
+    h += b" " * (-(8 + len(h)) % 8)
+    open(path, "wb").write(struct.pack("<Q", len(h)) + h + data)
+run = sys.argv[2]
+for stage, value in (("stage1", 1.0), ("stage2", 2.0)):
+    meta = {"bareskin.checkpoint": json.dumps({"step": 3, "task": "bareskinnet", "config": {}})}
+    write(f"{run}/{stage}/checkpoint.safetensors", {"module.G.w": np.full((2, 3), value)}, meta)
+write(f"{run}/../damaged.safetensors", {"module.G.w": np.zeros(2)}, {"bareskin.checkpoint": '{"step": 3, "ta'})
+PY
+"$bin" train export "$work/bsn" --module G -o "$work/G_last.safetensors" -q || fail "export of a BareSkinNet run folder"
+$py - "$here/../python" "$work/G_last.safetensors" <<'PY' || fail "export of a BareSkinNet run folder took another stage"
+import sys
+sys.path.insert(0, sys.argv[1])
+from safetensors_oracle import read_safetensors
+meta, tensors = read_safetensors(sys.argv[2])
+assert (tensors["w"] == 2.0).all() and tensors["w"].shape == (2, 3), tensors
+PY
+expect_failure 3 "damaged.safetensors: has damaged checkpoint metadata" "$work/G.safetensors" -- "$bin" train export "$work/damaged.safetensors" --module G -o "$work/G.safetensors"
 echo "train CLI: ok"
