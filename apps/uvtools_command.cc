@@ -61,13 +61,17 @@ std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
     if (!bake->parsed()) return;
     opt->resize.sizes = parse_sizes(opt->sizes);
     opt->resize.check();
+    if (!std::filesystem::is_directory(opt->input)) {
+      throw IoError(opt->input, "is not a folder", "give the folder holding diffuse, normal, roughness, specular maps");
+    }
     std::optional<Mesh> layout;
     if (!opt->layout.empty()) layout = read_mesh(opt->layout);
-    else spdlog::info("uvtools bake: no --layout: a plain area-correct resize per map type, without seam handling");
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar = globals.progress("uvtools bake");
     const MapResizeReport r = resize_maps(opt->input, layout ? &*layout : nullptr, opt->resize, opt->output, bar.callback());
     bar.finish();
+    // After the bake, so that a refused input gives one line only.
+    if (!layout) spdlog::info("uvtools bake: no --layout: a plain area-correct resize per map type, without seam handling");
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     nlohmann::json j = {{"input", opt->input},           {"input_size", r.input_size},
                         {"sizes", opt->resize.sizes},    {"maps", r.maps},

@@ -102,4 +102,9 @@ oiiotool "$maps/diffuse.png" -d half -o "$work/full.exr"
 head -c $(( $(stat -c %s "$work/full.exr") / 2 )) "$work/full.exr" > "$work/b_trunc/diffuse.exr"
 expect_error trunc "diffuse.exr" "$work/b_trunc" --sizes 64
 expect_error sizes "not a whole number" "$maps" --sizes 64,abc
-echo "14 passed, 0 failed"
+# Without -q and --layout the refusal is still the only line (the no-layout note comes after a bake that worked).
+mkdir -p "$work/b_cut"
+head -c 2000 "$maps/diffuse.png" > "$work/b_cut/diffuse.png"
+expect_failure 3 "b_cut/diffuse.png" "$work/out_cut" -- "$bin" uvtools bake "$work/b_cut" --sizes 64 -o "$work/out_cut"
+expect_failure 4 "nothere: is not a folder" "$work/out_nothere" -- "$bin" uvtools bake "$work/nothere" -o "$work/out_nothere"
+echo "16 passed, 0 failed"
