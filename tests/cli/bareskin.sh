@@ -4,18 +4,12 @@
 source "$(dirname "$0")/lib.sh" "$@"
 
 # Face samples in texgen faces' layout (32², 8 train + 4 test), with an independent PNG and tar writer.
-"$py" - "$work/faces" <<'PY'
+"$py" - "$work/faces" "$here/../python" <<'PY'
 import io, json, os, struct, sys, tarfile, zlib
 import numpy as np
 root = sys.argv[1]
-def png(a):
-    a = (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
-    h, w = a.shape[:2]
-    c = 1 if a.ndim == 2 else a.shape[2]
-    raw = b"".join(b"\0" + a[y].tobytes() for y in range(h))
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, {1: 0, 3: 2}[c], 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+sys.path.insert(0, sys.argv[2])
+from spec_writers import png
 rng = np.random.default_rng(1)
 yy, xx = np.mgrid[0:32, 0:32] / 31.0 * 2 - 1
 disc = (xx**2 + yy**2 < 0.6).astype(float)

@@ -5,23 +5,13 @@
 # (one line, exit ≠ 0, no output), a folder with --keep-going.
 source "$(dirname "$0")/lib.sh" "$@"
 
-"$py" - "$work" <<'PY'
+"$py" - "$work" "$here/../python" <<'PY'
 import io, json, os, struct, sys, tarfile, zlib
 import numpy as np
 root = sys.argv[1]
+sys.path.insert(0, sys.argv[2])
+from spec_writers import png, safetensors
 rng = np.random.default_rng(3)
-
-def safetensors(path, tensors, meta):
-    header, blobs, at = {}, [], 0
-    for name, (dtype, a) in tensors.items():
-        b = np.ascontiguousarray(a).tobytes()
-        header[name] = {"dtype": dtype, "shape": list(a.shape), "data_offsets": [at, at + len(b)]}
-        blobs.append(b)
-        at += len(b)
-    header["__metadata__"] = meta
-    h = json.dumps(header).encode()
-    h += b" " * (-len(h) % 8)
-    open(path, "wb").write(struct.pack("<Q", len(h)) + h + b"".join(blobs))
 
 def toy_model(path, kid, kexp, kapp, n=16, R=16):
     ys, xs = np.mgrid[0:n, 0:n] / (n - 1.0)
@@ -51,15 +41,6 @@ def toy_model(path, kid, kexp, kapp, n=16, R=16):
          "vertex_region": ("U8", np.zeros(Nv, np.uint8)), "procrustes": ("F32", np.eye(4, dtype=np.float32)[None])}
     safetensors(path, t, {"format": "bareskin.morphable_model", "format_version": "1", "units": "mm",
                           "region_names": json.dumps(["cheeks_jaw"])})
-
-def png(a):
-    a = (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
-    h, w = a.shape[:2]
-    c = 1 if a.ndim == 2 else a.shape[2]
-    raw = b"".join(b"\0" + a[y].tobytes() for y in range(h))
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, {1: 0, 3: 2}[c], 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
 
 toy_model(f"{root}/model.safetensors", 3, 2, 2)
 toy_model(f"{root}/other.safetensors", 4, 2, 2)

@@ -27,20 +27,15 @@ expect_failure 3 "ngff" "" -- "$bin" train --print-model unet256 --options '{"ng
 expect_failure 2 "--list-models" "" -- "$bin" train
 expect_failure 4 "nothing.safetensors" "$work/G.safetensors" -- "$bin" train export "$work/nothing.safetensors" --module G -o "$work/G.safetensors"
 # train export: a BareSkinNet run folder (stage1/, stage2/) exports its last stage; damaged checkpoint metadata is
-# refused in one line. The checkpoints are written by numpy per the safetensors specification (no code of ours).
+# refused in one line. The checkpoints come from tests/python/spec_writers.py (numpy, no code of ours).
 $py - "$here/../python" "$work/bsn" <<'PY' || fail "writing the checkpoints"
-import json, os, struct, sys
+import json, os, sys
 import numpy as np
+sys.path.insert(0, sys.argv[1])
+from spec_writers import safetensors
 def write(path, tensors, meta):
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    header, data = {"__metadata__": meta}, b""
-    for name, a in tensors.items():
-        a = a.astype("<f4")
-        header[name] = {"dtype": "F32", "shape": list(a.shape), "data_offsets": [len(data), len(data) + a.nbytes]}
-        data += a.tobytes()
-    h = json.dumps(header).encode()
-    h += b" " * (-(8 + len(h)) % 8)
-    open(path, "wb").write(struct.pack("<Q", len(h)) + h + data)
+    safetensors(path, {name: ("F32", a.astype("<f4")) for name, a in tensors.items()}, meta)
 run = sys.argv[2]
 for stage, value in (("stage1", 1.0), ("stage2", 2.0)):
     meta = {"bareskin.checkpoint": json.dumps({"step": 3, "task": "bareskinnet", "config": {}})}
