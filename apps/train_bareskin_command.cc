@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <iostream>
+#include <set>
 
 #include "apps/cli.h"
 #include "apps/detector.h"
@@ -39,7 +40,7 @@ std::pair<std::string, std::string> splits(const std::string& data) {
 
 std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals) {
   struct Options {
-    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, device = "cpu";
+    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, weights, device = "cpu";
     bsn::Options task;
     int64_t steps1 = 10000, steps2 = 30000, batch = 4, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
             sample_every = 1000;
@@ -73,6 +74,14 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--lr-d", o->task.lr_d, "D's learning rate")->capture_default_str();
   app->add_option("--ema-g", o->task.ema, "Decay of a moving average of G's weights that eval.json and inference use "
                   "(ours; 0: off, G as trained)")->capture_default_str();
+  app->add_option("--lr-decay", o->task.lr_decay, "Learning rates fall linearly to 0 from this fraction of each stage's "
+                  "steps on (ours; 1: constant, the paper)")->capture_default_str();
+  app->add_option("--w-level", o->task.w_level, "Weight of L_level: |mean colour of G's output − of its target| on the "
+                  "face region, per image and channel (ours; 0: off)")->capture_default_str();
+  app->add_option("--gain", o->task.gain, "Random gain on the light of the makeup and before images, log-uniform in "
+                  "[1/(1+GAIN), 1+GAIN] per sample and step (ours; 0: off)")->capture_default_str();
+  app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
+                  "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, e.g. '{\"w2\": 0.5}'");
   app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
   app->add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
@@ -93,6 +102,13 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     task.d = json_option(o->d, "--d-options");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);
     nlohmann::json check = task;
+    for (auto& [key, value] : json_option(o->weights, "--loss-weights").items()) {
+      static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
+      if (!kWeights.count(key) || !value.is_number())
+        throw InvalidInput("--loss-weights", "'" + key + "' is not a loss weight with a number",
+                           "use the keys w1, w2, w3, w_coeff, w_land, w_diff, w_light, w_reg, w_level");
+      check[key] = value;
+    }
     bsn::from_json(check, task);  // validates size, target, ...
     if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
     if (!o->ablation.empty() && !bsn::ablation_has_stage2(o->ablation)) o->steps2 = 0;

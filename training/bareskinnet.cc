@@ -29,6 +29,10 @@ void to_json(nlohmann::json& j, const Options& o) {
        {"recon", o.recon},       {"tune_f", o.tune_f},   {"lr_g", o.lr_g},       {"lr_d", o.lr_d},
        {"lr_e", o.lr_e},         {"lr_f", o.lr_f},       {"beta1", o.beta1},     {"beta2", o.beta2},
        {"ema", o.ema}};
+  // Written only when set, so that the configurations of runs made before the options existed still match on resume.
+  if (o.lr_decay != 1) j["lr_decay"] = o.lr_decay;
+  if (o.w_level != 0) j["w_level"] = o.w_level;
+  if (o.gain != 0) j["gain"] = o.gain;
 }
 
 void from_json(const nlohmann::json& j, Options& o) {
@@ -58,6 +62,9 @@ void from_json(const nlohmann::json& j, Options& o) {
   o.beta1 = j.value("beta1", d.beta1);
   o.beta2 = j.value("beta2", d.beta2);
   o.ema = j.value("ema", d.ema);
+  o.lr_decay = j.value("lr_decay", d.lr_decay);
+  o.w_level = j.value("w_level", d.w_level);
+  o.gain = j.value("gain", d.gain);
   o.face_api = j.value("face_api", d.face_api);
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
@@ -68,6 +75,16 @@ void from_json(const nlohmann::json& j, Options& o) {
     throw InvalidInput("size " + std::to_string(o.size), "is not a power of two ≥ 32", "use 64, 128 or 256");
   if (!(o.ema >= 0 && o.ema < 1))
     throw InvalidInput("ema " + std::to_string(o.ema), "is not a decay in [0, 1)", "use e.g. 0.99, or 0 for no average");
+  if (!(o.lr_decay >= 0 && o.lr_decay <= 1))
+    throw InvalidInput("lr_decay " + std::to_string(o.lr_decay), "is not a fraction of the steps in [0, 1]",
+                       "use e.g. 0.5 (decay over the second half of each stage), or 1 for a constant rate");
+  if (!(o.gain >= 0 && o.gain <= 4))
+    throw InvalidInput("gain " + std::to_string(o.gain), "is not in [0, 4]", "use e.g. 0.3 (gains 0.77 to 1.3), or 0 for none");
+  for (auto [key, w] : {std::pair<const char*, double>{"w1", o.w1}, {"w2", o.w2}, {"w3", o.w3}, {"w_coeff", o.w_coeff},
+                        {"w_land", o.w_land}, {"w_diff", o.w_diff}, {"w_light", o.w_light}, {"w_reg", o.w_reg},
+                        {"w_level", o.w_level}})
+    if (!(w >= 0 && std::isfinite(w)))
+      throw InvalidInput(std::string("loss weight ") + key, "is negative or not finite", "give a weight ≥ 0");
   losses::parse_gan_kind(o.gan, "gan");
 }
 
@@ -131,6 +148,11 @@ torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teac
 torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout) {
   const int64_t n = layout.rotation_offset();
   return coeff.narrow(1, 0, n).pow(2).sum(1).mean();
+}
+
+torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+  auto m = mask.expand_as(a);
+  return (((a - b) * m).sum({2, 3}) / m.sum({2, 3}).clamp_min(1)).abs().mean();
 }
 
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
@@ -250,6 +272,10 @@ std::vector<train::OptimizerSpec> BareSkinTask::optimizers() {
   for (auto* s : {&d, &g}) {
     s->beta1 = options_.beta1;
     s->beta2 = options_.beta2;
+    if (options_.lr_decay < 1) {
+      s->schedule.kind = "linear";
+      s->schedule.decay_start = std::llround(options_.lr_decay * double(stage_steps_));
+    }
   }
   return {d, g};
 }
@@ -274,16 +300,26 @@ torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
 }
 
 torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
-  if (options_.target != "bare") return member(batch, options_.target);
+  if (options_.target != "bare") return lit_member(batch, options_.target);  // the before image: the input's light
   // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
   // not occluded) G is asked to keep its input, so the background does not dominate the L1.
   auto face = member(batch, "face");
-  return face * member(batch, "bare") + (1 - face) * member(batch, "makeup");
+  return face * member(batch, "bare") + (1 - face) * lit_member(batch, "makeup");
+}
+
+torch::Tensor BareSkinTask::lit_member(const data::Batch& batch, const std::string& name) const {
+  auto x = member(batch, name);
+  if (!gain_.defined()) return x;
+  return recon::linear_to_srgb((srgb_to_linear(x) * gain_).clamp(0, 1));
 }
 
 train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   if (teacher_.module) teacher_.module->eval();  // frozen batch statistics (also when tuned: batch 4 is too small)
-  auto makeup = member(batch, "makeup");
+  if (phase == 0 && options_.gain > 0) {  // one draw per step, shared by its two phases
+    const double r = std::log1p(options_.gain);
+    gain_ = torch::exp(torch::rand({batch.size(), 1, 1, 1}) * (2 * r) - r).to(batch.at("makeup").device());
+  }
+  auto makeup = lit_member(batch, "makeup");
   auto target = this->target(batch);
   auto D = [&](const torch::Tensor& out) { return nets_->D->forward(torch::cat({makeup * 2 - 1, out * 2 - 1}, 1)); };
   if (phase == 0 && nets_->G_ema) {  // G as the previous step left it joins the average
@@ -307,9 +343,10 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   l["gan"] = options_.w2 * losses::gan_loss(D(out), true, nets_->gan, false);
   for (auto& p : nets_->D->parameters()) p.set_requires_grad(true);
   if (options_.w3 > 0) l["lpips"] = options_.w3 * nets_->lpips->forward(out, target).mean();
+  if (options_.w_level > 0) l["level"] = options_.w_level * level_loss(out, target, member(batch, "face"));
   if (options_.stage == 1) return l;
 
-  auto before = member(batch, "before");
+  auto before = lit_member(batch, "before");
   torch::Tensor reference;
   {
     torch::NoGradGuard no_grad;
@@ -329,6 +366,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
 }
 
 std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
+  gain_ = torch::Tensor();  // the data as it is
   auto out = generate_eval(member(batch, "makeup"));
   auto skin = member(batch, "skin");
   std::map<std::string, double> m;
@@ -342,6 +380,7 @@ std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
 }
 
 std::vector<std::vector<torch::Tensor>> BareSkinTask::samples(const data::Batch& batch) {
+  gain_ = torch::Tensor();
   auto makeup = member(batch, "makeup");
   auto out = generate_eval(makeup);
   std::vector<std::vector<torch::Tensor>> rows;
@@ -444,7 +483,7 @@ ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& optio
 std::vector<std::string> required_members(const Options& o) {
   std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
   if (o.target != "before") r.push_back("before.png");
-  if (o.stage == 2 || o.target == "bare") r.push_back("face.png");
+  if (o.stage == 2 || o.target == "bare" || o.w_level > 0) r.push_back("face.png");
   return r;
 }
 
@@ -481,6 +520,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   to.config = ro;
   to.config["stage"] = task.options().stage;
   for (const char* key : {"steps1", "steps2", "val_data"}) to.resumable_keys.push_back(key);
+  task.set_stage_steps(steps);
   train::Trainer trainer(to, task, train_loader, val.get());
   return trainer.run();
 }

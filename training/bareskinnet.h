@@ -79,6 +79,17 @@ struct Options {
   // it averages G after steps 0 … N − 1), starting from the G the stage starts with; the validation metrics, the
   // sample grids, eval.json and inference use G_ema. The trained G itself is unchanged by it.
   double ema = 0;
+  // Ours, not the paper's: each stage's learning rates (G, D, E, a tuned F) fall linearly to 0 from this fraction of
+  // the stage's steps on (1: constant, the paper; 0.5: the second half of each stage decays).
+  double lr_decay = 1;
+  // Ours, not the paper's: weight of L_level, the L1 distance between the mean colours (per image and channel) of
+  // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
+  // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.
+  double w_level = 0;
+  // Ours, not the paper's: a random gain on the light, per sample and step: the makeup and before images are
+  // multiplied in linear light by k, log-uniform in [1 / (1 + gain), 1 + gain] (clamped at 1), the target is not.
+  // G must then give the same albedo whatever the light's overall strength (0: off).
+  double gain = 0;
 };
 void to_json(nlohmann::json& j, const Options& o);
 void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
@@ -99,6 +110,8 @@ torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_l
 torch::Tensor landmark_loss(const torch::Tensor& projected, const torch::Tensor& target, double scale);
 torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teacher);
 torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout);
+// L_level: mean over batch and channels of |Σ m·(a − b) / Σ m| (images [B, C, H, W], mask [B, 1, H, W]).
+torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
 
 // The EMA's decay at update n (0-based): min(decay, (1 + n) / (10 + n)), so the first updates follow G closely and
 // the starting weights are forgotten within a few dozen steps even at decay 0.999.
@@ -155,6 +168,9 @@ class BareSkinTask : public train::Task {
   int64_t ema_updates() const;
   // Restarts the average at G's current weights (the start of a stage).
   void reset_ema();
+  // The number of steps of the stage, which places the learning-rate decay (Options::lr_decay); set it before the
+  // Trainer asks for the optimizers.
+  void set_stage_steps(int64_t steps) { stage_steps_ = steps; }
 
  private:
   struct Nets;
@@ -164,6 +180,9 @@ class BareSkinTask : public train::Task {
   CoeffLayout layout_;
   std::shared_ptr<Nets> nets_;
   torch::Tensor cached_output_;  // G's output of the D phase, reused by the G phase of the same step
+  torch::Tensor gain_;           // Options::gain: the step's [B, 1, 1, 1] gains, drawn by the D phase
+  torch::Tensor lit_member(const data::Batch& batch, const std::string& name) const;  // member × the step's gain
+  int64_t stage_steps_ = 0;
   torch::Tensor generate_eval(const torch::Tensor& images);  // G_ema when on, else G
 };
 

@@ -4,10 +4,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <sstream>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/image.h"
 #include "core/png.h"
 #include "core/test_util.h"
@@ -276,6 +279,9 @@ TEST(BareSkinNet, StageSwitchResumesBitIdentically) {
   const auto dir = write_faces(8, 3);
   RunOptions ro;
   ro.task = small_options(1);
+  ro.task.ema = 0.5;      // the moving average (a module of its own) resumes with the rest
+  ro.task.w_level = 10;
+  ro.task.gain = 0.3;     // its draws come from the generator the checkpoint keeps
   ro.train_data = dir;
   ro.steps1 = 3;
   ro.steps2 = 4;
@@ -306,7 +312,7 @@ TEST(BareSkinNet, StageSwitchResumesBitIdentically) {
   o2.stage = 2;
   auto parts = toy_parts();
   BareSkinTask probe(o2, parts.teacher, parts.student, parts.renderer, parts.layout);
-  for (const char* module : {"G", "D", "E", "F"}) {
+  for (const char* module : {"G", "G_ema", "D", "E", "F"}) {
     auto wa = weights(ro.run_dir + "/stage2/checkpoint.safetensors", module, probe);
     auto wb = weights(rb.run_dir + "/stage2/checkpoint.safetensors", module, probe);
     ASSERT_EQ(wa.size(), wb.size());
@@ -355,6 +361,98 @@ TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   c[1][kLayout.translation_offset()] = 50;  // t
   EXPECT_NEAR(reg_loss(c, kLayout).item<double>(), 2.5, 1e-6);
   EXPECT_NEAR(landmark_loss(torch::ones({1, 68, 2}), torch::zeros({1, 68, 2}), 4.0).item<double>(), 32.0, 1e-6);
+  // L_level: the mean colours on the mask differ by +0.1 (R), 0 (G: the errors cancel), −0.3 (B) in image 0 and by
+  // nothing in image 1 (it differs only off the mask): (0.1 + 0 + 0.3) / 6.
+  auto lb = a.clone();
+  lb[0][0] += 0.1 * mask[0][0];
+  lb[0][1].narrow(0, 4, 4).narrow(1, 4, 8) += 0.2;
+  lb[0][1].narrow(0, 8, 4).narrow(1, 4, 8) -= 0.2;
+  lb[0][2] -= 0.3 * mask[0][0];
+  lb[1] += 0.5 * (1 - mask[1]);
+  EXPECT_NEAR(level_loss(lb, a, mask).item<double>(), 0.4 / 6, 1e-12);
+}
+
+// --gain: during a training step the input (and the target outside the face) is the sample's makeup image with its
+// light scaled in linear light by one gain per sample in [1/(1+gain), 1+gain]; the bare target on the face is not
+// scaled; evaluation sees the data unscaled.
+TEST(BareSkinNet, GainScalesTheLightOfTheInputsNotTheBareTarget) {
+  const auto dir = write_faces(8, 9);
+  Options o = small_options(1);
+  o.target = "bare";
+  o.gain = 0.5;
+  torch::manual_seed(1);
+  BareSkinTask task(o);
+  const data::Batch batch = load_batch(dir, o, 8);
+  task.loss(0, batch);
+  const auto t = task.target(batch), face = task.member(batch, "face").expand_as(t);
+  const auto makeup = task.member(batch, "makeup"), bare = task.member(batch, "bare");
+  EXPECT_TRUE(torch::allclose(t * face, bare * face));
+  // Outside the face: per sample one ratio of linear light (pixels away from 0 and 1, so clamping does not enter).
+  const auto lin = srgb_to_linear(makeup), tlin = srgb_to_linear(t);
+  std::vector<double> gains;
+  for (int64_t i = 0; i < batch.size(); ++i) {
+    const auto off = (face[i] < 0.5) & (lin[i] > 0.05) & (lin[i] < 0.6);
+    ASSERT_GT(off.sum().item<int64_t>(), 10);
+    const auto ratio = tlin[i].masked_select(off) / lin[i].masked_select(off);
+    const double k = ratio.mean().item<double>();
+    EXPECT_LT((ratio - k).abs().max().item<double>(), 2e-4 * k) << i;
+    EXPECT_GE(k, 1 / 1.5 - 1e-6);
+    EXPECT_LE(k, 1.5 + 1e-6);
+    gains.push_back(k);
+  }
+  EXPECT_GT(*std::max_element(gains.begin(), gains.end()) - *std::min_element(gains.begin(), gains.end()), 0.1);
+  task.evaluate(batch);
+  EXPECT_TRUE(torch::allclose(task.target(batch) * (1 - face), makeup * (1 - face)));
+}
+
+// --lr-decay: every group's rate is constant up to the fraction of each stage's steps, then falls linearly to 0 at
+// the stage's end (the rates the Trainer logs per step); L_level is trained (a loss of its own in the log).
+TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
+  const auto dir = write_faces(8, 5);
+  RunOptions ro;
+  ro.task = small_options(1);
+  ro.task.lr_decay = 0.5;
+  ro.task.w_level = 10;
+  ro.train_data = dir;
+  ro.steps1 = 4;
+  ro.steps2 = 6;
+  ro.run_dir = testing::temp_dir() + "/decay";
+  ro.trainer.log_every = 1;
+  ro.trainer.checkpoint_every = 100;  // at the end of each stage
+  ro.trainer.eval_every = 0;
+  ro.trainer.sample_every = 0;
+  ro.trainer.progress = false;
+  train_two_stages(ro, toy_parts);
+  auto read = [](const std::string& csv) {  // name → value per logged step
+    std::map<std::string, std::vector<double>> v;
+    std::istringstream in(read_file(csv));
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+      const auto a = line.find(','), b = line.find(',', a + 1);
+      v[line.substr(a + 1, b - a - 1)].push_back(std::stod(line.substr(b + 1)));
+    }
+    return v;
+  };
+  const auto m1 = read(ro.run_dir + "/stage1/metrics.csv"), m2 = read(ro.run_dir + "/stage2/metrics.csv");
+  const double g = ro.task.lr_g, e = ro.task.lr_e;
+  const std::vector<double> f1{1, 1, 1, 0.5}, f2{1, 1, 1, 1, 2.0 / 3, 1.0 / 3};  // decay from step 2 of 4, 3 of 6
+  ASSERT_EQ(m1.at("lr/G/G").size(), f1.size());
+  ASSERT_EQ(m2.at("lr/G/E").size(), f2.size());
+  for (size_t i = 0; i < f1.size(); ++i) {
+    EXPECT_NEAR(m1.at("lr/G/G")[i], g * f1[i], 1e-7 * g) << i;
+    EXPECT_NEAR(m1.at("lr/D/D")[i], ro.task.lr_d * f1[i], 1e-7 * g) << i;
+  }
+  for (size_t i = 0; i < f2.size(); ++i) {
+    EXPECT_NEAR(m2.at("lr/G/G")[i], g * f2[i], 1e-7 * g) << i;
+    EXPECT_NEAR(m2.at("lr/G/E")[i], e * f2[i], 1e-7 * e) << i;
+  }
+  EXPECT_EQ(m2.at("G/level").size(), f2.size());
+  EXPECT_GT(m1.at("G/level")[0], 0);
+  Options bad;
+  EXPECT_THROW(from_json({{"gain", -0.1}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"lr_decay", 1.5}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"w_level", -1}}, bad), InvalidInput);
 }
 
 TEST(BareSkinNet, UnwarpRecoversTheAlbedoTextureOfARenderedFace) {
