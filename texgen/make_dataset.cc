@@ -266,6 +266,9 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
                            {"landmark_rms_px", v.landmark_rms_px},
                            {"photometric_psnr_db", v.photometric_psnr_db},
                            {"shape_error_mm", v.shape_error_mm},
+                           // this view's unwrap alone vs the truth over the texels it saw (the merge's inputs)
+                           {"psnr_db_vs_truth", masked_psnr_srgb(v.unwrap.colour, truth, v.unwrap.confidence)},
+                           {"alignment_rms", {v.alignment_rms_before, v.alignment_rms_after}},
                            {"coefficients", coefficients_json(v.fit)}});
     }
     const double psnr = masked_psnr_srgb(merged.colour, truth, merged.confidence);
@@ -449,6 +452,7 @@ json options_to_json(const TextureDatasetOptions& o) {
   for (Occluder x : o.occluders) occluders.push_back(to_string(x));
   return {{"views", views}, {"lights", o.lights}, {"fitter", o.fitter},
           {"landmark_fit", o.sample.landmark_fit_mode}, {"robust_landmarks", o.sample.landmark_robust_rounds},
+          {"align_views", o.sample.align.rounds},
           {"landmark_regularisation", o.sample.landmark_fit.regularisation},
           {"landmark_calibration", o.landmark_calibration ? o.landmark_calibration->source : ""}, {"render_size", o.sample.render_size},
           {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},

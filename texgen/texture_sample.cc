@@ -38,6 +38,7 @@ void TextureSampleOptions::check() const {
   if (silhouette.rounds > 0 && landmark_fit_mode != "shared-shape")
     throw InvalidInput("--silhouette-rounds", "the silhouette term refines the shared-shape fit only",
                        "pass --landmark-fit shared-shape or --silhouette-rounds 0");
+  align.check();
   landmark_fit.check();
 }
 
@@ -319,6 +320,18 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
       c.translation = lm.translation;
       geometry.push_back(c);
       rms.push_back(lm.rms_px);
+    }
+  }
+  if (options.align.rounds > 0) {
+    std::vector<const Image*> unwrapped;
+    for (const RenderedView& v : views) unwrapped.push_back(&v.unwrapped);
+    ViewAlignmentOptions align = options.align;
+    align.sharpness = options.merge_sharpness;
+    ViewAlignment aligned = align_views_photometric(model, geometry, unwrapped, camera, align);
+    geometry = std::move(aligned.views);
+    for (size_t i = 0; i < views.size(); ++i) {
+      views[i].fit.alignment_rms_before = aligned.rms_before[i];
+      views[i].fit.alignment_rms_after = aligned.rms_after[i];
     }
   }
   std::vector<ViewFit> out;

@@ -19,6 +19,7 @@
 #include "morphable/model.h"
 #include "render/camera.h"
 #include "texgen/silhouette_fit.h"
+#include "texgen/view_alignment.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::texgen {
@@ -54,6 +55,9 @@ struct TextureSampleOptions {
   // Rounds of the silhouette term on the shared-shape fit (texgen/silhouette_fit.h): each view's fitted outline onto
   // the render's outline of the face on black; 0: off.
   SilhouetteFitOptions silhouette;
+  // Rounds of photometric consistency between the views' unwraps (texgen/view_alignment.h): each view's pose moved so
+  // that its unwrap agrees with the others'; 0: off.
+  ViewAlignmentOptions align;
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range
@@ -87,6 +91,7 @@ struct ViewFit {
   double landmark_rms_px = 0;     // the landmark fit's residual in this view
   double photometric_psnr_db = 0; // the photometric fit's render vs the image (linear, fit_size)
   double shape_error_mm = 0;      // fitted shape vs the subject, mean vertex distance after a rigid alignment
+  double alignment_rms_before = 0, alignment_rms_after = 0;  // disagreement with the other views (align.rounds > 0)
   UnwarpResult unwrap;            // through the fit, at input_res
 };
 

@@ -1,0 +1,235 @@
+#include "texgen/view_alignment.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "morphable/fit.h"
+#include "render/rasterize.h"
+#include "texgen/texture_sample.h"
+#include "uvtools/unwarp.h"
+
+namespace bareskin::texgen {
+
+void ViewAlignmentOptions::check() const {
+  if (rounds < 0 || rounds > 10) throw InvalidInput("--align-views", "must lie in [0, 10]", "e.g. 2");
+  if (size < 32 || size > 2048) throw InvalidInput("--align-size", "must lie in [32, 2048]", "e.g. 256");
+  if (iterations < 1 || iterations > 100) throw InvalidInput("--align-iterations", "must lie in [1, 100]", "e.g. 8");
+  if (!(sharpness >= 0 && sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
+}
+
+namespace {
+
+using Pose = Eigen::Matrix<double, 6, 1>;  // rx, ry, rz (Euler, R = Rz Ry Rx), tx, ty, tz (mm)
+
+Pose pose_of(const Coefficients& c) {
+  Pose p;
+  p << c.rotation, c.translation;
+  return p;
+}
+
+// One level of the pyramid: the views' images and, per view, the fitted shape's point and view confidence at each
+// texel of the UV layout.
+struct Level {
+  int size = 0;
+  Camera camera;
+  std::vector<Image> images;                      // linear RGB, size²
+  std::vector<int> texels;                        // in-layout texel indices
+  std::vector<std::vector<Eigen::Vector3d>> points;  // [view][j]: object-frame point of texel j
+  std::vector<std::vector<float>> confidence;     // [view][j]: cos(view angle) at the landmark pose, 0 unseen
+};
+
+Level make_level(const MorphableModel& model, const std::vector<Coefficients>& views,
+                 const std::vector<const Image*>& images, int size) {
+  Level L;
+  L.size = size;
+  L.camera = view_camera("front", size, Eigen::Vector3d::Zero(), 1000);
+  const RasterOutput uv = rasterize_uv(model.topology, size);
+  for (int64_t i = 0; i < int64_t(size) * size; ++i)
+    if (uv.triangle[size_t(i)] >= 0) L.texels.push_back(int(i));
+  for (size_t v = 0; v < views.size(); ++v) {
+    const Image& source = *images[v];
+    L.images.push_back(resize_square(source.color_space == ColorSpace::sRGB ? to_linear(source) : source, size));
+    const Eigen::MatrixX3d V = model.shape(views[v].alpha, views[v].beta);
+    std::vector<Eigen::Vector3d> points(L.texels.size());
+    for (size_t j = 0; j < L.texels.size(); ++j) {
+      const size_t i = size_t(L.texels[j]);
+      const int f = uv.triangle[i];
+      const double b1 = uv.bary[2 * i], b2 = uv.bary[2 * i + 1];
+      points[j] = (1 - b1 - b2) * V.row(model.topology.F(f, 0)).transpose() +
+                  b1 * V.row(model.topology.F(f, 1)).transpose() + b2 * V.row(model.topology.F(f, 2)).transpose();
+    }
+    L.points.push_back(std::move(points));
+    UnwarpOptions o;
+    o.size = size;
+    const UnwarpResult seen = unwarp(L.images.back(), posed_mesh(model, views[v]), L.camera, o);
+    std::vector<float> c(L.texels.size());
+    for (size_t j = 0; j < L.texels.size(); ++j) c[j] = seen.confidence.pixels[size_t(L.texels[j])];
+    L.confidence.push_back(std::move(c));
+  }
+  return L;
+}
+
+// View v's image sampled (bilinear, linear RGB) at its texels' projections under `pose`; black outside the frame and
+// where the view does not see the texel.
+std::vector<Eigen::Vector3f> sample_view(const Level& L, size_t v, const Pose& pose) {
+  const Eigen::Matrix3d R = euler_rotation(pose.head<3>());
+  const Eigen::Vector3d t = pose.tail<3>();
+  const Image& img = L.images[v];
+  std::vector<Eigen::Vector3f> out(L.texels.size(), Eigen::Vector3f::Zero());
+  parallel_for(0, int64_t(L.texels.size()), [&](int64_t b, int64_t e) {
+    for (int64_t j = b; j < e; ++j) {
+      if (L.confidence[v][size_t(j)] <= 0) continue;
+      const Eigen::Vector3d x = L.camera.project(R * L.points[v][size_t(j)] + t);
+      const double sx = x.x() - 0.5, sy = x.y() - 0.5;
+      if (!(sx >= 0 && sy >= 0 && sx <= L.size - 1 && sy <= L.size - 1)) continue;
+      const int x0 = std::min(int(sx), L.size - 2), y0 = std::min(int(sy), L.size - 2);
+      const float fx = float(sx - x0), fy = float(sy - y0);
+      for (int c = 0; c < 3; ++c)
+        out[size_t(j)][c] = (1 - fy) * ((1 - fx) * img.at(x0, y0, c) + fx * img.at(x0 + 1, y0, c)) +
+                            fy * ((1 - fx) * img.at(x0, y0 + 1, c) + fx * img.at(x0 + 1, y0 + 1, c));
+    }
+  }, 4096);
+  return out;
+}
+
+// The merge of every view but v (confidence^sharpness weights) and its weight per texel (the largest confidence).
+void merge_others(const Level& L, const std::vector<std::vector<Eigen::Vector3f>>& colours, size_t v, double sharpness,
+                  std::vector<Eigen::Vector3f>& merged, std::vector<float>& weight) {
+  merged.assign(L.texels.size(), Eigen::Vector3f::Zero());
+  weight.assign(L.texels.size(), 0.f);
+  for (size_t j = 0; j < L.texels.size(); ++j) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double total = 0;
+    for (size_t u = 0; u < colours.size(); ++u) {
+      const float c = L.confidence[u][j];
+      if (u == v || c <= 0) continue;
+      const double w = std::pow(double(c), sharpness);
+      sum += w * colours[u][j].cast<double>();
+      total += w;
+      weight[j] = std::max(weight[j], c);
+    }
+    if (total > 0) merged[j] = (sum / total).cast<float>();
+  }
+}
+
+// Σ_j w_j |c_j − m_j|² with w_j = c_vj · weight_j, and the residual vector (3 per texel) when `r` is given.
+double disagreement(const Level& L, size_t v, const std::vector<Eigen::Vector3f>& colours,
+                    const std::vector<Eigen::Vector3f>& merged, const std::vector<float>& weight, Eigen::VectorXd* r,
+                    double* total_weight = nullptr) {
+  double cost = 0, wsum = 0;
+  if (r) r->setZero(3 * Eigen::Index(L.texels.size()));
+  for (size_t j = 0; j < L.texels.size(); ++j) {
+    const double w = double(L.confidence[v][j]) * double(weight[j]);
+    if (w <= 0) continue;
+    const Eigen::Vector3d d = (colours[j] - merged[j]).cast<double>() * std::sqrt(w);
+    if (r) r->segment<3>(3 * Eigen::Index(j)) = d;
+    cost += d.squaredNorm();
+    wsum += w;
+  }
+  if (total_weight) *total_weight = wsum;
+  return cost;
+}
+
+// Levenberg–Marquardt on view v's pose against a fixed merge of the others; forward-difference Jacobian.
+Pose align_one(const Level& L, size_t v, Pose pose, const std::vector<Eigen::Vector3f>& merged,
+               const std::vector<float>& weight, int iterations) {
+  const double step[6] = {1e-3, 1e-3, 1e-3, 0.1, 0.1, 0.1};
+  Eigen::VectorXd r, r_h;
+  double cost = disagreement(L, v, sample_view(L, v, pose), merged, weight, &r);
+  double lambda = 1e-3;
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r.size(), 6);
+    for (int k = 0; k < 6; ++k) {
+      Pose p = pose;
+      p[k] += step[k];
+      disagreement(L, v, sample_view(L, v, p), merged, weight, &r_h);
+      J.col(k) = (r_h - r) / step[k];
+    }
+    const Eigen::Matrix<double, 6, 6> H = J.transpose() * J;
+    const Pose g = J.transpose() * r;
+    bool improved = false;
+    for (int attempt = 0; attempt < 4 && !improved; ++attempt) {
+      Eigen::Matrix<double, 6, 6> A = H;
+      A.diagonal() += lambda * H.diagonal() + Pose::Constant(1e-9);
+      const Pose next = pose - A.ldlt().solve(g);
+      Eigen::VectorXd r_next;
+      const double c = disagreement(L, v, sample_view(L, v, next), merged, weight, &r_next);
+      if (c < cost) {
+        pose = next, cost = c, r = std::move(r_next), lambda = std::max(1e-6, lambda / 3), improved = true;
+      } else {
+        lambda *= 8;
+      }
+    }
+    if (!improved) break;
+  }
+  return pose;
+}
+
+std::vector<double> rms_disagreement(const Level& L, const std::vector<Pose>& poses, double sharpness) {
+  std::vector<std::vector<Eigen::Vector3f>> colours;
+  for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(L, v, poses[v]));
+  std::vector<double> rms;
+  std::vector<Eigen::Vector3f> merged;
+  std::vector<float> weight;
+  for (size_t v = 0; v < poses.size(); ++v) {
+    merge_others(L, colours, v, sharpness, merged, weight);
+    double w = 0;
+    const double cost = disagreement(L, v, colours[v], merged, weight, nullptr, &w);
+    rms.push_back(w > 0 ? std::sqrt(cost / (3 * w)) : 0.0);
+  }
+  return rms;
+}
+
+}  // namespace
+
+ViewAlignment align_views_photometric(const MorphableModel& model, const std::vector<Coefficients>& views,
+                                      const std::vector<const Image*>& images, const Camera& camera,
+                                      const ViewAlignmentOptions& options) {
+  options.check();
+  if (images.size() != views.size()) throw InvalidInput("", "align views: one image per view needed", "");
+  for (const Image* img : images)
+    if (!img || img->width != camera.width || img->height != camera.height || img->channels < 3)
+      throw InvalidInput("", "align views: every image must be an RGB image of the camera's size", "");
+  ViewAlignment out;
+  out.views = views;
+  if (views.size() < 2 || options.rounds == 0) return out;
+  // The levels' cameras are the canonical camera at their size: the render's must be that camera too.
+  const Camera expected = view_camera("front", camera.width, Eigen::Vector3d::Zero(), 1000);
+  BS_CHECK(std::abs(expected.focal - camera.focal) < 1e-9 && expected.t.isApprox(camera.t) && expected.R.isApprox(camera.R),
+           "align views: the render camera is not the canonical camera");
+  const int fine = std::min(options.size, camera.width);
+  std::vector<Level> levels;
+  levels.push_back(make_level(model, views, images, std::max(32, fine / 2)));
+  levels.push_back(make_level(model, views, images, fine));
+  std::vector<Pose> poses;
+  for (const Coefficients& c : views) poses.push_back(pose_of(c));
+  out.rms_before = rms_disagreement(levels.back(), poses, options.sharpness);
+  for (int round = 0; round < options.rounds; ++round) {
+    for (const Level& L : levels) {
+      std::vector<std::vector<Eigen::Vector3f>> colours;
+      for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(L, v, poses[v]));
+      std::vector<Pose> next = poses;
+      std::vector<Eigen::Vector3f> merged;
+      std::vector<float> weight;
+      for (size_t v = options.fix_first ? 1 : 0; v < poses.size(); ++v) {
+        merge_others(L, colours, v, options.sharpness, merged, weight);
+        next[v] = align_one(L, v, poses[v], merged, weight, options.iterations);
+      }
+      // Every view moved onto the others at once would overshoot (two views would swap): each takes (n − 1) / n of
+      // its step, which for equal weights leaves every view at the views' mean placement.
+      const double share = options.fix_first ? 1.0 : double(poses.size() - 1) / double(poses.size());
+      for (size_t v = options.fix_first ? 1 : 0; v < poses.size(); ++v) poses[v] += share * (next[v] - poses[v]);
+    }
+  }
+  out.rms_after = rms_disagreement(levels.back(), poses, options.sharpness);
+  for (size_t v = 0; v < views.size(); ++v) {
+    out.views[v].rotation = poses[v].head<3>();
+    out.views[v].translation = poses[v].tail<3>();
+  }
+  return out;
+}
+
+}  // namespace bareskin::texgen
