@@ -297,7 +297,8 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
   app.add_option("image", opt->image, "The (square) image the landmarks belong to")->required();
   app.add_option("--model", opt->model, "Model from 'bareskin mm-build'")->required();
   app.add_option("--landmarks", opt->landmarks, "68 iBUG landmarks in the image (JSON or .pts, pixels)")->required();
-  app.add_option("-o,--output", opt->output, "Coefficients (JSON: alpha, rotation, translation; read by render, uvtools)")
+  app.add_option("-o,--output", opt->output,
+                 "Coefficients (JSON: alpha, beta, delta, gamma, rotation, translation; read by render, uvtools)")
       ->capture_default_str();
   app.add_option("--view", opt->view, "Camera as 'render --model': front, left or right")->capture_default_str()
       ->check(CLI::IsMember({"front", "left", "right"}));
@@ -335,12 +336,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
     if (!opt->no_photometric) {
       Image image = read_image(opt->image);
       if (image.color_space == ColorSpace::sRGB) image = to_linear(image);
-      Coefficients pose;
-      pose.alpha = fit.alpha;
-      pose.beta = fit.beta;
-      pose.rotation = fit.rotation;
-      pose.translation = fit.translation;
-      const Mesh posed = posed_mesh(model, pose);
+      const Mesh posed = posed_mesh(model, to_coefficients(fit));
       Image skin;
       if (!opt->skin_mask.empty()) {
         skin = read_image(opt->skin_mask);
@@ -354,11 +350,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
       photo = fit_photometric(model, posed, camera, image, opt->photo);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    Coefficients c;
-    c.alpha = fit.alpha;
-    c.beta = fit.beta;
-    c.rotation = fit.rotation;
-    c.translation = fit.translation;
+    Coefficients c = to_coefficients(fit);
     c.extra = {{"landmark_rms_px", fit.rms_px},
                {"iterations", fit.iterations},
                {"seconds", seconds},

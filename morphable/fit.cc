@@ -32,6 +32,15 @@ Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& a) {
           Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX())).toRotationMatrix();
 }
 
+Coefficients to_coefficients(const LandmarkFit& fit) {
+  Coefficients c;
+  c.alpha = fit.alpha;
+  c.beta = fit.beta;
+  c.rotation = fit.rotation;
+  c.translation = fit.translation;
+  return c;
+}
+
 LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& target, const Camera& camera,
                           const LandmarkFitOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();

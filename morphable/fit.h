@@ -9,6 +9,7 @@
 
 #include "core/image.h"
 
+#include "morphable/coefficients.h"
 #include "morphable/model.h"
 #include "render/camera.h"
 
@@ -44,6 +45,9 @@ struct LandmarkFit {
 
 // Pose applied to model points: R(rotation) p + translation, R = Rz(rz) Ry(ry) Rx(rx).
 Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& angles);
+
+// The fit's shape and pose as a coefficient file's entries (α, β, rotation, translation; no δ, no γ).
+Coefficients to_coefficients(const LandmarkFit& fit);
 
 // landmarks_px: 68 x 2 (pixels, origin top-left). InvalidInput for a model without 68 landmarks or non-finite input.
 LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& landmarks_px, const Camera& camera,

@@ -130,10 +130,7 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
     a.coefficients_from = "F";
   } else {
     const LandmarkFit lm = fit_landmarks(model, Eigen::MatrixX2d(landmarks), camera, options.landmark_fit);
-    c.alpha = lm.alpha;
-    c.beta = lm.beta;
-    c.rotation = lm.rotation;
-    c.translation = lm.translation;
+    c = to_coefficients(lm);
     const PhotometricFit photo = fit_photometric(model, posed_mesh(model, c), camera, to_linear(a.bare),
                                                  options.photometric);
     c.delta = photo.delta;
