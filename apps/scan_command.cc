@@ -66,6 +66,9 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
       ->capture_default_str()->group("Model prior");
   app->add_option("--model-components", mp.components, "Identity components fitted (0: all)")
       ->capture_default_str()->group("Model prior");
+  app->add_option("--model-vertices", mp.vertices,
+                  "The fit's closest points for about this many well-spread template vertices (0: all)")
+      ->capture_default_str()->group("Model prior");
   app->add_option("--model-regularisation", mp.regularisation,
                   "Prior on the coefficients against the mean squared point-to-plane residual (mm^2)")
       ->capture_default_str()->group("Model prior");

@@ -4,6 +4,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 #include "core/error.h"
 #include "core/parallel.h"
@@ -42,7 +44,55 @@ struct NormalEquations {
   }
 };
 
+// One Poisson-disk pass at spacing r: vertices in index order, kept when no kept one lies within r (a hash grid of
+// cell r, so only the 27 neighbouring cells are looked at).
+std::vector<int> poisson_disk(const Eigen::MatrixX3d& V, double r) {
+  const auto cell = [&](const Eigen::RowVector3d& p) {
+    return Eigen::Vector3i(int(std::floor(p.x() / r)), int(std::floor(p.y() / r)), int(std::floor(p.z() / r)));
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (uint64_t(uint32_t(c.x()) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y()) & 0x1fffff) << 21) |
+           uint64_t(uint32_t(c.z()) & 0x1fffff);
+  };
+  std::unordered_map<uint64_t, std::vector<int>> grid;
+  std::vector<int> kept;
+  for (Eigen::Index i = 0; i < V.rows(); ++i) {
+    const Eigen::Vector3i c = cell(V.row(i));
+    bool free = true;
+    for (int dx = -1; dx <= 1 && free; ++dx)
+      for (int dy = -1; dy <= 1 && free; ++dy)
+        for (int dz = -1; dz <= 1 && free; ++dz) {
+          const auto it = grid.find(key(c + Eigen::Vector3i(dx, dy, dz)));
+          if (it == grid.end()) continue;
+          for (const int j : it->second)
+            if ((V.row(j) - V.row(i)).squaredNorm() < r * r) {
+              free = false;
+              break;
+            }
+        }
+    if (!free) continue;
+    grid[key(c)].push_back(int(i));
+    kept.push_back(int(i));
+  }
+  return kept;
+}
+
 }  // namespace
+
+std::vector<int> spread_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int count) {
+  std::vector<int> all(size_t(V.rows()));
+  for (size_t i = 0; i < all.size(); ++i) all[i] = int(i);
+  if (count <= 0 || count >= V.rows()) return all;
+  // An even (hexagonal) sampling at spacing r has 2 / (sqrt(3) r^2) points per unit area; a greedy pass packs less
+  // densely, so start a little closer and correct the spacing by the count it gave (twice).
+  double r = 0.8 * std::sqrt(2 * surface_area(V, F) / (std::sqrt(3.0) * count));
+  std::vector<int> kept = poisson_disk(V, r);
+  for (int pass = 0; pass < 2 && std::abs(double(kept.size()) / count - 1) > 0.05; ++pass) {
+    r *= std::sqrt(double(kept.size()) / count);
+    kept = poisson_disk(V, r);
+  }
+  return kept;
+}
 
 void ModelPriorOptions::check() const {
   if (iterations < 1 || iterations > 100) throw InvalidInput("", "--model-iterations must lie in [1, 100]", "");
@@ -53,6 +103,7 @@ void ModelPriorOptions::check() const {
   for (const double t : trim_mm)
     if (!(t > 0)) throw InvalidInput("", "the model fit's trims must be > 0 mm", "");
   if (!(nicp_landmark_scale >= 0)) throw InvalidInput("", "--model-nicp-landmark-scale must be >= 0", "");
+  if (vertices != 0 && vertices < 200) throw InvalidInput("", "--model-vertices must be 0 (all) or >= 200", "");
 }
 
 std::vector<double> landmark_sigma_weights(const std::vector<double>& sigma_mm) {
@@ -102,37 +153,42 @@ ModelPriorFit fit_model_to_scan(const MorphableModel& model, const Eigen::Matrix
     const Eigen::VectorXd flat = B * alpha;
     return Eigen::MatrixX3d(mean + Eigen::Map<const Eigen::Matrix<double, -1, 3, Eigen::RowMajor>>(flat.data(), n, 3));
   };
+  // The vertices whose closest points the rounds use: spread over the model's mean surface.
+  const std::vector<int> sample = spread_vertices(mean, model.topology.F, options.vertices);
+  fit.vertices_used = int(sample.size());
   for (int round = 0; round < options.iterations; ++round) {
     const Eigen::MatrixX3d X0 = apply(fit.similarity, shape(fit.alpha));
     const double trim = options.trim_mm[std::min(size_t(round), options.trim_mm.size() - 1)];
-    const ScanTargets tg = query(X0, trim);
+    const ScanTargets tg = query(X0, sample, trim);
     const Eigen::Matrix3d sR = fit.similarity.topLeftCorner<3, 3>();
     const Eigen::Vector3d t = fit.similarity.topRightCorner<3, 1>();
     const Eigen::RowVector3d centre = X0.colwise().mean();
-    // Surface: one point-to-plane row per accepted vertex (rows of M, right-hand sides r, weights w), weights
+    // Surface: one point-to-plane row per accepted sample vertex (rows of M, right-hand sides r, weights w), weights
     // normalised to a mean.
-    std::vector<Eigen::Index> rows;
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (tg.weight(i) > 0) rows.push_back(i);
-    if (rows.size() < 100) throw InvalidInput("scan", "the model fit found almost no overlap with the scan", "check the landmarks");
+    std::vector<Eigen::Index> rows;  // indices into `sample` (and tg)
+    for (Eigen::Index j = 0; j < Eigen::Index(sample.size()); ++j)
+      if (tg.weight(j) > 0) rows.push_back(j);
+    if (rows.size() < 100)
+      throw InvalidInput("scan", "the model fit found almost no overlap with the scan", "check the landmarks");
     const Eigen::Index m = Eigen::Index(rows.size());
     Eigen::MatrixXd M(m, unknowns);
     Eigen::VectorXd r(m), w(m);
     double total = 0, squared = 0;
     parallel_for(0, m, [&](int64_t b, int64_t e) {
       for (int64_t j = b; j < e; ++j) {
-        const Eigen::Index i = rows[size_t(j)];
-        const Eigen::Vector3d nrm = tg.normal.row(i).transpose(), p = (X0.row(i) - centre).transpose();
+        const Eigen::Index q = rows[size_t(j)], i = sample[size_t(q)];
+        const Eigen::Vector3d nrm = tg.normal.row(q).transpose(), p = (X0.row(i) - centre).transpose();
         M.block(j, 0, 1, K).noalias() = (nrm.transpose() * sR) * B.middleRows(3 * i, 3);
         M.block<1, 3>(j, K) = p.cross(nrm).transpose();
         M.block<1, 3>(j, K + 3) = nrm.transpose();
         M(j, K + 6) = nrm.dot(p);
-        r(j) = nrm.dot(tg.point.row(i).transpose() - t - sR * mean.row(i).transpose());
-        w(j) = tg.weight(i);
+        r(j) = nrm.dot(tg.point.row(q).transpose() - t - sR * mean.row(i).transpose());
+        w(j) = tg.weight(q);
       }
     }, 4096);
     for (Eigen::Index j = 0; j < m; ++j) {
-      const double now = tg.normal.row(rows[size_t(j)]).dot(tg.point.row(rows[size_t(j)]) - X0.row(rows[size_t(j)]));
+      const Eigen::Index q = rows[size_t(j)];
+      const double now = tg.normal.row(q).dot(tg.point.row(q) - X0.row(sample[size_t(q)]));
       squared += w(j) * now * now;
       total += w(j);
     }

@@ -26,19 +26,29 @@ struct ModelPriorOptions {
   // scaled by (median σ / σ_k)² (at most 1) when σ is known.
   double landmark_weight = 0.05;
   std::vector<double> trim_mm = {10, 5, 3, 3, 2, 2};  // correspondence trim per round (the last repeats)
+  // The ICP rounds find closest points for about this many well-spread vertices (spread_vertices), not all: 29 + 7
+  // unknowns need far fewer rows, and the closest points are the fit's cost (0: every vertex).
+  int vertices = 16000;
   // NICP after the fit: its landmark weights multiplied by this. 1 (unchanged) measured best on held-out scans
   // (bench/BENCHMARKS.md, "Model prior"): where the fit is wrong the landmarks still hold NICP; < 1 trusts the model more.
   double nicp_landmark_scale = 1;
   void check() const;  // InvalidInput when out of range
 };
 
-// Closest points on the scan for each row of V (mm, the scan's frame): point, the scan's unit normal there, and a
-// weight (0: rejected: too far, on the scan's boundary, normals disagree).
+// Closest points on the scan for the vertices `rows` of V (mm, the scan's frame; V whole, so that its normals can be
+// computed): per row, the point, the scan's unit normal there, and a weight (0: rejected: too far, on the scan's
+// boundary, normals disagree).
 struct ScanTargets {
   Eigen::MatrixX3d point, normal;
   Eigen::VectorXd weight;
 };
-using ScanTargetQuery = std::function<ScanTargets(const Eigen::MatrixX3d& V, double trim_mm)>;
+using ScanTargetQuery =
+    std::function<ScanTargets(const Eigen::MatrixX3d& V, const std::vector<int>& rows, double trim_mm)>;
+
+// About `count` vertices of V spread evenly over its surface (Poisson-disk: in index order, a vertex is kept when no
+// kept vertex lies within the spacing an even sampling of the surface area would have); all of them when count is 0
+// or not smaller than V's rows. Sorted, deterministic.
+std::vector<int> spread_vertices(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int count);
 
 struct ModelPriorFit {
   Eigen::MatrixX3d V;            // the fitted shape on the scan (template topology, mm, scan frame)
@@ -46,6 +56,7 @@ struct ModelPriorFit {
   Eigen::Matrix4d similarity;    // model frame -> scan frame
   std::vector<double> rms_mm;    // point-to-plane RMS over the accepted vertices, per round
   double landmark_rms_mm = 0;    // over the landmarks used, after the fit
+  int vertices_used = 0;         // vertices whose closest points the rounds used
 };
 
 // `start`: the template aligned on the scan (same topology as the model), which places the model (Umeyama over every

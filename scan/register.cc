@@ -7,6 +7,9 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <set>
 #include <unordered_map>
 
@@ -31,6 +34,15 @@ Eigen::MatrixX3d landmark_points(const TemplateFace& face) {
 
 Eigen::MatrixX3d apply(const Eigen::Matrix4d& T, const Eigen::MatrixX3d& V) {
   return ((V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+}
+
+// Runs f, adds its wall time to `seconds`, returns its result.
+template <class F>
+auto timed(double& seconds, F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto result = f();
+  seconds += seconds_since(t0);
+  return result;
 }
 
 double rms(const Eigen::MatrixX3d& a, const Eigen::MatrixX3d& b) { return std::sqrt((a - b).rowwise().squaredNorm().mean()); }
@@ -69,23 +81,26 @@ struct Correspondences {
   Eigen::VectorXd weight;  // 0: rejected
 };
 
+// For every vertex of V, or only for `rows` (then row j of the result is vertex rows[j]).
 Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const SurfaceLocator& locator,
                            const Eigen::MatrixX3d& scan_normals, const BoundaryTest& boundary, double trim,
-                           double huber, double min_cos) {
+                           double huber, double min_cos, const std::vector<int>* rows = nullptr) {
   const Eigen::MatrixX3d N = vertex_normals(V, F);
+  const Eigen::Index count = rows ? Eigen::Index(rows->size()) : V.rows();
   Correspondences c;
-  c.target.resize(V.rows(), 3);
-  c.face.resize(V.rows());
-  c.weight.setZero(V.rows());
-  parallel_for(0, V.rows(), [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
+  c.target.resize(count, 3);
+  c.face.resize(count);
+  c.weight.setZero(count);
+  parallel_for(0, count, [&](int64_t b, int64_t e) {
+    for (int64_t j = b; j < e; ++j) {
+      const Eigen::Index i = rows ? (*rows)[size_t(j)] : j;
       const SurfacePoint p = locator.locate(V.row(i).transpose());
-      c.target.row(i) = p.point.transpose();
-      c.face(i) = p.face;
+      c.target.row(j) = p.point.transpose();
+      c.face(j) = p.face;
       const double d = (p.point - V.row(i).transpose()).norm();
       if (d > trim || boundary.on_boundary(p)) continue;
       if (N.row(i).dot(scan_normals.row(p.face)) < min_cos) continue;
-      c.weight(i) = d > huber ? huber / d : 1.0;
+      c.weight(j) = d > huber ? huber / d : 1.0;
     }
   }, 1024);
   return c;
@@ -103,8 +118,8 @@ struct ScanSurface {
 };
 
 Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ScanSurface& s, double trim,
-                           double huber) {
-  return correspond(V, F, s.locator, s.normals, s.boundary, trim, huber, s.min_cos);
+                           double huber, const std::vector<int>* rows = nullptr) {
+  return correspond(V, F, s.locator, s.normals, s.boundary, trim, huber, s.min_cos, rows);
 }
 
 std::vector<int> landmark_ids(const RegisterOptions& options) {
@@ -163,23 +178,80 @@ struct NodeEmbedding {
   std::vector<Eigen::Vector3d> weight;   // ... and barycentric weights
 };
 
-NodeEmbedding embed_in_nodes(const Eigen::MatrixX3d& V0, const Eigen::MatrixX3i& F, int nodes) {
+// The node mesh of a template: its rest surface remeshed (each node on a template triangle, by barycentric weights)
+// and each template vertex's node triangle. The remesh is the costly part (about 3 s for 65k -> 2k vertices) and
+// depends only on the template, so it is made once per template and node count and kept for the process.
+struct NodeLayout {
+  Eigen::MatrixX3i F;                    // node triangles
+  std::vector<int> face;                 // per node: the template triangle it lies on
+  std::vector<Eigen::Vector3d> on_face;  // ... and its barycentric weights there
+  std::vector<std::array<int, 3>> node;  // per template vertex: its node triangle's corners
+  std::vector<Eigen::Vector3d> weight;   // ... and barycentric weights
+};
+
+uint64_t fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int nodes) {
+  uint64_t h = 1469598103934665603ull ^ uint64_t(nodes);  // FNV-1a over the bytes of V and F
+  const auto mix = [&h](const void* data, size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;
+  };
+  mix(V.data(), sizeof(double) * size_t(V.size()));
+  mix(F.data(), sizeof(int) * size_t(F.size()));
+  return h;
+}
+
+std::shared_ptr<const NodeLayout> node_layout(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3i& F, int nodes) {
+  static std::mutex mutex;
+  static std::map<uint64_t, std::shared_ptr<const NodeLayout>> cache;
+  const uint64_t key = fingerprint(rest, F, nodes);
+  std::lock_guard<std::mutex> lock(mutex);  // another scan's thread waits rather than remeshing the same template
+  if (const auto it = cache.find(key); it != cache.end()) return it->second;
+  auto layout = std::make_shared<NodeLayout>();
+  Eigen::MatrixX3d Vn;
+  isotropic_remesh(rest, F, nodes, 3, Vn, layout->F);
+  const SurfaceLocator on_template(rest, F), on_nodes(Vn, layout->F);
+  layout->face.resize(size_t(Vn.rows()));
+  layout->on_face.resize(size_t(Vn.rows()));
+  for (Eigen::Index j = 0; j < Vn.rows(); ++j) {
+    const SurfacePoint p = on_template.locate(Vn.row(j).transpose());
+    layout->face[size_t(j)] = p.face;
+    layout->on_face[size_t(j)] = p.barycentric;
+  }
+  const Eigen::Index n = rest.rows();
+  layout->node.resize(size_t(n));
+  layout->weight.resize(size_t(n));
+  parallel_for(0, n, [&](int64_t b0, int64_t b1) {
+    for (int64_t i = b0; i < b1; ++i) {
+      const SurfacePoint p = on_nodes.locate(rest.row(i).transpose());
+      layout->node[size_t(i)] = {layout->F(p.face, 0), layout->F(p.face, 1), layout->F(p.face, 2)};
+      layout->weight[size_t(i)] = p.barycentric;
+    }
+  }, 1024);
+  cache.emplace(key, layout);
+  return layout;
+}
+
+// V0: the template's vertices where NICP starts (the rest template after a similarity, or the model's fitted shape);
+// the nodes follow V0 by their barycentric weights on the template's triangles.
+NodeEmbedding embed_in_nodes(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3d& V0, const Eigen::MatrixX3i& F,
+                             int nodes) {
   const Eigen::Index n = V0.rows();
   NodeEmbedding e;
-  e.node.resize(size_t(n));
-  e.weight.resize(size_t(n));
   if (nodes > 0 && n > nodes + nodes / 5) {
-    isotropic_remesh(V0, F, nodes, 3, e.V, e.F);
-    const SurfaceLocator on_nodes(e.V, e.F);
-    parallel_for(0, n, [&](int64_t b0, int64_t b1) {
-      for (int64_t i = b0; i < b1; ++i) {
-        const SurfacePoint p = on_nodes.locate(V0.row(i).transpose());
-        e.node[size_t(i)] = {e.F(p.face, 0), e.F(p.face, 1), e.F(p.face, 2)};
-        e.weight[size_t(i)] = p.barycentric;
-      }
-    }, 1024);
+    const std::shared_ptr<const NodeLayout> layout = node_layout(rest, F, nodes);
+    e.F = layout->F;
+    e.V.resize(Eigen::Index(layout->face.size()), 3);
+    for (Eigen::Index j = 0; j < e.V.rows(); ++j) {
+      const int f = layout->face[size_t(j)];
+      const Eigen::Vector3d& b = layout->on_face[size_t(j)];
+      e.V.row(j) = b[0] * V0.row(F(f, 0)) + b[1] * V0.row(F(f, 1)) + b[2] * V0.row(F(f, 2));
+    }
+    e.node = layout->node;
+    e.weight = layout->weight;
     return e;
   }
+  e.node.resize(size_t(n));
+  e.weight.resize(size_t(n));
   e.V = V0;
   e.F = F;
   for (Eigen::Index i = 0; i < n; ++i) {
@@ -254,7 +326,8 @@ class Nicp {
       : face_(face), options_(options), surface_(surface), stats_(stats), ids_(landmark_ids(options)),
         centre_(V0.colwise().mean()),
         radius_(std::sqrt((V0.rowwise() - centre_).rowwise().squaredNorm().mean())),
-        e_(embed_in_nodes(V0, face.mesh.F, options.nodes)), m_(e_.V.rows()) {
+        e_(timed(stats.seconds_nodes, [&] { return embed_in_nodes(face.mesh.V, V0, face.mesh.F, options.nodes); })),
+        m_(e_.V.rows()) {
     stats.nodes = int(m_);
     v_ = homogeneous(e_.V);
     v_dense_ = homogeneous(V0);
@@ -390,13 +463,13 @@ Eigen::MatrixX3d fit_model_prior(const MorphableModel& model, const Eigen::Matri
                                  const RegisterOptions& options, const ScanSurface& surface, RegistrationStats& stats) {
   const auto t0 = std::chrono::steady_clock::now();
   const Eigen::MatrixX3i& F = model.topology.F;
-  const ScanTargetQuery query = [&](const Eigen::MatrixX3d& V, double trim) {
-    const Correspondences c = correspond(V, F, surface, trim, options.huber_mm);
+  const ScanTargetQuery query = [&](const Eigen::MatrixX3d& V, const std::vector<int>& rows, double trim) {
+    const Correspondences c = correspond(V, F, surface, trim, options.huber_mm, &rows);
     ScanTargets t;
     t.point = c.target;
     t.weight = c.weight;
-    t.normal.resize(V.rows(), 3);
-    for (Eigen::Index i = 0; i < V.rows(); ++i) t.normal.row(i) = surface.normals.row(c.face(i)).normalized();
+    t.normal.resize(c.target.rows(), 3);
+    for (Eigen::Index j = 0; j < c.target.rows(); ++j) t.normal.row(j) = surface.normals.row(c.face(j)).normalized();
     return t;
   };
   const Eigen::MatrixX3d points = landmarks ? Eigen::MatrixX3d(landmarks->points) : Eigen::MatrixX3d();
@@ -406,6 +479,7 @@ Eigen::MatrixX3d fit_model_prior(const MorphableModel& model, const Eigen::Matri
   stats.model_rms_mm = fit.rms_mm;
   stats.model_alpha_norm = fit.alpha.norm();
   stats.model_landmark_rms_mm = fit.landmark_rms_mm;
+  stats.model_vertices_used = fit.vertices_used;
   stats.seconds_model = seconds_since(t0);
   return fit.V;
 }
@@ -413,6 +487,7 @@ Eigen::MatrixX3d fit_model_prior(const MorphableModel& model, const Eigen::Matri
 // Phase 3: accepted vertices go onto the scan (the last step's rejection rules).
 void project_onto_scan(Registration& out, const Eigen::MatrixX3i& F, const ScanSurface& surface,
                        const RegisterOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
   const Correspondences c = correspond(out.V, F, surface, options.trim_mm.back(), 1e9);
   const Eigen::Index n = out.V.rows();
   out.accepted.assign(size_t(n), false);
@@ -424,6 +499,7 @@ void project_onto_scan(Registration& out, const Eigen::MatrixX3i& F, const ScanS
     if (options.project) out.V.row(i) = c.target.row(i);
   }
   out.stats.accepted_fraction = double(accepted) / double(n);
+  out.stats.seconds_project += seconds_since(t0);
 }
 
 // Phase 4 (texture refinement, texture_refine.h): rounds of transfer, flow to the reference and NICP iterations at

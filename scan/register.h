@@ -63,7 +63,9 @@ struct RegistrationStats {
   bool used_model = false;
   std::vector<double> model_rms_mm;
   double model_alpha_norm = 0, model_landmark_rms_mm = 0, seconds_model = 0;
+  int model_vertices_used = 0;  // vertices whose closest points the model fit used
   double seconds_similarity = 0, seconds_nicp = 0, seconds_factorize = 0, seconds_correspond = 0;
+  double seconds_nodes = 0, seconds_project = 0;  // inside seconds_nicp: the node embedding, the final projection
   // Texture refinement, per round: template vertices with a texture correspondence, their median move (mm).
   std::vector<int> texture_targets;
   std::vector<double> texture_median_flow_mm;

@@ -192,6 +192,7 @@ nlohmann::json model_report(const TemplateFace& face, const Registration& reg, c
                       {"point_to_plane_rms_mm", s.model_rms_mm},
                       {"alpha_norm", s.model_alpha_norm},
                       {"landmark_rms_after_fit_mm", s.model_landmark_rms_mm},
+                      {"vertices_used", s.model_vertices_used},
                       {"seconds", s.seconds_model}};
   if (truth.point) {
     const RegistrationErrors fit = measure_registration(face, reg.V_model, scan, nullptr, &*truth.point,
@@ -250,6 +251,8 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
                        {"nicp", s.seconds_nicp},
                        {"nicp_correspondences", s.seconds_correspond},
                        {"nicp_factorize_solve", s.seconds_factorize},
+                       {"nicp_nodes", s.seconds_nodes},
+                       {"nicp_projection", s.seconds_project},
                        {"total", seconds_since(t0)}};
   if (!maps.is_null()) report["maps"] = maps;
   if (s.used_model) report["model_prior"] = model_report(face, reg, scan, truth, options.model);

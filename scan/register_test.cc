@@ -215,6 +215,30 @@ TEST(Register, ModelPriorBeatsLandmarksAloneWhenTheLandmarksAreNoisy) {
   }
 }
 
+TEST(Register, ModelFitVerticesAreSpreadEvenly) {
+  // The model fit's vertex subset: about the count asked for, no two closer than the spacing, and every vertex of the
+  // surface near a kept one (checked by brute force against the kept set).
+  const Mesh& mesh = test_template().mesh;
+  const int count = 1000;
+  const std::vector<int> kept = spread_vertices(mesh.V, mesh.F, count);
+  EXPECT_NEAR(double(kept.size()), count, 0.05 * count);
+  EXPECT_TRUE(std::is_sorted(kept.begin(), kept.end()));
+  const double even = std::sqrt(2 * surface_area(mesh.V, mesh.F) / (std::sqrt(3.0) * count));  // hexagonal spacing
+  double closest = 1e9, farthest = 0;
+  for (size_t a = 0; a < kept.size(); ++a)
+    for (size_t b = a + 1; b < kept.size(); ++b)
+      closest = std::min(closest, (mesh.V.row(kept[a]) - mesh.V.row(kept[b])).norm());
+  for (Eigen::Index i = 0; i < mesh.V.rows(); ++i) {
+    double nearest = 1e9;
+    for (const int k : kept) nearest = std::min(nearest, (mesh.V.row(i) - mesh.V.row(k)).norm());
+    farthest = std::max(farthest, nearest);
+  }
+  std::printf("%zu kept, closest %.2f, farthest %.2f, even spacing %.2f mm\n", kept.size(), closest, farthest, even);
+  EXPECT_GT(closest, 0.5 * even);
+  EXPECT_LT(farthest, 1.5 * even);
+  EXPECT_EQ(spread_vertices(mesh.V, mesh.F, 0).size(), size_t(mesh.V.rows()));
+}
+
 TEST(Register, BadLandmarksAreNamed) {
   const TemplateFace& face = test_template();
   const SyntheticScan scan = make_scan(3);
