@@ -112,6 +112,9 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
   app->add_option("--align-views", o.sample.align.rounds, "Rounds of photometric consistency: each view's pose moved "
                                                           "so that its unwrap agrees with the other views' (0: off)")
       ->capture_default_str()->group("Fit");
+  app->add_option("--align-landmark-weight", o.sample.align.landmark_weight, "Weight of the views' landmarks against "
+                                                                          "the colours in the view alignment (0: colours alone)")
+      ->capture_default_str()->group("Fit");
   app->add_option("--align-size", o.sample.align.size, "UV and image size of the view alignment's finest level")
       ->capture_default_str()->group("Fit");
   app->add_option("--landmark-regularisation", o.sample.landmark_fit.regularisation, "Weight of the shape prior in the "

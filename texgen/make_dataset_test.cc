@@ -437,6 +437,17 @@ TEST(ViewAlignment, SideViewsReturnToTheirTruePoses) {
     EXPECT_LT(aligned.rms_after[size_t(i)], aligned.rms_before[size_t(i)]);
     std::printf("view %d: landmarks %.2f px off -> %.2f px\n", i, before, after);
   }
+  // With the true landmarks holding the poses (the anchor term), the side views also come back.
+  std::vector<LandmarkViewInput> landmarks(3);
+  for (size_t i = 0; i < 3; ++i) {
+    const Mesh posed = posed_mesh(model, truth[i]);
+    for (int k = 0; k < 68; ++k)
+      landmarks[i].landmarks.row(k) = camera.project(posed.V.row(model.landmark_vertices[size_t(k)]).transpose()).head<2>().transpose();
+  }
+  options.landmark_weight = 10;
+  const ViewAlignment anchored = align_views_photometric(model, knocked, pointers, camera, options, landmarks);
+  for (size_t i = 1; i < 3; ++i)
+    EXPECT_LT(landmark_px(anchored.views[i], truth[i]), 0.25 * landmark_px(knocked[i], truth[i])) << "anchored view " << i;
   const double psnr_before = merged_psnr_of(knocked), psnr_after = merged_psnr_of(aligned.views);
   EXPECT_GT(psnr_after, psnr_before + 3) << psnr_before << " -> " << psnr_after;
   std::printf("merged unwrap PSNR %.1f -> %.1f dB (truth poses %.1f dB)\n", psnr_before, psnr_after, merged_psnr_of(truth));

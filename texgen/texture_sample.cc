@@ -287,6 +287,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
   const Eigen::Matrix<double, 68, 3>* offsets = options.landmark_offsets ? &*options.landmark_offsets : nullptr;
   // The landmark fits: one for all views, or one per view (each a one-view joint fit in that view's own frame).
   std::vector<Coefficients> geometry;
+  std::vector<LandmarkViewInput> anchors;  // the landmarks and their final weights, for the view alignment
   std::vector<double> rms;
   if (options.landmark_fit_mode != "per-view") {
     std::vector<LandmarkViewInput> inputs;
@@ -300,7 +301,10 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
       fit = refine_with_silhouettes(model, inputs, renders, camera, options.landmark_fit, offsets, std::move(fit),
                                     options.silhouette, options.landmark_robust_rounds > 0);
     }
-    for (size_t v = 0; v < views.size(); ++v) geometry.push_back(view_coefficients(fit, v));
+    for (size_t v = 0; v < views.size(); ++v) {
+      geometry.push_back(view_coefficients(fit, v));
+      anchors.push_back({Eigen::Matrix3d::Identity(), views[v].fit.landmarks, fit.weight.row(Eigen::Index(v)).transpose()});
+    }
     rms = fit.rms_px;
   } else if (offsets) {
     for (const RenderedView& v : views) {
@@ -327,7 +331,9 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     for (const RenderedView& v : views) unwrapped.push_back(&v.unwrapped);
     ViewAlignmentOptions align = options.align;
     align.sharpness = options.merge_sharpness;
-    ViewAlignment aligned = align_views_photometric(model, geometry, unwrapped, camera, align);
+    if (anchors.empty())
+      for (const RenderedView& v : views) anchors.push_back({Eigen::Matrix3d::Identity(), v.fit.landmarks});
+    ViewAlignment aligned = align_views_photometric(model, geometry, unwrapped, camera, align, anchors, offsets);
     geometry = std::move(aligned.views);
     for (size_t i = 0; i < views.size(); ++i) {
       views[i].fit.alignment_rms_before = aligned.rms_before[i];

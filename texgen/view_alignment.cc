@@ -18,6 +18,8 @@ void ViewAlignmentOptions::check() const {
   if (size < 32 || size > 2048) throw InvalidInput("--align-size", "must lie in [32, 2048]", "e.g. 256");
   if (iterations < 1 || iterations > 100) throw InvalidInput("--align-iterations", "must lie in [1, 100]", "e.g. 8");
   if (!(sharpness >= 0 && sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
+  if (!(landmark_weight >= 0 && landmark_weight <= 1e6))
+    throw InvalidInput("--align-landmark-weight", "must lie in [0, 1e6]", "e.g. 1");
 }
 
 namespace {
@@ -133,19 +135,54 @@ double disagreement(const Level& L, size_t v, const std::vector<Eigen::Vector3f>
   return cost;
 }
 
+// A view's landmark term: the shape's landmark points (with the detector's offsets), the detected points and their
+// weights, in the render camera.
+struct Anchor {
+  const Camera* camera = nullptr;
+  Eigen::Matrix<double, 68, 3> points;
+  Eigen::Matrix<double, 68, 2> landmarks;
+  Eigen::Matrix<double, 68, 1> weight;
+  double scale = 0;  // sqrt(landmark_weight / Σ weight) / 10 px; 0: no term
+};
+
+// The residuals of view v at `pose`: the disagreement (scaled by 1 / (0.05 sqrt(W)), W the total weight at the
+// start) and, with an anchor, the landmarks' reprojection errors (2 per landmark).
+double residuals(const Level& L, size_t v, const Pose& pose, const std::vector<Eigen::Vector3f>& merged,
+                 const std::vector<float>& weight, double photo_scale, const Anchor& anchor, Eigen::VectorXd& r) {
+  Eigen::VectorXd photo;
+  disagreement(L, v, sample_view(L, v, pose), merged, weight, &photo);
+  const Eigen::Index n = photo.size();
+  r.resize(n + (anchor.scale > 0 ? 136 : 0));
+  r.head(n) = photo * photo_scale;
+  if (anchor.scale > 0) {
+    const Eigen::Matrix3d R = euler_rotation(pose.head<3>());
+    for (int k = 0; k < 68; ++k) {
+      const Eigen::Vector3d q = anchor.camera->project(R * anchor.points.row(k).transpose() + pose.tail<3>());
+      const double s = anchor.scale * std::sqrt(std::max(0.0, anchor.weight(k)));
+      r(n + 2 * k) = s * (q.x() - anchor.landmarks(k, 0));
+      r(n + 2 * k + 1) = s * (q.y() - anchor.landmarks(k, 1));
+    }
+  }
+  return r.squaredNorm();
+}
+
 // Levenberg–Marquardt on view v's pose against a fixed merge of the others; forward-difference Jacobian.
 Pose align_one(const Level& L, size_t v, Pose pose, const std::vector<Eigen::Vector3f>& merged,
-               const std::vector<float>& weight, int iterations) {
+               const std::vector<float>& weight, int iterations, const Anchor& anchor) {
   const double step[6] = {1e-3, 1e-3, 1e-3, 0.1, 0.1, 0.1};
+  double total_weight = 0;
+  disagreement(L, v, sample_view(L, v, pose), merged, weight, nullptr, &total_weight);
+  if (!(total_weight > 0)) return pose;
+  const double photo_scale = 1 / (0.05 * std::sqrt(total_weight));
   Eigen::VectorXd r, r_h;
-  double cost = disagreement(L, v, sample_view(L, v, pose), merged, weight, &r);
+  double cost = residuals(L, v, pose, merged, weight, photo_scale, anchor, r);
   double lambda = 1e-3;
   for (int it = 0; it < iterations; ++it) {
     Eigen::MatrixXd J = Eigen::MatrixXd::Zero(r.size(), 6);
     for (int k = 0; k < 6; ++k) {
       Pose p = pose;
       p[k] += step[k];
-      disagreement(L, v, sample_view(L, v, p), merged, weight, &r_h);
+      residuals(L, v, p, merged, weight, photo_scale, anchor, r_h);
       J.col(k) = (r_h - r) / step[k];
     }
     const Eigen::Matrix<double, 6, 6> H = J.transpose() * J;
@@ -156,7 +193,7 @@ Pose align_one(const Level& L, size_t v, Pose pose, const std::vector<Eigen::Vec
       A.diagonal() += lambda * H.diagonal() + Pose::Constant(1e-9);
       const Pose next = pose - A.ldlt().solve(g);
       Eigen::VectorXd r_next;
-      const double c = disagreement(L, v, sample_view(L, v, next), merged, weight, &r_next);
+      const double c = residuals(L, v, next, merged, weight, photo_scale, anchor, r_next);
       if (c < cost) {
         pose = next, cost = c, r = std::move(r_next), lambda = std::max(1e-6, lambda / 3), improved = true;
       } else {
@@ -187,7 +224,9 @@ std::vector<double> rms_disagreement(const Level& L, const std::vector<Pose>& po
 
 ViewAlignment align_views_photometric(const MorphableModel& model, const std::vector<Coefficients>& views,
                                       const std::vector<const Image*>& images, const Camera& camera,
-                                      const ViewAlignmentOptions& options) {
+                                      const ViewAlignmentOptions& options,
+                                      const std::vector<LandmarkViewInput>& landmarks,
+                                      const Eigen::Matrix<double, 68, 3>* offsets) {
   options.check();
   if (images.size() != views.size()) throw InvalidInput("", "align views: one image per view needed", "");
   for (const Image* img : images)
@@ -206,6 +245,22 @@ ViewAlignment align_views_photometric(const MorphableModel& model, const std::ve
   levels.push_back(make_level(model, views, images, fine));
   std::vector<Pose> poses;
   for (const Coefficients& c : views) poses.push_back(pose_of(c));
+  std::vector<Anchor> anchors(views.size());
+  if (options.landmark_weight > 0) {
+    if (landmarks.size() != views.size()) throw InvalidInput("", "align views: one landmark set per view needed", "");
+    for (size_t v = 0; v < views.size(); ++v) {
+      const Eigen::MatrixX3d S = model.shape(views[v].alpha, views[v].beta);
+      Anchor& a = anchors[v];
+      a.camera = &camera;
+      for (int k = 0; k < 68; ++k) {
+        a.points.row(k) = S.row(model.landmark_vertices[size_t(k)]);
+        if (offsets) a.points.row(k) += offsets->row(k);
+      }
+      a.landmarks = landmarks[v].landmarks;
+      a.weight = landmarks[v].weight.cwiseMax(0);
+      if (a.weight.sum() > 0) a.scale = std::sqrt(options.landmark_weight / a.weight.sum()) / 10;
+    }
+  }
   out.rms_before = rms_disagreement(levels.back(), poses, options.sharpness);
   for (int round = 0; round < options.rounds; ++round) {
     for (const Level& L : levels) {
@@ -216,7 +271,7 @@ ViewAlignment align_views_photometric(const MorphableModel& model, const std::ve
       std::vector<float> weight;
       for (size_t v = options.fix_first ? 1 : 0; v < poses.size(); ++v) {
         merge_others(L, colours, v, options.sharpness, merged, weight);
-        next[v] = align_one(L, v, poses[v], merged, weight, options.iterations);
+        next[v] = align_one(L, v, poses[v], merged, weight, options.iterations, anchors[v]);
       }
       // Every view moved onto the others at once would overshoot (two views would swap): each takes (n − 1) / n of
       // its step, which for equal weights leaves every view at the views' mean placement.

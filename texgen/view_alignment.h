@@ -15,6 +15,7 @@
 #include "morphable/coefficients.h"
 #include "morphable/model.h"
 #include "render/camera.h"
+#include "texgen/multiview_fit.h"
 
 namespace bareskin::texgen {
 
@@ -23,6 +24,10 @@ struct ViewAlignmentOptions {
   int size = 256;        // UV and image size of the finest level
   int iterations = 8;    // Levenberg–Marquardt steps per level
   double sharpness = 4;  // the merge of the other views: confidence^sharpness
+  // The views' landmarks hold each pose near where they put it: their reprojection error (px at the render size, over
+  // the landmarks' weights) counts beside the disagreement, as landmark_weight × mean |error / 10 px|² against
+  // mean w |Δcolour / 0.05|²; 0: poses from the colours alone (they compensate a wrong shape and drift).
+  double landmark_weight = 0;
   bool fix_first = true; // the first view (the front) keeps its landmark pose and the others are aligned to it;
                          // false: every view moves (the views' common zoom is then free and drifts)
   void check() const;    // InvalidInput when out of range
@@ -36,8 +41,12 @@ struct ViewAlignment {
 // `views`: each view's coefficients (shape, expression and pose as the unwrap uses them); `images`: each view's image
 // (linear or sRGB, camera.width² — the unwrapped one); `camera`: the render's camera. InvalidInput when the counts
 // or sizes differ. Fewer than two views: returned unchanged.
+// `landmarks`: per view the detected landmarks and their weights (the landmark fit's), used when
+// options.landmark_weight > 0; `offsets`: the detector's convention in the model frame (or nullptr).
 ViewAlignment align_views_photometric(const MorphableModel& model, const std::vector<Coefficients>& views,
                                       const std::vector<const Image*>& images, const Camera& camera,
-                                      const ViewAlignmentOptions& options);
+                                      const ViewAlignmentOptions& options,
+                                      const std::vector<LandmarkViewInput>& landmarks = {},
+                                      const Eigen::Matrix<double, 68, 3>* offsets = nullptr);
 
 }  // namespace bareskin::texgen
