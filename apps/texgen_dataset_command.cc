@@ -27,15 +27,13 @@ namespace {
 // imply, and (flip) the average with the mirrored image's landmarks. No truth is used.
 std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
                                                                                          int input_size, int refinements,
-                                                                                         int crops,
                                                                                          bool flip) {
   set_torch_threads(globals);
   auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  auto find = [net, input_size, refinements, crops, flip](const Image& image, bool coverage_fallback) {
+  auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) {
     detect::ImageLandmarkOptions o;
     o.input_size = input_size;
     o.refinements = refinements;
-    o.crops = crops;
     o.flip = flip;
     o.coverage_fallback = coverage_fallback;
     return detect::find_image_landmarks(*net, image, o);
@@ -43,7 +41,7 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
   return {[find](const Image& image) { return find(image, true); }, [find](const Image& image) { return find(image, false); }};
 }
 #else
-std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int, int, bool) {
+std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int, bool) {
   throw InvalidInput("texgen make-dataset", "needs face-api's detector, which this build lacks (no Torch side)",
                      "build bareskin with LibTorch");
 }
@@ -57,7 +55,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     double yaw_left = 30, yaw_right = 30;
     std::string occluders = "hair,glasses,hand,hat";
     std::vector<double> split = {0.8, 0.1, 0.1};
-    int detector_size = 416, refinements = 2, crops = 0;
+    int detector_size = 416, refinements = 2;
     bool no_flip = false;
     std::string calibration;
   };
@@ -84,9 +82,6 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->group("Fit");
   app->add_option("--refinements", opt->refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10))->group("Fit");
-  app->add_option("--detector-crops", opt->crops, "Test-time augmentation: the last landmark pass averaged over the box "
-                                                  "and this many jittered copies of it (0: off)")
-      ->capture_default_str()->check(CLI::Range(0, 8))->group("Fit");
   app->add_flag("--no-flip", opt->no_flip, "Landmarks from the image alone (default: averaged with those of its mirror "
                                           "image)")->group("Fit");
   app->add_option("--fitter", o.fitter, "mm-fit (detected landmarks, then the photometric fit); recon (the network F) "
@@ -174,7 +169,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       o.landmark_calibration = texgen::TextureDatasetOptions::LandmarkCalibration{opt->calibration, c.reference, c.offset};
     }
     o.check();
-    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, opt->crops, !opt->no_flip);
+    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, !opt->no_flip);
     ProgressBar bar = globals.progress("make-dataset");
     const texgen::TextureDatasetReport r =
         texgen::make_texture_dataset(o, render_detect, photo_detect, bar.callback());

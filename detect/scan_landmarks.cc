@@ -2,7 +2,6 @@
 
 #include <torch/torch.h>
 
-#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -81,26 +80,6 @@ Box box_around(const Eigen::Matrix<double, 68, 2>& p) {
   return {lo.x() - 0.138 * size.x(), lo.y() - 0.117 * size.y(), 1.219 * size.x(), 1.217 * size.y()};
 }
 
-namespace {
-
-// The landmark network on `box` and on its first `crops` jittered copies (shifted by 4 % of the box along x, y and
-// the diagonals, or scaled by 0.94 / 1.06 about its centre), in one batch; the mean of the points.
-Eigen::Matrix<double, 68, 2> landmarks_on_crops(const FaceApi& net, const torch::Tensor& photo, const Box& box, int crops) {
-  static const double kJitter[8][3] = {{0.04, 0, 1},  {-0.04, 0, 1}, {0, 0.04, 1},     {0, -0.04, 1},
-                                       {0, 0, 0.94},  {0, 0, 1.06},  {0.03, 0.03, 1}, {-0.03, -0.03, 1}};
-  std::vector<Box> boxes = {box};
-  for (int k = 0; k < std::min(crops, 8); ++k) {
-    const double s = kJitter[k][2], w = box.width * s, h = box.height * s;
-    boxes.push_back({box.x + box.width * (0.5 + kJitter[k][0]) - w / 2, box.y + box.height * (0.5 + kJitter[k][1]) - h / 2, w, h});
-  }
-  const std::vector<Eigen::Matrix<double, 68, 2>> found = net.landmarks(photo, boxes);
-  Eigen::Matrix<double, 68, 2> mean = Eigen::Matrix<double, 68, 2>::Zero();
-  for (const auto& p : found) mean += p;
-  return mean / double(found.size());
-}
-
-}  // namespace
-
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options) {
   const torch::Tensor photo = photo_tensor(image, "image");
@@ -136,14 +115,12 @@ std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& 
   if (options.coverage_fallback && box.width != coverage.width &&
       points.col(0).maxCoeff() - points.col(0).minCoeff() < 0.4 * coverage.width)
     points = refine(coverage);
-  if (options.crops > 0) points = landmarks_on_crops(net, photo, box_around(points), options.crops);
   if (!options.flip) return points;
   // Test-time mirroring: the landmarks of the mirrored image on the mirrored box, mirrored back and relabelled
   // (left and right points swap), averaged with the direct ones.
   const Box b = box_around(points);
   const double W = image.width;
-  const Eigen::Matrix<double, 68, 2> mirrored =
-      landmarks_on_crops(net, photo.flip({1}).contiguous(), {W - b.x - b.width, b.y, b.width, b.height}, options.crops);
+  const Eigen::Matrix<double, 68, 2> mirrored = net.landmarks(photo.flip({1}).contiguous(), {{W - b.x - b.width, b.y, b.width, b.height}})[0];
   Eigen::Matrix<double, 68, 2> back;
   for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kIbug68Mirror[k], 0), mirrored(kIbug68Mirror[k], 1));
   return Eigen::Matrix<double, 68, 2>((points + back) / 2);

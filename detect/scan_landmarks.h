@@ -46,9 +46,6 @@ struct ImageLandmarkOptions {
   int refinements = 2;
   bool flip = true;
   bool coverage_fallback = false;
-  // Test-time augmentation: the last pass (and the mirrored one) averaged over the box and this many jittered copies
-  // of it (shifts of 4 % of the box, scales 0.94 / 1.06; at most 8); 0: the box alone.
-  int crops = 0;
 };
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options);
