@@ -338,7 +338,18 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
       throw InvalidInput(options.model, "has no identity components", "build it from at least two registered subjects");
     }
   }
-  make_directories(options.output);  // after the inputs are checked: bad input leaves no output folder
+  // After the inputs are checked, and removed again if it is still empty when a scan fails: bad input (here or in
+  // the first scan) leaves no output folder.
+  const bool made_output = !fs::exists(options.output);
+  make_directories(options.output);
+  struct RemoveIfEmpty {
+    const std::string& dir;
+    bool armed;
+    ~RemoveIfEmpty() {
+      std::error_code ec;
+      if (armed && fs::is_empty(dir, ec) && !ec) fs::remove(dir, ec);
+    }
+  } cleanup{options.output, made_output};
   std::atomic<int> done{0};
   std::mutex failures_mutex;
   std::vector<std::pair<std::string, std::string>> failures;
@@ -375,6 +386,7 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
   summary["failures"] = nlohmann::json::array();
   for (const auto& [dir, why] : failures) summary["failures"].push_back({{"scan", dir}, {"error", why}});
   write_file_atomic(options.output + "/summary.json", summary.dump(1) + "\n");
+  cleanup.armed = false;
   for (const auto& r : rows) log_report(r);
   if (!failures.empty()) {
     for (const auto& [dir, why] : failures) spdlog::error("{}: {}", dir, why);
