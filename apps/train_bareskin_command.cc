@@ -78,8 +78,6 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "steps on (ours; 1: constant, the paper)")->capture_default_str();
   app->add_option("--w-level", o->task.w_level, "Weight of L_level: |mean colour of G's output − of its target| on the "
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
-  app->add_option("--gain", o->task.gain, "Random gain on the light of the makeup and before images, log-uniform in "
-                  "[1/(1+GAIN), 1+GAIN] per sample and step (ours; 0: off)")->capture_default_str();
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, e.g. '{\"w2\": 0.5}'");
   app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();

@@ -32,7 +32,6 @@ void to_json(nlohmann::json& j, const Options& o) {
   // Written only when set, so that the configurations of runs made before the options existed still match on resume.
   if (o.lr_decay != 1) j["lr_decay"] = o.lr_decay;
   if (o.w_level != 0) j["w_level"] = o.w_level;
-  if (o.gain != 0) j["gain"] = o.gain;
 }
 
 void from_json(const nlohmann::json& j, Options& o) {
@@ -64,7 +63,6 @@ void from_json(const nlohmann::json& j, Options& o) {
   o.ema = j.value("ema", d.ema);
   o.lr_decay = j.value("lr_decay", d.lr_decay);
   o.w_level = j.value("w_level", d.w_level);
-  o.gain = j.value("gain", d.gain);
   o.face_api = j.value("face_api", d.face_api);
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
@@ -78,8 +76,6 @@ void from_json(const nlohmann::json& j, Options& o) {
   if (!(o.lr_decay >= 0 && o.lr_decay <= 1))
     throw InvalidInput("lr_decay " + std::to_string(o.lr_decay), "is not a fraction of the steps in [0, 1]",
                        "use e.g. 0.5 (decay over the second half of each stage), or 1 for a constant rate");
-  if (!(o.gain >= 0 && o.gain <= 4))
-    throw InvalidInput("gain " + std::to_string(o.gain), "is not in [0, 4]", "use e.g. 0.3 (gains 0.77 to 1.3), or 0 for none");
   for (auto [key, w] : {std::pair<const char*, double>{"w1", o.w1}, {"w2", o.w2}, {"w3", o.w3}, {"w_coeff", o.w_coeff},
                         {"w_land", o.w_land}, {"w_diff", o.w_diff}, {"w_light", o.w_light}, {"w_reg", o.w_reg},
                         {"w_level", o.w_level}})
@@ -300,26 +296,16 @@ torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
 }
 
 torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
-  if (options_.target != "bare") return lit_member(batch, options_.target);  // the before image: the input's light
+  if (options_.target != "bare") return member(batch, options_.target);
   // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
   // not occluded) G is asked to keep its input, so the background does not dominate the L1.
   auto face = member(batch, "face");
-  return face * member(batch, "bare") + (1 - face) * lit_member(batch, "makeup");
-}
-
-torch::Tensor BareSkinTask::lit_member(const data::Batch& batch, const std::string& name) const {
-  auto x = member(batch, name);
-  if (!gain_.defined()) return x;
-  return recon::linear_to_srgb((srgb_to_linear(x) * gain_).clamp(0, 1));
+  return face * member(batch, "bare") + (1 - face) * member(batch, "makeup");
 }
 
 train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   if (teacher_.module) teacher_.module->eval();  // frozen batch statistics (also when tuned: batch 4 is too small)
-  if (phase == 0 && options_.gain > 0) {  // one draw per step, shared by its two phases
-    const double r = std::log1p(options_.gain);
-    gain_ = torch::exp(torch::rand({batch.size(), 1, 1, 1}) * (2 * r) - r).to(batch.at("makeup").device());
-  }
-  auto makeup = lit_member(batch, "makeup");
+  auto makeup = member(batch, "makeup");
   auto target = this->target(batch);
   auto D = [&](const torch::Tensor& out) { return nets_->D->forward(torch::cat({makeup * 2 - 1, out * 2 - 1}, 1)); };
   if (phase == 0 && nets_->G_ema) {  // G as the previous step left it joins the average
@@ -346,7 +332,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   if (options_.w_level > 0) l["level"] = options_.w_level * level_loss(out, target, member(batch, "face"));
   if (options_.stage == 1) return l;
 
-  auto before = lit_member(batch, "before");
+  auto before = member(batch, "before");
   torch::Tensor reference;
   {
     torch::NoGradGuard no_grad;
@@ -366,7 +352,6 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
 }
 
 std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
-  gain_ = torch::Tensor();  // the data as it is
   auto out = generate_eval(member(batch, "makeup"));
   auto skin = member(batch, "skin");
   std::map<std::string, double> m;
@@ -380,7 +365,6 @@ std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
 }
 
 std::vector<std::vector<torch::Tensor>> BareSkinTask::samples(const data::Batch& batch) {
-  gain_ = torch::Tensor();
   auto makeup = member(batch, "makeup");
   auto out = generate_eval(makeup);
   std::vector<std::vector<torch::Tensor>> rows;

@@ -86,10 +86,6 @@ struct Options {
   // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
   // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.
   double w_level = 0;
-  // Ours, not the paper's: a random gain on the light, per sample and step: the makeup and before images are
-  // multiplied in linear light by k, log-uniform in [1 / (1 + gain), 1 + gain] (clamped at 1), the target is not.
-  // G must then give the same albedo whatever the light's overall strength (0: off).
-  double gain = 0;
 };
 void to_json(nlohmann::json& j, const Options& o);
 void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
@@ -180,8 +176,6 @@ class BareSkinTask : public train::Task {
   CoeffLayout layout_;
   std::shared_ptr<Nets> nets_;
   torch::Tensor cached_output_;  // G's output of the D phase, reused by the G phase of the same step
-  torch::Tensor gain_;           // Options::gain: the step's [B, 1, 1, 1] gains, drawn by the D phase
-  torch::Tensor lit_member(const data::Batch& batch, const std::string& name) const;  // member × the step's gain
   int64_t stage_steps_ = 0;
   torch::Tensor generate_eval(const torch::Tensor& images);  // G_ema when on, else G
 };

@@ -281,7 +281,6 @@ TEST(BareSkinNet, StageSwitchResumesBitIdentically) {
   ro.task = small_options(1);
   ro.task.ema = 0.5;      // the moving average (a module of its own) resumes with the rest
   ro.task.w_level = 10;
-  ro.task.gain = 0.3;     // its draws come from the generator the checkpoint keeps
   ro.train_data = dir;
   ro.steps1 = 3;
   ro.steps2 = 4;
@@ -372,39 +371,6 @@ TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   EXPECT_NEAR(level_loss(lb, a, mask).item<double>(), 0.4 / 6, 1e-12);
 }
 
-// --gain: during a training step the input (and the target outside the face) is the sample's makeup image with its
-// light scaled in linear light by one gain per sample in [1/(1+gain), 1+gain]; the bare target on the face is not
-// scaled; evaluation sees the data unscaled.
-TEST(BareSkinNet, GainScalesTheLightOfTheInputsNotTheBareTarget) {
-  const auto dir = write_faces(8, 9);
-  Options o = small_options(1);
-  o.target = "bare";
-  o.gain = 0.5;
-  torch::manual_seed(1);
-  BareSkinTask task(o);
-  const data::Batch batch = load_batch(dir, o, 8);
-  task.loss(0, batch);
-  const auto t = task.target(batch), face = task.member(batch, "face").expand_as(t);
-  const auto makeup = task.member(batch, "makeup"), bare = task.member(batch, "bare");
-  EXPECT_TRUE(torch::allclose(t * face, bare * face));
-  // Outside the face: per sample one ratio of linear light (pixels away from 0 and 1, so clamping does not enter).
-  const auto lin = srgb_to_linear(makeup), tlin = srgb_to_linear(t);
-  std::vector<double> gains;
-  for (int64_t i = 0; i < batch.size(); ++i) {
-    const auto off = (face[i] < 0.5) & (lin[i] > 0.05) & (lin[i] < 0.6);
-    ASSERT_GT(off.sum().item<int64_t>(), 10);
-    const auto ratio = tlin[i].masked_select(off) / lin[i].masked_select(off);
-    const double k = ratio.mean().item<double>();
-    EXPECT_LT((ratio - k).abs().max().item<double>(), 2e-4 * k) << i;
-    EXPECT_GE(k, 1 / 1.5 - 1e-6);
-    EXPECT_LE(k, 1.5 + 1e-6);
-    gains.push_back(k);
-  }
-  EXPECT_GT(*std::max_element(gains.begin(), gains.end()) - *std::min_element(gains.begin(), gains.end()), 0.1);
-  task.evaluate(batch);
-  EXPECT_TRUE(torch::allclose(task.target(batch) * (1 - face), makeup * (1 - face)));
-}
-
 // --lr-decay: every group's rate is constant up to the fraction of each stage's steps, then falls linearly to 0 at
 // the stage's end (the rates the Trainer logs per step); L_level is trained (a loss of its own in the log).
 TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
@@ -450,7 +416,6 @@ TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
   EXPECT_EQ(m2.at("G/level").size(), f2.size());
   EXPECT_GT(m1.at("G/level")[0], 0);
   Options bad;
-  EXPECT_THROW(from_json({{"gain", -0.1}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"lr_decay", 1.5}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"w_level", -1}}, bad), InvalidInput);
 }
