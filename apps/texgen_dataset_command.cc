@@ -56,7 +56,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     std::string occluders = "hair,glasses,hand,hat";
     std::vector<double> split = {0.8, 0.1, 0.1};
     int detector_size = 416, refinements = 2;
-    bool no_flip = false;
+    bool no_flip = false, no_align_shape = false;
     std::string calibration;
   };
   auto opt = std::make_shared<Options>();
@@ -104,11 +104,17 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
   app->add_option("--silhouette-weight", o.sample.silhouette.weight, "A view's outline points together weigh this "
                                                                       "times its 68 landmarks")
       ->capture_default_str()->group("Fit");
-  app->add_option("--align-views", o.sample.align.rounds, "Rounds of photometric consistency: each view's pose moved "
-                                                          "so that its unwrap agrees with the other views' (0: off)")
-      ->capture_default_str()->group("Fit");
+  app->add_option("--align-views", o.sample.align.rounds, "Passes of photometric consistency: the shared shape and "
+                                                          "the side views' poses moved so that the views' unwraps "
+                                                          "agree (0: off)")
+      ->capture_default_str()->check(CLI::Range(0, 10))->group("Fit");
+  app->add_flag("--no-align-shape", opt->no_align_shape, "The view alignment moves the side views' poses only (the "
+                                                         "shape stays the landmark fit's)")->group("Fit");
   app->add_option("--align-landmark-weight", o.sample.align.landmark_weight, "Weight of the views' landmarks against "
                                                                           "the colours in the view alignment (0: colours alone)")
+      ->capture_default_str()->group("Fit");
+  app->add_option("--align-shape-prior", o.sample.align.shape_prior, "Weight of the shape prior in the view alignment "
+                                                                     "(per mean α² in standard deviations)")
       ->capture_default_str()->group("Fit");
   app->add_option("--align-size", o.sample.align.size, "UV and image size of the view alignment's finest level")
       ->capture_default_str()->group("Fit");
@@ -168,6 +174,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       const LandmarkCalibration c = read_landmark_calibration(opt->calibration);
       o.landmark_calibration = texgen::TextureDatasetOptions::LandmarkCalibration{opt->calibration, c.reference, c.offset};
     }
+    if (opt->no_align_shape) o.sample.align.shape = false;
     o.check();
     const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, !opt->no_flip);
     ProgressBar bar = globals.progress("make-dataset");

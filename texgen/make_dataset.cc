@@ -452,7 +452,9 @@ json options_to_json(const TextureDatasetOptions& o) {
   for (Occluder x : o.occluders) occluders.push_back(to_string(x));
   return {{"views", views}, {"lights", o.lights}, {"fitter", o.fitter},
           {"landmark_fit", o.sample.landmark_fit_mode}, {"robust_landmarks", o.sample.landmark_robust_rounds},
-          {"align_views", o.sample.align.rounds},
+          {"align_views", o.sample.align.rounds}, {"align_shape", o.sample.align.shape},
+          {"align_size", o.sample.align.size}, {"align_landmark_weight", o.sample.align.landmark_weight},
+          {"align_shape_prior", o.sample.align.shape_prior},
           {"landmark_regularisation", o.sample.landmark_fit.regularisation},
           {"landmark_calibration", o.landmark_calibration ? o.landmark_calibration->source : ""}, {"render_size", o.sample.render_size},
           {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},

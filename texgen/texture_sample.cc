@@ -331,6 +331,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     for (const RenderedView& v : views) unwrapped.push_back(&v.unwrapped);
     ViewAlignmentOptions align = options.align;
     align.sharpness = options.merge_sharpness;
+    align.shape = align.shape && options.landmark_fit_mode != "per-view";
     if (anchors.empty())
       for (const RenderedView& v : views) anchors.push_back({Eigen::Matrix3d::Identity(), v.fit.landmarks});
     ViewAlignment aligned = align_views_photometric(model, geometry, unwrapped, camera, align, anchors, offsets);

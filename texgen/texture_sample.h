@@ -55,9 +55,18 @@ struct TextureSampleOptions {
   // Rounds of the silhouette term on the shared-shape fit (texgen/silhouette_fit.h): each view's fitted outline onto
   // the render's outline of the face on black; 0: off.
   SilhouetteFitOptions silhouette;
-  // Rounds of photometric consistency between the views' unwraps (texgen/view_alignment.h): each view's pose moved so
-  // that its unwrap agrees with the others'; 0: off.
-  ViewAlignmentOptions align;
+  // Photometric consistency between the views' unwraps (texgen/view_alignment.h): the shared shape and the side
+  // views' poses moved so that the views' unwraps agree, the landmarks holding them (weight 10); one pass at 64² and
+  // 128² (+0.34 dB and −0.57 mm over the demo's 10 held-out subjects, bench/BENCHMARKS.md); rounds 0: off. Per-view
+  // landmark fits keep their own shapes (poses only).
+  ViewAlignmentOptions align = [] {
+    ViewAlignmentOptions a;
+    a.rounds = 1;
+    a.size = 128;
+    a.landmark_weight = 10;
+    a.shape = true;
+    return a;
+  }();
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
   void check() const;  // InvalidInput when out of range

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "core/error.h"
@@ -20,6 +21,7 @@ void ViewAlignmentOptions::check() const {
   if (!(sharpness >= 0 && sharpness <= 64)) throw InvalidInput("--merge-sharpness", "must lie in [0, 64]", "");
   if (!(landmark_weight >= 0 && landmark_weight <= 1e6))
     throw InvalidInput("--align-landmark-weight", "must lie in [0, 1e6]", "e.g. 1");
+  if (!(shape_prior >= 0 && shape_prior <= 1e6)) throw InvalidInput("--align-shape-prior", "must lie in [0, 1e6]", "e.g. 1");
 }
 
 namespace {
@@ -41,6 +43,7 @@ struct Level {
   std::vector<int> texels;                        // in-layout texel indices
   std::vector<std::vector<Eigen::Vector3d>> points;  // [view][j]: object-frame point of texel j
   std::vector<std::vector<float>> confidence;     // [view][j]: cos(view angle) at the landmark pose, 0 unseen
+  Eigen::MatrixXd dpoints;                        // [3j + c, k]: d point_j / d α_k (the first view's shape)
 };
 
 Level make_level(const MorphableModel& model, const std::vector<Coefficients>& views,
@@ -71,12 +74,30 @@ Level make_level(const MorphableModel& model, const std::vector<Coefficients>& v
     for (size_t j = 0; j < L.texels.size(); ++j) c[j] = seen.confidence.pixels[size_t(L.texels[j])];
     L.confidence.push_back(std::move(c));
   }
+  const Eigen::Index K = model.shape_basis.rows();
+  L.dpoints.resize(3 * Eigen::Index(L.texels.size()), K);
+  const Eigen::MatrixX3d V0 = model.shape(views[0].alpha, views[0].beta);
+  for (Eigen::Index k = 0; k < K; ++k) {
+    Eigen::VectorXd a = views[0].alpha;
+    if (a.size() < K) a.conservativeResizeLike(Eigen::VectorXd::Zero(K));
+    a[k] += 1;
+    const Eigen::MatrixX3d D = model.shape(a, views[0].beta) - V0;
+    for (size_t j = 0; j < L.texels.size(); ++j) {
+      const size_t i = size_t(L.texels[j]);
+      const int f = uv.triangle[i];
+      const double b1 = uv.bary[2 * i], b2 = uv.bary[2 * i + 1];
+      L.dpoints.block(3 * Eigen::Index(j), k, 3, 1) = (1 - b1 - b2) * D.row(model.topology.F(f, 0)).transpose() +
+                                                      b1 * D.row(model.topology.F(f, 1)).transpose() +
+                                                      b2 * D.row(model.topology.F(f, 2)).transpose();
+    }
+  }
   return L;
 }
 
 // View v's image sampled (bilinear, linear RGB) at its texels' projections under `pose`; black outside the frame and
 // where the view does not see the texel.
-std::vector<Eigen::Vector3f> sample_view(const Level& L, size_t v, const Pose& pose) {
+std::vector<Eigen::Vector3f> sample_view(const Level& L, size_t v, const Pose& pose,
+                                         const Eigen::VectorXd* dalpha = nullptr) {
   const Eigen::Matrix3d R = euler_rotation(pose.head<3>());
   const Eigen::Vector3d t = pose.tail<3>();
   const Image& img = L.images[v];
@@ -84,7 +105,9 @@ std::vector<Eigen::Vector3f> sample_view(const Level& L, size_t v, const Pose& p
   parallel_for(0, int64_t(L.texels.size()), [&](int64_t b, int64_t e) {
     for (int64_t j = b; j < e; ++j) {
       if (L.confidence[v][size_t(j)] <= 0) continue;
-      const Eigen::Vector3d x = L.camera.project(R * L.points[v][size_t(j)] + t);
+      Eigen::Vector3d p = L.points[v][size_t(j)];
+      if (dalpha) p += L.dpoints.middleRows(3 * j, 3) * *dalpha;
+      const Eigen::Vector3d x = L.camera.project(R * p + t);
       const double sx = x.x() - 0.5, sy = x.y() - 0.5;
       if (!(sx >= 0 && sy >= 0 && sx <= L.size - 1 && sy <= L.size - 1)) continue;
       const int x0 = std::min(int(sx), L.size - 2), y0 = std::min(int(sy), L.size - 2);
@@ -205,6 +228,138 @@ Pose align_one(const Level& L, size_t v, Pose pose, const std::vector<Eigen::Vec
   return pose;
 }
 
+// The joint problem of `options.shape`: θ = [Δα (K), the free views' poses (6 each)].
+struct ShapeProblem {
+  const Level* L = nullptr;
+  std::vector<Pose> poses;   // current poses (the fixed view's stays)
+  size_t first_free = 0;
+  Eigen::VectorXd alpha0;    // the shared α at the start (K); the level's points are its shape's
+  Eigen::VectorXd base;      // Δα from the start already found (earlier passes)
+  std::vector<Anchor> anchors;
+  Eigen::MatrixXd dlandmarks;  // [3k + c, K]: d landmark point / d α
+  double photo_scale = 0, prior_scale = 0;
+  std::vector<std::array<size_t, 3>> pairs;  // (u, v, j) with both views seeing texel j
+  std::vector<double> pair_weight;           // sqrt(c_u c_v)
+
+  Eigen::Index K() const { return alpha0.size(); }
+  Eigen::Index parameters() const { return K() + 6 * Eigen::Index(poses.size() - first_free); }
+  Pose pose(const Eigen::VectorXd& theta, size_t v) const {
+    return v < first_free ? poses[v] : Pose(poses[v] + theta.segment<6>(K() + 6 * Eigen::Index(v - first_free)));
+  }
+  double residuals(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
+    const Eigen::VectorXd dalpha = base + theta.head(K());
+    std::vector<std::vector<Eigen::Vector3f>> colours;
+    for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(*L, v, pose(theta, v), &dalpha));
+    const Eigen::Index n = 3 * Eigen::Index(pairs.size());
+    r.resize(n + 136 * Eigen::Index(poses.size()) + K());
+    r.setZero();
+    for (size_t q = 0; q < pairs.size(); ++q) {
+      const auto [u, v, j] = pairs[q];
+      r.segment<3>(3 * Eigen::Index(q)) = (photo_scale * pair_weight[q]) * (colours[u][j] - colours[v][j]).cast<double>();
+    }
+    for (size_t v = 0; v < poses.size(); ++v) {
+      const Anchor& a = anchors[v];
+      if (a.scale <= 0) continue;
+      const Pose p = pose(theta, v);
+      const Eigen::Matrix3d R = euler_rotation(p.head<3>());
+      const Eigen::Index o = n + 136 * Eigen::Index(v);
+      for (int k = 0; k < 68; ++k) {
+        const Eigen::Vector3d X = a.points.row(k).transpose() + dlandmarks.middleRows(3 * k, 3) * dalpha;
+        const Eigen::Vector3d x = a.camera->project(R * X + p.tail<3>());
+        const double w = a.scale * std::sqrt(std::max(0.0, a.weight(k)));
+        r(o + 2 * k) = w * (x.x() - a.landmarks(k, 0));
+        r(o + 2 * k + 1) = w * (x.y() - a.landmarks(k, 1));
+      }
+    }
+    r.tail(K()) = prior_scale * (alpha0 + dalpha);
+    return r.squaredNorm();
+  }
+};
+
+// Levenberg–Marquardt on θ from 0; forward-difference Jacobian.
+Eigen::VectorXd solve_shape(const ShapeProblem& P, int iterations) {
+  const Eigen::Index m = P.parameters();
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(m), r, r_h;
+  double cost = P.residuals(theta, r), lambda = 1e-3;
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::MatrixXd J(r.size(), m);
+    for (Eigen::Index k = 0; k < m; ++k) {
+      const Eigen::Index q = k - P.K();
+      const double h = k < P.K() ? 1e-2 : (q % 6 < 3 ? 1e-3 : 0.1);
+      Eigen::VectorXd t = theta;
+      t[k] += h;
+      P.residuals(t, r_h);
+      J.col(k) = (r_h - r) / h;
+    }
+    const Eigen::MatrixXd H = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * r;
+    bool improved = false;
+    for (int attempt = 0; attempt < 4 && !improved; ++attempt) {
+      Eigen::MatrixXd A = H;
+      A.diagonal() += lambda * H.diagonal() + Eigen::VectorXd::Constant(m, 1e-9);
+      const Eigen::VectorXd next = theta - A.ldlt().solve(g);
+      Eigen::VectorXd r_next;
+      const double c = P.residuals(next, r_next);
+      if (c < cost) {
+        theta = next, cost = c, r = std::move(r_next), lambda = std::max(1e-6, lambda / 3), improved = true;
+      } else {
+        lambda *= 8;
+      }
+    }
+    if (!improved) break;
+  }
+  return theta;
+}
+
+// options.shape: `rounds` passes over the levels of the joint problem; returns Δα and moves the free poses.
+Eigen::VectorXd align_shape(const MorphableModel& model, const std::vector<Coefficients>& views,
+                            const std::vector<Level>& levels, const std::vector<Anchor>& anchors,
+                            const ViewAlignmentOptions& options, std::vector<Pose>& poses) {
+  for (const Coefficients& c : views)
+    if (c.alpha != views[0].alpha || c.beta != views[0].beta)
+      throw InvalidInput("--align-shape", "needs one shape shared by the views", "use --landmark-fit shared-shape");
+  const Eigen::Index K = model.shape_basis.rows();
+  Eigen::VectorXd alpha = views[0].alpha;
+  alpha.conservativeResizeLike(Eigen::VectorXd::Zero(K));
+  Eigen::MatrixXd dlandmarks(204, K);
+  const Eigen::MatrixX3d V0 = model.shape(alpha, views[0].beta);
+  for (Eigen::Index k = 0; k < K; ++k) {
+    Eigen::VectorXd a = alpha;
+    a[k] += 1;
+    const Eigen::MatrixX3d D = model.shape(a, views[0].beta) - V0;
+    for (int l = 0; l < 68; ++l) dlandmarks.block(3 * l, k, 3, 1) = D.row(model.landmark_vertices[size_t(l)]).transpose();
+  }
+  Eigen::VectorXd dalpha = Eigen::VectorXd::Zero(K);
+  for (int round = 0; round < options.rounds; ++round)
+    for (const Level& L : levels) {
+      ShapeProblem P;
+      P.L = &L;
+      P.poses = poses;
+      P.first_free = options.fix_first ? 1 : 0;
+      P.alpha0 = alpha;
+      P.base = dalpha;
+      P.anchors = anchors;
+      P.dlandmarks = dlandmarks;
+      double wsum = 0;
+      for (size_t u = 0; u < poses.size(); ++u)
+        for (size_t v = u + 1; v < poses.size(); ++v)
+          for (size_t j = 0; j < L.texels.size(); ++j) {
+            const double w = double(L.confidence[u][j]) * double(L.confidence[v][j]);
+            if (w <= 0) continue;
+            P.pairs.push_back({u, v, j});
+            P.pair_weight.push_back(std::sqrt(w));
+            wsum += w;
+          }
+      if (!(wsum > 0)) break;
+      P.photo_scale = 1 / (0.05 * std::sqrt(wsum));
+      P.prior_scale = std::sqrt(options.shape_prior / double(K));
+      const Eigen::VectorXd theta = solve_shape(P, options.iterations);
+      dalpha += theta.head(K);
+      for (size_t v = P.first_free; v < poses.size(); ++v) poses[v] = P.pose(theta, v);
+    }
+  return dalpha;
+}
+
 std::vector<double> rms_disagreement(const Level& L, const std::vector<Pose>& poses, double sharpness) {
   std::vector<std::vector<Eigen::Vector3f>> colours;
   for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(L, v, poses[v]));
@@ -262,7 +417,10 @@ ViewAlignment align_views_photometric(const MorphableModel& model, const std::ve
     }
   }
   out.rms_before = rms_disagreement(levels.back(), poses, options.sharpness);
-  for (int round = 0; round < options.rounds; ++round) {
+  const Eigen::Index K = model.shape_basis.rows();
+  Eigen::VectorXd shape_step = Eigen::VectorXd::Zero(K);
+  if (options.shape) shape_step = align_shape(model, views, levels, anchors, options, poses);
+  for (int round = 0; round < options.rounds && !options.shape; ++round) {
     for (const Level& L : levels) {
       std::vector<std::vector<Eigen::Vector3f>> colours;
       for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(L, v, poses[v]));
@@ -280,6 +438,11 @@ ViewAlignment align_views_photometric(const MorphableModel& model, const std::ve
     }
   }
   out.rms_after = rms_disagreement(levels.back(), poses, options.sharpness);
+  if (options.shape) {
+    Eigen::VectorXd alpha = views[0].alpha;
+    alpha.conservativeResizeLike(Eigen::VectorXd::Zero(K));
+    for (Coefficients& c : out.views) c.alpha = alpha + shape_step;
+  }
   for (size_t v = 0; v < views.size(); ++v) {
     out.views[v].rotation = poses[v].head<3>();
     out.views[v].translation = poses[v].tail<3>();

@@ -8,6 +8,9 @@
 // views' view-angle confidences (visibility fixed at the landmark poses). Every view is aligned to the others at once
 // (Jacobi rounds), so no view is the reference and the views' mean placement stays that of their landmarks.
 // Levenberg–Marquardt over the 6 pose parameters, coarse to fine (UV and image at size/2, then size).
+// With `shape`, the shared identity α joins the free views' poses in one problem over the views' pairwise
+// disagreement (a wrong shape, not only a wrong pose, makes the views disagree; the model's few components and the
+// landmark term keep it determined).
 #pragma once
 #include <vector>
 
@@ -30,6 +33,11 @@ struct ViewAlignmentOptions {
   double landmark_weight = 0;
   bool fix_first = true; // the first view (the front) keeps its landmark pose and the others are aligned to it;
                          // false: every view moves (the views' common zoom is then free and drifts)
+  // The shared shape too: identity α (shared by the views, taken from the first view) with every free view's pose in
+  // one Levenberg–Marquardt problem over the views' pairwise disagreement Σ_{u<v} Σ_i c_ui c_vi |I_u − I_v|², the
+  // landmark term above and shape_prior · |α|² (α in standard deviations); `rounds` passes over the levels.
+  bool shape = false;
+  double shape_prior = 1;
   void check() const;    // InvalidInput when out of range
 };
 
