@@ -333,7 +333,7 @@ TEST(Silhouette, OutlinesBringTheShapeCloserToTheTruth) {
 }
 
 TEST(MultiviewFit, EulerAnglesInvertTheRotation) {
-  for (const Eigen::Vector3d a : {Eigen::Vector3d(0.1, -0.4, 0.3), Eigen::Vector3d(-1.2, 0.9, 2.5), Eigen::Vector3d(0, 0, 0)})
+  for (const Eigen::Vector3d& a : {Eigen::Vector3d(0.1, -0.4, 0.3), Eigen::Vector3d(-1.2, 0.9, 2.5), Eigen::Vector3d(0, 0, 0)})
     EXPECT_LT((euler_angles(euler_rotation(a)) - a).norm(), 1e-12) << a.transpose();
 }
 
@@ -374,6 +374,34 @@ TEST(MemberQuantizer, TableMatchesTheFormula) {
 namespace bareskin::texgen {
 namespace {
 
+// The three views' true coefficients (shape alpha, expression 0, the views' rig poses) and the test face's textured
+// renders under them.
+struct RenderedViews {
+  std::vector<Coefficients> truth;
+  std::vector<Image> images;
+  std::vector<const Image*> pointers() const {
+    std::vector<const Image*> p;
+    for (const Image& img : images) p.push_back(&img);
+    return p;
+  }
+};
+RenderedViews render_views(const MorphableModel& model, const Image& texture, const Camera& camera,
+                           const Eigen::VectorXd& alpha) {
+  RenderedViews r;
+  for (const ViewSpec& view : TextureSampleOptions().views) {
+    Coefficients c;
+    c.alpha = alpha;
+    c.beta = Eigen::VectorXd::Zero(2);
+    c.rotation = euler_angles(view_rotation(view));
+    c.translation = Eigen::Vector3d::Zero();
+    ShadeOptions shade;
+    shade.texture = &texture;
+    r.images.push_back(render_frame(posed_mesh(model, c), camera, shade).albedo);
+    r.truth.push_back(c);
+  }
+  return r;
+}
+
 // Photometric view alignment against the truth: the test face (textured) rendered from the three views at known
 // poses; the side views' poses are then knocked off by a few degrees and millimetres (as face-api's scatter moves
 // them). Aligning their unwraps to the front's brings their landmarks' projections back within a fraction of the
@@ -383,26 +411,16 @@ TEST(ViewAlignment, SideViewsReturnToTheirTruePoses) {
   const Image texture = pattern(256);
   const int size = 256;
   const Camera camera = view_camera("front", size, Eigen::Vector3d::Zero(), 1000);
-  std::vector<Coefficients> truth, knocked;
-  std::vector<Image> images;
+  const RenderedViews rendered = render_views(model, texture, camera, Eigen::VectorXd::Zero(3));
+  const std::vector<Coefficients>& truth = rendered.truth;
+  const std::vector<Image>& images = rendered.images;
   const Eigen::Vector3d knocks[3][2] = {{{0, 0, 0}, {0, 0, 0}},
                                         {{0.02, 0.05, -0.02}, {3, -2, 4}},
                                         {{-0.03, -0.04, 0.015}, {-2, 3, -3}}};
-  int v = 0;
-  for (const ViewSpec& view : TextureSampleOptions().views) {
-    Coefficients c;
-    c.alpha = Eigen::VectorXd::Zero(3);
-    c.beta = Eigen::VectorXd::Zero(2);
-    c.rotation = euler_angles(view_rotation(view));
-    c.translation = Eigen::Vector3d::Zero();
-    ShadeOptions shade;
-    shade.texture = &texture;
-    images.push_back(render_frame(posed_mesh(model, c), camera, shade).albedo);
-    truth.push_back(c);
-    c.rotation += knocks[v][0];
-    c.translation += knocks[v][1];
-    knocked.push_back(c);
-    ++v;
+  std::vector<Coefficients> knocked = truth;
+  for (size_t v = 0; v < knocked.size(); ++v) {
+    knocked[v].rotation += knocks[v][0];
+    knocked[v].translation += knocks[v][1];
   }
   // Mean distance (px) between the landmark vertices' projections under two poses of the same view.
   const auto landmark_px = [&](const Coefficients& a, const Coefficients& b) {
@@ -425,8 +443,7 @@ TEST(ViewAlignment, SideViewsReturnToTheirTruePoses) {
   ViewAlignmentOptions options;
   options.rounds = 2;
   options.size = 256;
-  std::vector<const Image*> pointers;
-  for (const Image& img : images) pointers.push_back(&img);
+  const std::vector<const Image*> pointers = rendered.pointers();
   const ViewAlignment aligned = align_views_photometric(model, knocked, pointers, camera, options);
   EXPECT_EQ(landmark_px(aligned.views[0], truth[0]), 0.0);  // the front keeps its pose
   for (int i = 1; i < 3; ++i) {
@@ -462,25 +479,13 @@ TEST(ViewAlignment, SharedShapeMovesTowardTheTruth) {
   const Camera camera = view_camera("front", 256, Eigen::Vector3d::Zero(), 1000);
   Eigen::VectorXd alpha_true(3);
   alpha_true << 1.5, -1.0, 1.0;
-  std::vector<Coefficients> start;
-  std::vector<Image> images;
-  int v = 0;
-  for (const ViewSpec& view : TextureSampleOptions().views) {
-    Coefficients c;
-    c.alpha = alpha_true;
-    c.beta = Eigen::VectorXd::Zero(2);
-    c.rotation = euler_angles(view_rotation(view));
-    c.translation = Eigen::Vector3d::Zero();
-    ShadeOptions shade;
-    shade.texture = &texture;
-    images.push_back(render_frame(posed_mesh(model, c), camera, shade).albedo);
-    c.alpha = Eigen::VectorXd::Zero(3);
-    if (v > 0) c.translation += Eigen::Vector3d(v == 1 ? 2 : -2, 1, 0);
-    start.push_back(c);
-    ++v;
+  const RenderedViews rendered = render_views(model, texture, camera, alpha_true);
+  std::vector<Coefficients> start = rendered.truth;
+  for (size_t v = 0; v < start.size(); ++v) {
+    start[v].alpha = Eigen::VectorXd::Zero(3);
+    if (v > 0) start[v].translation += Eigen::Vector3d(v == 1 ? 2 : -2, 1, 0);
   }
-  std::vector<const Image*> pointers;
-  for (const Image& img : images) pointers.push_back(&img);
+  const std::vector<const Image*> pointers = rendered.pointers();
   ViewAlignmentOptions options;
   options.rounds = 2;
   options.shape = true;
