@@ -1,7 +1,9 @@
 // Integer lattice hashing for seeded procedural textures (skin pores and pigment, makeup shimmer): the same seed and
-// lattice point give the same value on every machine, with no state, so textures are reproducible per texel.
+// lattice point give the same value on every machine, with no state, so textures are reproducible per texel. And
+// FNV-1a over bytes, for seeds and cache keys.
 #pragma once
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <initializer_list>
 
@@ -22,6 +24,15 @@ inline uint32_t lattice_hash(uint32_t seed, std::initializer_list<int> coordinat
   h ^= h >> 13;
   h *= 0xc2b2ae35u;
   h ^= h >> 16;
+  return h;
+}
+
+// 64-bit FNV-1a over `bytes` bytes, continuing from `h` (the FNV offset basis for a fresh hash): chain calls to hash
+// several buffers as one. Stable across machines of one byte order; used for seeds and cache keys, not security.
+constexpr uint64_t kFnv1aBasis = 1469598103934665603ull;
+inline uint64_t fnv1a(const void* data, size_t bytes, uint64_t h = kFnv1aBasis) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;
   return h;
 }
 

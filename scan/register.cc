@@ -14,6 +14,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/stats.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
@@ -190,14 +191,8 @@ struct NodeLayout {
 };
 
 uint64_t fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int nodes) {
-  uint64_t h = 1469598103934665603ull ^ uint64_t(nodes);  // FNV-1a over the bytes of V and F
-  const auto mix = [&h](const void* data, size_t bytes) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t k = 0; k < bytes; ++k) h = (h ^ p[k]) * 1099511628211ull;
-  };
-  mix(V.data(), sizeof(double) * size_t(V.size()));
-  mix(F.data(), sizeof(int) * size_t(F.size()));
-  return h;
+  const uint64_t h = fnv1a(V.data(), sizeof(double) * size_t(V.size()), kFnv1aBasis ^ uint64_t(nodes));
+  return fnv1a(F.data(), sizeof(int) * size_t(F.size()), h);
 }
 
 std::shared_ptr<const NodeLayout> node_layout(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3i& F, int nodes) {

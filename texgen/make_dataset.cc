@@ -11,6 +11,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/log.h"
@@ -48,11 +49,7 @@ std::string numbered(const std::string& prefix, int n) {
   return prefix + buf;
 }
 
-uint64_t fnv1a(const std::string& s) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
-  return h;
-}
+uint64_t fnv1a(const std::string& s) { return bareskin::fnv1a(s.data(), s.size()); }
 
 // Members are encoded with one row filter and run-length deflate (core/png_encoding.h): ~3x faster than the default
 // and smaller on these maps; the bytes depend only on the pixels.
