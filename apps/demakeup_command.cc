@@ -8,12 +8,14 @@
 #include <map>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/png.h"
 #include "training/bareskinnet.h"
+#include "training/device.h"
 
 namespace bareskin::cli {
 namespace fs = std::filesystem;
@@ -57,7 +59,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
   app.add_option("--model", o->model, "The morphable model (default: the one the run was trained with)");
   app.add_option("--uv-size", o->uv_size, "Side of the UV map the bare skin is unwrapped into")->capture_default_str();
   app.add_option("--detector-size", o->detector_size, "Face detector input (multiple of 32)")->capture_default_str();
-  app.add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  add_device_option(app, o->device);
   app.add_flag("--aligned", o->aligned, "The inputs are aligned 256² faces (texgen faces' makeup.png): no detection");
   app.add_flag("--without-g", o->without_g, "Skip G (the baseline: F's fit and the unwrap of the input itself, through "
                "G's resize round trip)");
@@ -69,8 +71,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
              "Example:\n  bareskin demakeup photo.jpg --run runs/bsn -o out/");
   return [o, &globals] {
     set_torch_threads(globals);
-    if (o->device == "cuda" && !torch::cuda::is_available())
-      throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
+    const torch::Device device = parse_device(o->device);
     if (!fs::exists(o->input)) throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
     std::vector<fs::path> photos;
     const bool folder = fs::is_directory(o->input);
@@ -82,7 +83,6 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
     } else {
       photos.push_back(o->input);
     }
-    const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
     const detect::PhotoDetector detector = o->aligned ? detect::PhotoDetector() : photo_detector(globals, o->detector_size);
     auto read_aligned = [](const std::string& photo) {
       Image image = read_image(photo);

@@ -4,9 +4,11 @@
 
 #include "apps/cli.h"
 #include "apps/detector.h"
+#include "apps/device_flag.h"
 #include "core/error.h"
 #include "core/parallel.h"
 #include "texture_infer/avatar.h"
+#include "training/device.h"
 
 namespace bareskin::cli {
 
@@ -33,11 +35,12 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
       ->capture_default_str();
   app.add_option("--input-res", opt->evaluate.avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
       ->capture_default_str();
-  app.add_option("--device", opt->device, "cpu or cuda[:N]")->capture_default_str();
+  add_device_option(app, opt->device);
   app.footer("Example: bareskin evaluate --faces faces/test --textures textures/test --model model.safetensors "
              "--texture runs/tex --upscale runs/up --bareskin runs/bsn -o report/table1");
   return [opt, &globals] {
     set_torch_threads(globals);
+    opt->device = parse_device(opt->device).str();
     keep_freed_memory();
     const MorphableModel model = read_model(opt->model);
     const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);

@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -22,6 +23,7 @@
 #include "detect/scan_landmarks.h"
 #include "render/preview.h"
 #include "scan/capture.h"
+#include "training/device.h"
 
 namespace bareskin::cli {
 
@@ -99,7 +101,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       ->check(CLI::Range(0.0, 1.0));
   d->add_option("--max-faces", opt->detect.max_faces, "Keep at most this many faces (0: all)")->capture_default_str()
       ->check(CLI::NonNegativeNumber);
-  d->add_option("--device", opt->device, "cpu or cuda")->capture_default_str()->check(CLI::IsMember({"cpu", "cuda"}));
+  add_device_option(*d, opt->device);
 
   struct ScanOptions {
     std::string scan, texture, output, draw, weights;
@@ -248,8 +250,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                    sc->output);
       return;
     }
-    if (opt->device == "cuda" && !torch::cuda::is_available())
-      throw InvalidInput("--device", "cuda was asked for but no CUDA device is available", "use --device cpu");
+    const torch::Device device = parse_device(opt->device);
     for (const std::string& out : {opt->output, opt->draw}) {
       if (!out.empty() && out == opt->photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
     }
@@ -257,7 +258,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       throw InvalidInput(opt->output, "landmarks are written as JSON", "name the output *.json");
     if (opt->weights.empty()) opt->weights = detect::default_face_api_folder();
     detect::FaceApi net(opt->weights);
-    if (opt->device == "cuda") net.to(torch::kCUDA);
+    net.to(device);
     const Image image = read_image(opt->photo);
     const torch::Tensor photo = detect::photo_tensor(image, opt->photo);
     const auto start = std::chrono::steady_clock::now();

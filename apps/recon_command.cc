@@ -6,7 +6,9 @@
 #include <iostream>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "apps/detector.h"
+#include "training/device.h"
 #include "training/recon_eval.h"
 #include "core/error.h"
 #include "core/files.h"
@@ -94,15 +96,12 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
   app.add_option("--eval-faces", o->eval.max_faces, "With --eval: at most this many samples (0: all)")->capture_default_str();
   app.add_option("--eval-input", o->eval.input, "With --eval: the member the net sees (before or makeup)")
       ->check(CLI::IsMember({"before", "makeup"}))->capture_default_str();
-  app.add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  add_device_option(app, o->device);
   app.footer("Outputs: coefficients.json (the coefficient file, with confidence), mesh.obj, overlay.png, aligned.png,\n"
              "landmarks.json. Example:\n  bareskin recon photo.jpg --run runs/F -o out/\n");
   return [o, &globals] {
     set_torch_threads(globals);
-    if (o->device == "cuda" && !torch::cuda::is_available()) {
-      throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
-    }
-    const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
+    const torch::Device device = parse_device(o->device);
     if (o->input.empty() == o->eval.data.empty()) {
       throw CLI::ValidationError("recon", "give a photo (or folder), or --eval with face samples");
     }

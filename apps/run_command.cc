@@ -6,12 +6,14 @@
 
 #include "apps/cli.h"
 #include "apps/detector.h"
+#include "apps/device_flag.h"
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "detect/face_api.h"
 #include "texture_infer/avatar.h"
+#include "training/device.h"
 
 namespace bareskin::cli {
 
@@ -43,7 +45,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   app.add_option("--input-res", opt->avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
       ->capture_default_str();
   app.add_option("--preview-size", opt->avatar.preview_size, "Relit previews' size")->capture_default_str();
-  app.add_option("--device", opt->device, "cpu or cuda[:N] for the networks")->capture_default_str();
+  add_device_option(app, opt->device);
   app.add_option("--landmarks", opt->landmarks,
                  "The photo's 68 landmarks (a landmark file, px): used instead of the detector (e.g. for aligned shards)");
   app.add_option("--weights", opt->weights, "face-api's tfjs models (default: face_api/ in the assets)");
@@ -52,6 +54,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
              "or runs that do not fit each other or the model.");
   return [opt, &globals] {
     set_torch_threads(globals);
+    opt->device = parse_device(opt->device).str();
     keep_freed_memory();
     if (opt->no_bareskin == !opt->bareskin.empty())
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");

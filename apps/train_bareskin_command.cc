@@ -7,12 +7,14 @@
 #include <set>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "detect/face_recognition.h"
 #include "detect/face_api.h"
 #include "training/bareskinnet.h"
+#include "training/device.h"
 #include "training/face_model.h"
 
 namespace bareskin::cli {
@@ -81,7 +83,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, e.g. '{\"w2\": 0.5}'");
   app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
-  app->add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  add_device_option(*app, o->device);
   app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
   app->add_option("--checkpoint-every", o->checkpoint_every, "Steps between checkpoints")->capture_default_str();
   app->add_option("--eval-every", o->eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
@@ -93,6 +95,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
               "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
   return [o, app, &globals] {
     set_torch_threads(globals);
+    const torch::Device device = parse_device(o->device);
     const auto data_splits = splits(o->data);
     bsn::Options task = o->task;
     task.residual = !o->paper_g;
@@ -119,9 +122,6 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
         throw InvalidInput("--model", "is needed by stage 2", "give the model.safetensors the teacher was trained with");
       if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file");
     }
-    if (o->device == "cuda" && !torch::cuda::is_available())
-      throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
-    const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
     bsn::RunOptions ro;
     ro.task = task;
     std::tie(ro.train_data, ro.val_data) = data_splits;

@@ -5,10 +5,12 @@
 #include <iostream>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "detect/face_api.h"
 #include "texgen/shards.h"
+#include "training/device.h"
 #include "training/recon.h"
 
 namespace bareskin::cli {
@@ -74,7 +76,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   app->add_option("--decay-every", o->decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
   app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
-  app->add_option("--device", o->device, "cpu or cuda")->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
+  add_device_option(*app, o->device);
   app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
   app->add_option("--checkpoint-every", o->checkpoint_every, "Steps between checkpoints")->capture_default_str();
   app->add_option("--eval-every", o->eval_every, "Steps between validation metrics on val/ (0: never)")->capture_default_str();
@@ -85,11 +87,8 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
               "docs/training.md, \"Face reconstruction (F / E)\", describes the heads, losses and metrics.");
   return [o, app, &globals] {
     if (!app->parsed()) return false;
+    const torch::Device device = parse_device(o->device);
     if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file (mm-build)");
-    if (o->device == "cuda" && !torch::cuda::is_available()) {
-      throw InvalidInput("--device cuda", "no CUDA device is available", "use --device cpu");
-    }
-    const torch::Device device = o->device == "cuda" ? torch::Device(torch::kCUDA) : torch::Device(torch::kCPU);
     recon::ReconTaskOptions to;
     to.net.arch = o->arch;
     to.net.width = o->width;

@@ -3,9 +3,11 @@
 #include <memory>
 
 #include "apps/cli.h"
+#include "apps/device_flag.h"
 #include "core/error.h"
 #include "texgen/shards.h"
 #include "texture_infer/tasks.h"
+#include "training/device.h"
 
 namespace bareskin::cli {
 namespace {
@@ -41,13 +43,14 @@ void add_common(CLI::App* app, Common& c) {
   app->add_option("--eval-every", c.run.eval_every, "Validation interval")->capture_default_str();
   app->add_option("--sample-every", c.run.sample_every, "Sample grid interval")->capture_default_str();
   app->add_option("--decode-threads", c.run.decode_threads, "PNG decode threads")->capture_default_str();
-  app->add_option("--device", c.run.device, "cpu or cuda[:N]")->capture_default_str();
+  add_device_option(*app, c.run.device);
   app->add_flag("--resume", c.run.resume, "Continue the run folder from its checkpoint");
   app->add_option("--generator", c.generator, "Generator options over the zoo defaults (JSON)");
   app->add_option("--discriminator", c.discriminator, "Discriminator options over the zoo defaults (JSON)");
 }
 
 void finish_common(Common& c, const Globals& globals) {
+  c.run.device = parse_device(c.run.device).str();
   c.run.progress = !globals.quiet();
   c.run.extra["threads"] = globals.threads;
   c.run.extra["model_crc32"] = c.model.empty() ? nlohmann::json() : nlohmann::json(shards::file_crc32(c.model));

@@ -52,5 +52,20 @@ printf '{"render": {"sise": 64}}' > misspelt_config.json  # an unknown key was i
 expect 2 "misspelt_config.json: 'render.sise' is not a flag" "out.png" -- "$bin" --config misspelt_config.json render good.obj -o out.png
 expect 3 "cut.json: is not a JSON object" "out.png" -- "$bin" --config cut.json render good.obj -o out.png
 
+# --device, one parser for every command that runs networks (those built: they need the Torch side): anything but cpu,
+# cuda or cuda:N is refused naming the flag and the forms, and a CUDA device this machine lacks (cuda:99 anywhere) in
+# one line, both before any input is read or the output (the last word) written; the inputs named here do not exist.
+for cmd in "landmarks detect good.png -o dev.json" "recon good.png --run F -o dev" "demakeup good.png --run bsn -o dev" \
+           "run good.png --model m --texture tex --no-bareskin -o dev" \
+           "evaluate --faces faces --model m --texture tex --bareskin bsn -o dev" "train recon --data faces --model m -o dev" \
+           "train bareskin --data faces -o dev" "train texture --data tex -o dev" "train upscale --data tex -o dev"; do
+  read -ra words <<< "$cmd"
+  probe=("${words[0]}")
+  [[ ${words[0]} == train || ${words[0]} == landmarks ]] && probe+=("${words[1]}")
+  "$bin" "${probe[@]}" --help > /dev/null 2>&1 || continue
+  expect 3 "--device: 'gpu' is not a device; give cpu, cuda or cuda:N" "${words[-1]}" -- "$bin" "${words[@]}" --device gpu
+  expect 3 "--device cuda:99: CUDA " "${words[-1]}" -- "$bin" "${words[@]}" --device cuda:99
+done
+
 echo "$passed passed, $failures failed"
 [ "$failures" -eq 0 ]
