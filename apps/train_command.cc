@@ -3,7 +3,6 @@
 // run on training/trainer.h.
 #include <torch/torch.h>
 
-#include <filesystem>
 #include <iostream>
 
 #include "apps/cli.h"
@@ -11,7 +10,6 @@
 #include "core/error.h"
 #include "training/checkpoint.h"
 #include "training/nets/zoo.h"
-#include "training/trainer.h"
 
 namespace bareskin::cli {
 namespace {
@@ -94,14 +92,7 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
     } else if (texture()) {
     } else if (recon()) {
     } else if (app.got_subcommand("export")) {
-      std::string path = opt->checkpoint;
-      if (std::filesystem::is_directory(path)) {  // a BareSkinNet run keeps its stages in stage2/ and stage1/
-        for (const char* stage : {"/stage2", "/stage1", ""}) {
-          path = train::checkpoint_path(opt->checkpoint + stage);
-          if (std::filesystem::exists(path)) break;
-        }
-      }
-      train::export_module(path, opt->module, opt->output);
+      train::export_module(train::run_checkpoint(opt->checkpoint), opt->module, opt->output);
       if (!globals.quiet()) std::cerr << "wrote " << opt->output << "\n";
     } else if (opt->list) {
       list_models();

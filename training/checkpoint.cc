@@ -2,6 +2,7 @@
 
 #include <ATen/CPUGeneratorImpl.h>
 
+#include <filesystem>
 #include <regex>
 #include <set>
 
@@ -217,6 +218,15 @@ void load_module_weights(const std::string& path, const std::string& name, torch
                          "give the checkpoint of a run of this model");
     target.copy_(it->second);
   }
+}
+
+std::string run_checkpoint(const std::string& run) {
+  if (!std::filesystem::is_directory(run)) return run;
+  for (const char* stage : {"/stage2", "/stage1"}) {
+    const std::string path = checkpoint_path(run + stage);
+    if (std::filesystem::exists(path)) return path;
+  }
+  return checkpoint_path(run);
 }
 
 void export_module(const std::string& checkpoint, const std::string& name, const std::string& output) {

@@ -46,6 +46,10 @@ int64_t read_checkpoint_step(const std::string& path);
 // Only the module weights (for inference and export): "module.<name>.*" into `module`.
 void load_module_weights(const std::string& path, const std::string& name, torch::nn::Module& module);
 
+// The checkpoint file of `run`: for a run folder its last stage's (stage2/, else stage1/: a BareSkinNet run keeps
+// its stages there), else its own (checkpoint_path, whether it exists or not); any other path as given.
+std::string run_checkpoint(const std::string& run);
+
 // A run's module as a plain state dict (the reference implementation's parameter names, as the zoo registers
 // them), for Python users: the checkpoint's "module.<name>.*" tensors without the prefix, with the run's config as
 // metadata. InvalidInput naming the modules the checkpoint holds when `name` is not one of them.

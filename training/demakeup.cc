@@ -54,15 +54,10 @@ torch::Tensor image_tensor(const Image& im) {
 
 namespace {
 
-std::string run_checkpoint(const std::string& run) {
-  namespace fs = std::filesystem;
-  std::string path = run;
-  if (fs::is_directory(run)) {
-    path = train::checkpoint_path(run + "/stage2");
-    if (!fs::exists(path)) path = train::checkpoint_path(run + "/stage1");
-    if (!fs::exists(path)) path = train::checkpoint_path(run);
-  }
-  if (!fs::exists(path))
+// train::run_checkpoint, which must exist.
+std::string bareskin_checkpoint(const std::string& run) {
+  const std::string path = train::run_checkpoint(run);
+  if (!std::filesystem::exists(path))
     throw IoError(run, "holds no BareSkinNet checkpoint (stage2/ or stage1/)", "give the run folder of 'bareskin train bareskin'");
   return path;
 }
@@ -70,7 +65,7 @@ std::string run_checkpoint(const std::string& run) {
 }  // namespace
 
 Demakeup load_generator(const std::string& run, torch::Device device) {
-  const std::string path = run_checkpoint(run);
+  const std::string path = bareskin_checkpoint(run);
   const nlohmann::json config = checkpoint_config(path);
   Options o;
   from_json(config.value("task", nlohmann::json::object()), o);
@@ -98,7 +93,7 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
 Demakeup Demakeup::load(const std::string& run, const std::string& teacher, const std::string& model,
                         torch::Device device) {
   Demakeup d = load_generator(run, device);
-  const nlohmann::json config = checkpoint_config(run_checkpoint(run));
+  const nlohmann::json config = checkpoint_config(bareskin_checkpoint(run));
   const std::string teacher_run = teacher.empty() ? config.value("teacher", "") : teacher;
   const std::string model_path = model.empty() ? config.value("model", "") : model;
   if (teacher_run.empty() || model_path.empty())
