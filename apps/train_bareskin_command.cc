@@ -103,7 +103,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     task.d = json_option(o->d, "--d-options");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);
     nlohmann::json check = task;
-    for (auto& [key, value] : json_option(o->weights, "--loss-weights").items()) {
+    const nlohmann::json weights = json_option(o->weights, "--loss-weights");  // named: items() of a temporary dangles
+    for (auto& [key, value] : weights.items()) {
       static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
       if (!kWeights.count(key) || !value.is_number())
         throw InvalidInput("--loss-weights", "'" + key + "' is not a loss weight with a number",

@@ -49,6 +49,16 @@ for k in ("psnr_bare", "ssim_bare", "psnr_before", "psnr_input_bare"):
     assert k in j["mean"] and j["mean"][k] == j["mean"][k], k  # present and not NaN
 assert j["ms_per_image"] > 0
 PY
+# --loss-weights reaches the run's configuration (it once iterated a destroyed temporary and crashed); a key that is
+# not a loss weight is refused.
+"$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnw" "${small[@]}" --loss-weights '{"w2": 0.5, "w_diff": 250}' \
+  || fail "a run with --loss-weights failed"
+"$py" -c "
+import json, sys
+t = json.load(open('$work/bsnw/stage1/config.json'))['task']
+assert t['w2'] == 0.5 and t['w_diff'] == 250 and t['w1'] == 100, t" || fail "--loss-weights not in the configuration"
+expect_failure 3 "not a loss weight" "$work/bsnw2" -- "$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnw2" \
+  "${small[@]}" --loss-weights '{"lr": 1}'
 # A second run into the same folder without --resume is refused; --resume of a finished run trains nothing more.
 expect_failure 3 "already holds a run" "" -- "$bin" train bareskin --data "$work/faces" --steps1 2 -o "$work/bsn" "${small[@]}"
 
