@@ -45,6 +45,7 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   if (fs::exists(scan_dir + "/landmarks.json")) {
     out.landmarks = read_landmarks(scan_dir + "/landmarks.json");
     check_scan_landmarks(face, *out.landmarks, scan_dir + "/landmarks.json");
+    out.nicp.landmark_sigma_mm = read_landmark_sigma(scan_dir + "/landmarks.json");
     return out;
   }
   if (!options.detect) return out;
@@ -304,6 +305,18 @@ void log_report(const nlohmann::json& r) {
 }
 
 }  // namespace
+
+std::vector<double> read_landmark_sigma(const std::string& path) {
+  const nlohmann::json doc = nlohmann::json::parse(read_file(path), nullptr, false);
+  if (doc.is_discarded() || !doc.is_object() || !doc.contains("detail") || !doc["detail"].is_array() ||
+      doc["detail"].size() != 68) {
+    return {};
+  }
+  std::vector<double> sigma;
+  for (const auto& d : doc["detail"])
+    sigma.push_back(d.is_object() && d.contains("sigma_mm") && d["sigma_mm"].is_number() ? d["sigma_mm"].get<double>() : 0.0);
+  return sigma;
+}
 
 std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
                                          const ProgressCallback& progress) {

@@ -7,12 +7,14 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <random>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "scan/test_template.h"
 #include "scan/register.h"
+#include "scan/register_folder.h"
 #include "scan/synth.h"
 #include "scan/transfer.h"
 #include "template/surface.h"
@@ -213,6 +215,41 @@ TEST(Register, ModelPriorBeatsLandmarksAloneWhenTheLandmarksAreNoisy) {
   } catch (const InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find("another template"), std::string::npos) << e.what();
   }
+}
+
+TEST(Register, SigmaWeightedLandmarksLetUncertainPointsGiveWay) {
+  // Detected landmarks whose jaw contour (0-16) is 5 mm off along the face, with the detector's σ saying so (6 mm
+  // against 1 mm elsewhere, as `landmarks scan --views` gives on noisy scans: bench/BENCHMARKS.md): weighting NICP's
+  // landmark term by (median σ / σ_k)² lets the jaw give way to the surface and the other points.
+  const TemplateFace& face = test_template();
+  const SyntheticScan scan = make_scan(5, 0.1, true);
+  Landmarks detected = scan.landmarks;
+  for (int k = 0; k < 17; ++k) detected.points.row(k) += Eigen::RowVector3d(0, 5, 0);
+  RegisterOptions options;
+  options.landmark_weight = {10, 10 / 3.0, 10 / 9.0, 0, 0, 0};  // the schedule for detected landmarks
+  options.landmark_sigma_mm.assign(68, 1.0);
+  std::fill(options.landmark_sigma_mm.begin(), options.landmark_sigma_mm.begin() + 17, 6.0);
+  const RegistrationErrors plain = errors(register_scan(face, scan.mesh, &detected, options), scan);
+  options.sigma_weighted_nicp = true;
+  const RegistrationErrors weighted = errors(register_scan(face, scan.mesh, &detected, options), scan);
+  std::printf("correspondence median %.3f -> %.3f mm, p95 %.3f -> %.3f mm\n", plain.correspondence_median,
+              weighted.correspondence_median, plain.correspondence_p95, weighted.correspondence_p95);
+  EXPECT_LT(weighted.correspondence_median, 0.9 * plain.correspondence_median);  // 1.38 -> 1.12 mm
+  EXPECT_LT(weighted.correspondence_p95, 0.85 * plain.correspondence_p95);      // 4.31 -> 3.09 mm
+
+  // A saved `landmarks scan --views` file carries σ per point; a plain landmark file none.
+  const std::string dir = testing::temp_dir();
+  std::string views = R"({"scheme": "ibug68", "units": "mm", "points": [], "detail": [)";
+  for (int k = 0; k < 68; ++k) views += std::string(k ? "," : "") + (k == 3 ? R"({"method": "none"})" : R"({"sigma_mm": )" + std::to_string(0.5 + k) + "}");
+  write_file_atomic(dir + "/views.json", views + "]}");
+  const std::vector<double> sigma = read_landmark_sigma(dir + "/views.json");
+  ASSERT_EQ(sigma.size(), 68u);
+  EXPECT_DOUBLE_EQ(sigma[0], 0.5);
+  EXPECT_DOUBLE_EQ(sigma[3], 0.0) << "no sigma_mm: unknown";
+  EXPECT_DOUBLE_EQ(sigma[67], 67.5);
+  write_file_atomic(dir + "/plain.json", R"({"scheme": "ibug68", "units": "mm", "points": []})");
+  EXPECT_TRUE(read_landmark_sigma(dir + "/plain.json").empty());
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Register, ModelFitVerticesAreSpreadEvenly) {
