@@ -12,6 +12,8 @@
 #include "scan/multiview.h"
 #include "texgen/make_dataset.h"
 #ifdef BARESKIN_WITH_DETECT
+#include <ATen/Parallel.h>
+
 #include "detect/scan_landmarks.h"
 #endif
 
@@ -28,7 +30,10 @@ namespace {
 std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
                                                                                          int input_size, int refinements,
                                                                                          bool flip) {
-  set_torch_threads(globals);
+  // One intra-op thread: LibTorch's OpenMP workers busy-wait between operators, and here they would spin against the
+  // bake, encoder and pool threads that keep the cores busy beside the detector (bench/BENCHMARKS.md, make-dataset
+  // update 13:00: 62 % of the CPU was in libgomp; demo §13 109.6 -> 39.1 CPU-s with the view alignment on).
+  at::set_num_threads(1);
   auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
   auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) {
     detect::ImageLandmarkOptions o;
@@ -57,7 +62,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     std::vector<double> split = {0.8, 0.1, 0.1};
     int detector_size = 416, refinements = 2;
     bool no_flip = false, no_align_shape = false;
-    std::string calibration;
+    std::string calibration, view_calibration;
   };
   auto opt = std::make_shared<Options>();
   texgen::TextureDatasetOptions& o = opt->o;
@@ -94,6 +99,15 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
   app->add_option("--landmark-calibration", opt->calibration, "The detector's landmark convention (`landmarks "
                                                               "calibrate`), applied to the model's landmarks in the fits")
       ->check(CLI::ExistingFile)->group("Fit");
+  app->add_option("--view-calibration", opt->view_calibration, "The detector's per-view landmark bias (made by "
+                                                              "--write-view-calibration on training subjects with the "
+                                                              "same --landmark-calibration and yaws), subtracted from "
+                                                              "each view's detected landmarks")
+      ->check(CLI::ExistingFile)->group("Fit");
+  app->add_option("--write-view-calibration", o.write_view_calibration, "After a complete run: learn the detector's "
+                                                                        "per-view landmark bias from this run's reports "
+                                                                        "(detected vs true landmarks) into this file")
+      ->group("Fit");
   app->add_option("--robust-landmarks", o.sample.landmark_robust_rounds, "Reweighted refits of the landmark fit: "
                                                                         "landmarks far from the fitted shape lose weight "
                                                                         "(Cauchy weights on the reprojection error)")
@@ -154,6 +168,8 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->group("Shards");
   app->add_flag("--keep-going", o.keep_going, "Skip subjects or photos with bad input and list them at the end");
   app->add_flag("--unwrap-lit", o.sample.unwrap_lit, "Unwrap the lit render instead of the diffuse-only one");
+  app->add_flag("--drop-background", o.sample.drop_background, "Texels whose sample touches the render's background "
+                                                                "(a fitted outline wider than the face) count as unseen");
   app->add_flag("--with-renders", o.with_renders, "Also store each view's renders (render_<view>.png lit, bare_<view>.png diffuse only)");
 
   return [opt, app, shard, shards, &globals] {
@@ -173,6 +189,10 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     if (!opt->calibration.empty()) {
       const LandmarkCalibration c = read_landmark_calibration(opt->calibration);
       o.landmark_calibration = texgen::TextureDatasetOptions::LandmarkCalibration{opt->calibration, c.reference, c.offset};
+    }
+    if (!opt->view_calibration.empty()) {
+      o.sample.view_calibration = texgen::read_view_calibration(opt->view_calibration);
+      o.sample.view_calibration_source = opt->view_calibration;
     }
     if (opt->no_align_shape) o.sample.align.shape = false;
     o.check();

@@ -22,6 +22,7 @@
 #include "texgen/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
 #include "texgen/shards.h"
+#include "texgen/view_calibration.h"
 #include "uvtools/bake.h"
 
 namespace bareskin::texgen {
@@ -62,6 +63,12 @@ json coefficients_json(const Coefficients& c) {
   json j = {{"alpha", vec(c.alpha)}, {"beta", vec(c.beta)}, {"delta", vec(c.delta)},
             {"rotation", vec(c.rotation)}, {"translation", vec(c.translation)}};
   if (c.gamma) j["gamma"] = *c.gamma;
+  return j;
+}
+
+json points_json(const Landmarks68& p) {
+  json j = json::array();
+  for (int k = 0; k < 68; ++k) j.push_back({p(k, 0), p(k, 1)});
   return j;
 }
 
@@ -291,7 +298,12 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
     out.samples.push_back(std::move(sample));
     encode_s += since(t);
     json light_report = meta;
-    for (auto& v : light_report["views"]) v.erase("coefficients");
+    for (size_t i = 0; i < views.size(); ++i) {  // the reports (not the shards) carry the detector's and true landmarks
+      json& v = light_report["views"][i];
+      v.erase("coefficients");
+      v["landmarks_detected_px"] = points_json(views[i].detected);
+      v["landmarks_truth_px"] = points_json(views[i].truth_landmarks);
+    }
     out.report["lights"].push_back(light_report);
     if (l == 0) unlit_fits = std::move(views);
   }
@@ -453,9 +465,11 @@ json options_to_json(const TextureDatasetOptions& o) {
           {"align_size", o.sample.align.size}, {"align_landmark_weight", o.sample.align.landmark_weight},
           {"align_shape_prior", o.sample.align.shape_prior},
           {"landmark_regularisation", o.sample.landmark_fit.regularisation},
-          {"landmark_calibration", o.landmark_calibration ? o.landmark_calibration->source : ""}, {"render_size", o.sample.render_size},
+          {"landmark_calibration", o.landmark_calibration ? o.landmark_calibration->source : ""},
+          {"view_calibration", o.sample.view_calibration_source}, {"render_size", o.sample.render_size},
           {"fit_size", o.sample.fit_size}, {"input_res", o.sample.input_res}, {"target_res", o.target_res},
-          {"hr_res", o.hr_res}, {"merge_sharpness", o.sample.merge_sharpness}, {"masks_per_subject", o.masks_per_subject},
+          {"hr_res", o.hr_res}, {"merge_sharpness", o.sample.merge_sharpness},
+          {"drop_background", o.sample.drop_background}, {"masks_per_subject", o.masks_per_subject},
           {"occluders", occluders}, {"celebamask_count", o.celebamask.empty() ? 0 : o.celebamask_count},
           {"split", o.split}, {"subjects_per_shard", o.subjects_per_shard}, {"seed", o.seed}};
 }
@@ -501,6 +515,15 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
     } catch (const InvalidInput& e) {
       throw InvalidInput(o.landmark_calibration->source, e.what(), "make it again with `bareskin landmarks calibrate`");
     }
+  }
+  if (o.sample.view_calibration) {
+    const std::string used = o.landmark_calibration ? fs::path(o.landmark_calibration->source).filename().string() : "";
+    if (o.sample.view_calibration->landmark_calibration != used)
+      throw InvalidInput(o.sample.view_calibration_source,
+                         "was learned with the 3D calibration '" + o.sample.view_calibration->landmark_calibration +
+                             "', this run uses '" + used + "'",
+                         "pass the same --landmark-calibration, or learn it again with --write-view-calibration");
+    for (const ViewSpec& v : o.sample.views) o.sample.view_calibration->at(v.name, v.yaw_deg, o.sample.view_calibration_source);
   }
   // A whole folder from another template shows at its first subject; missing maps show for every subject up front.
   for (const std::string& s : subjects) {
@@ -570,6 +593,8 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
   }
   bareskin::report(progress, done, total, "manifests");
   write_manifests(units, subjects, o, options_json, report);
+  if (!o.write_view_calibration.empty() && report.complete)
+    write_view_calibration(o.write_view_calibration, learn_view_calibration(report_files(o.output)));
   std::error_code ec;
   fs::remove(o.output + "/.tmp", ec);  // when empty (other workers may still use it)
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

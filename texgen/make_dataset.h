@@ -40,6 +40,9 @@ struct TextureDatasetOptions {
     Eigen::Matrix<double, 68, 3> reference, offset;
   };
   std::optional<LandmarkCalibration> landmark_calibration;
+  // After a complete run: the detector's per-view bias learned from this folder's reports (texgen/view_calibration.h),
+  // written to this file for later runs' sample.view_calibration; empty: not written.
+  std::string write_view_calibration;
   int target_res = 1024, hr_res = 4096;  // targets; hr 0 = none; each must divide the registered maps' size
   int masks_per_subject = 3;        // synthetic occluder masks per subject (views taken in turn)
   std::vector<Occluder> occluders = {Occluder::Hair, Occluder::Glasses, Occluder::Hand, Occluder::Hat};

@@ -218,6 +218,19 @@ std::array<double, 27> sample_light(int l, uint64_t seed) {
   return g;
 }
 
+Landmarks68 true_landmarks(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
+                           const Camera& camera, const Eigen::Matrix<double, 68, 3>* offsets) {
+  const Eigen::Matrix3d R = view_rotation(view);
+  Landmarks68 out;
+  for (int k = 0; k < 68; ++k) {
+    Eigen::Vector3d X = subject.mesh.V.row(model.landmark_vertices[size_t(k)]).transpose();
+    if (offsets) X += offsets->row(k).transpose();
+    const Eigen::Vector3d q = camera.project(R * X);
+    out.row(k) << q.x(), q.y();
+  }
+  return out;
+}
+
 double masked_psnr_srgb(const Image& a, const Image& b, const Image& mask) {
   BS_CHECK(a.width == b.width && a.height == b.height && a.width == mask.width && a.height == mask.height,
            "psnr: sizes differ");
@@ -243,6 +256,7 @@ struct RenderedView {
   ViewFit fit;
   Eigen::Matrix3d rotation;
   Image photo, unwrapped;  // linear
+  Image face;              // the render's face mask (1 where the face covers the pixel, 0 on the black background)
 };
 
 RenderedView render_view(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
@@ -262,22 +276,42 @@ RenderedView render_view(const MorphableModel& model, const Subject& subject, co
   Frame frame = render_frame(turned, camera, shade);
   out.fit.render = to_srgb(frame.colour);
   out.fit.bare = to_srgb(frame.albedo);
+  out.face = std::move(frame.mask);
   out.unwrapped = options.unwrap_lit ? frame.colour : std::move(frame.albedo);  // inference: BareSkinNet's bare skin
   out.photo = std::move(frame.colour);  // what the detector and the fits see (inference: the photo)
 
   const std::optional<Landmarks68> found = detect(out.fit.render);
   if (!found) throw InvalidInput(where, "no face found in the render", "use smaller yaw angles, or check the subject's maps");
+  out.fit.detected = *found;
   out.fit.landmarks = *found;
+  if (options.view_calibration)
+    out.fit.landmarks = calibrated_landmarks(
+        *found, options.view_calibration->at(view.name, view.yaw_deg, options.view_calibration_source), options.render_size);
+  const Landmarks68 plain = true_landmarks(model, subject, view, camera, nullptr);
   double detector_error = 0;
-  for (int k = 0; k < 68; ++k) {
-    const Eigen::Vector3d p = camera.project(turned.V.row(model.landmark_vertices[size_t(k)]).transpose());
-    detector_error += (Eigen::Vector2d(p.x(), p.y()) - out.fit.landmarks.row(k).transpose()).norm();
-  }
+  for (int k = 0; k < 68; ++k) detector_error += (plain.row(k) - out.fit.detected.row(k)).norm();
   out.fit.detector_error_px = detector_error / 68;
+  out.fit.truth_landmarks = options.landmark_offsets
+                                ? true_landmarks(model, subject, view, camera, &*options.landmark_offsets)
+                                : plain;
   return out;
 }
 
 }  // namespace
+
+void drop_background(UnwarpResult& unwrap, const Image& face, const Mesh& posed, const Camera& camera,
+                     const UnwarpOptions& options) {
+  Image mask(face.width, face.height, 3, ColorSpace::Linear);
+  for (size_t i = 0; i < face.pixels.size(); ++i)
+    for (int c = 0; c < 3; ++c) mask.pixels[3 * i + size_t(c)] = face.pixels[i];
+  const UnwarpResult inside = unwarp(mask, posed, camera, options);
+  for (size_t i = 0; i < unwrap.confidence.pixels.size(); ++i) {
+    if (unwrap.confidence.pixels[i] <= 0 || inside.colour.pixels[3 * i] >= 0.999f) continue;
+    unwrap.confidence.pixels[i] = 0;
+    for (int c = 0; c < 3; ++c) unwrap.colour.pixels[3 * i + size_t(c)] = 0;
+    --unwrap.seen;
+  }
+}
 
 std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
                                const FaceLandmarkDetector& detect, const TextureSampleOptions& options) {
@@ -357,6 +391,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     UnwarpOptions unwarp_options;
     unwarp_options.size = options.input_res;
     v.unwrap = unwarp(views[i].unwrapped, posed, camera, unwarp_options);
+    if (options.drop_background) drop_background(v.unwrap, views[i].face, posed, camera, unwarp_options);
     out.push_back(std::move(v));
   }
   return out;

@@ -20,6 +20,7 @@
 #include "render/camera.h"
 #include "texgen/silhouette_fit.h"
 #include "texgen/view_alignment.h"
+#include "texgen/view_calibration.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::texgen {
@@ -42,6 +43,9 @@ struct TextureSampleOptions {
   int input_res = 1024;    // UV size of the inputs
   double merge_sharpness = 4;  // views are weighted by confidence^sharpness
   bool unwrap_lit = false;     // unwrap the lit render instead of the diffuse-only one
+  // Texels whose sample in the render touches the background (outside the face the render shows; a fitted outline
+  // wider than the face samples black there) count as unseen (drop_background).
+  bool drop_background = false;
   // The landmark fit over the views (texgen/multiview_fit.h): "shared-shape" (one shape and expression for all
   // views, a pose per view), "rigid" (one shape and one head pose, the views' known rotations between them) or
   // "per-view" (an independent fit per view).
@@ -49,6 +53,10 @@ struct TextureSampleOptions {
   // The detector's landmark convention in the model frame (landmark_offsets of a `landmarks calibrate` file), added
   // to the model's landmark vertices in the landmark fits; empty: none.
   std::optional<Eigen::Matrix<double, 68, 3>> landmark_offsets;
+  // The detector's per-view 2D bias (texgen/view_calibration.h: learned on training subjects with the same
+  // landmark_offsets), subtracted from each view's detected landmarks before the fits; empty: none.
+  std::optional<ViewCalibration> view_calibration;
+  std::string view_calibration_source;  // its file, for error messages
   // Reweighted refits of the landmark fit (fit_landmarks_multiview_robust): landmarks far from where the shared shape
   // puts them lose weight (multi-view modes, and per-view with a calibration).
   int landmark_robust_rounds = 2;
@@ -56,13 +64,12 @@ struct TextureSampleOptions {
   // the render's outline of the face on black; 0: off.
   SilhouetteFitOptions silhouette;
   // Photometric consistency between the views' unwraps (texgen/view_alignment.h): the shared shape and the side
-  // views' poses moved so that the views' unwraps agree, the landmarks holding them (weight 10); rounds 1: one pass at
-  // 64² and 128² (+0.34 dB and −0.57 mm over the demo's 10 held-out subjects, bench/BENCHMARKS.md); off by default
-  // (rounds 0) until its cost in the demo's run (fit 1.5 → 7–12 s per subject there) is understood. Per-view landmark
-  // fits keep their own shapes (poses only).
+  // views' poses moved so that the views' unwraps agree, the landmarks holding them (weight 10); rounds 1 (the
+  // default): one pass at 64² and 128² (+0.34 dB and −0.57 mm over the demo's 10 held-out subjects, about +1 CPU-s
+  // per subject; bench/BENCHMARKS.md); 0: off. Per-view landmark fits keep their own shapes (poses only).
   ViewAlignmentOptions align = [] {
     ViewAlignmentOptions a;
-    a.rounds = 0;
+    a.rounds = 1;
     a.size = 128;
     a.landmark_weight = 10;
     a.shape = true;
@@ -96,7 +103,9 @@ struct ViewFit {
   Image render;        // sRGB, render_size², lit: the detector's and the fits' input
   Image bare;          // sRGB, the diffuse alone (unwrapped unless unwrap_lit)
   Coefficients fit;    // canonical camera at render_size (posed_mesh(model, fit) reproduces the render)
-  Landmarks68 landmarks;  // detected (px)
+  Landmarks68 landmarks;  // what the fits use (px): the detected ones less the view calibration's bias
+  Landmarks68 detected;   // the detector's (px)
+  Landmarks68 truth_landmarks;  // the subject's landmark vertices (+ landmark_offsets) projected in this view (px)
   double detector_error_px = 0;   // mean distance of the detected landmarks to the truth's projected landmark vertices
   double landmark_rms_px = 0;     // the landmark fit's residual in this view
   double photometric_psnr_db = 0; // the photometric fit's render vs the image (linear, fit_size)
@@ -104,6 +113,12 @@ struct ViewFit {
   double alignment_rms_before = 0, alignment_rms_after = 0;  // disagreement with the other views (align.rounds > 0)
   UnwarpResult unwrap;            // through the fit, at input_res
 };
+
+// Sets unseen (confidence and colour 0) every texel of `unwrap` whose bilinear sample in the image falls partly
+// outside `face` (the render's face mask, 1 channel at the camera's size): the unwrap of the mask through the same
+// fit is below 1 there.
+void drop_background(UnwarpResult& unwrap, const Image& face, const Mesh& posed, const Camera& camera,
+                     const UnwarpOptions& options);
 
 struct MergedUnwrap {
   Image colour;      // linear RGB; 0 where no view saw the texel
@@ -134,6 +149,11 @@ std::array<double, 27> sample_light(int l, uint64_t seed);
 // InvalidInput naming the subject and view when the detector finds no face.
 std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
                                const FaceLandmarkDetector& detect, const TextureSampleOptions& options);
+
+// The subject's landmark vertices plus `offsets` (the detector's convention, model frame; nullptr: none) turned by
+// the view and projected by `camera` (px): the points a detector with the calibrated convention and no error finds.
+Landmarks68 true_landmarks(const MorphableModel& model, const Subject& subject, const ViewSpec& view,
+                           const Camera& camera, const Eigen::Matrix<double, 68, 3>* offsets);
 
 // PSNR (dB) of `a` against `b` over the texels where `mask` > 0, on sRGB-encoded values in [0, 1] (what the network
 // sees); both linear RGB of the same size. +inf when identical, NaN when the mask is empty.

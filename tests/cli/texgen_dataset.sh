@@ -22,7 +22,7 @@ make() {  # make OUT [flags...]
   "$bin" "${args[@]}" -o "$out" "$@"
 }
 
-make "$work/a" || fail "make-dataset"
+make "$work/a" --write-view-calibration "$work/view.json" || fail "make-dataset"
 $py - "$work/a" <<'PY' || fail "shard contents"
 import io, json, sys, tarfile
 import numpy as np
@@ -67,6 +67,30 @@ assert all(len(v) == 1 for v in subjects.values()), subjects  # no subject in tw
 masks = json.load(open(f"{root}/masks/manifest.json"))
 assert masks["samples"] == 8 and masks["metadata"]["complete"], masks
 PY
+
+# The per-view calibration (--write-view-calibration, after the complete run): per view the median of (detected − true
+# landmarks) / render size over the reports, which carry both; a later run applies it, and refuses other yaws.
+$py - "$work/a" "$work/view.json" <<'PY' || fail "view calibration"
+import glob, json, sys
+import numpy as np
+root, path = sys.argv[1:]
+c = json.load(open(path))
+assert [v["name"] for v in c["views"]] == ["front", "left", "right"], c["views"]
+residuals = {}
+for p in sorted(glob.glob(f"{root}/reports/*.json")):
+    light = json.load(open(p))["lights"][0]
+    for v in light["views"]:
+        d, t = np.array(v["landmarks_detected_px"]), np.array(v["landmarks_truth_px"])
+        assert d.shape == t.shape == (68, 2)
+        residuals.setdefault(v["name"], []).append((d - t) / light["sizes"]["render"])
+for v in c["views"]:
+    assert v["samples"] == 4, v["samples"]
+    assert np.allclose(np.array(v["bias"]), np.median(residuals[v["name"]], 0), atol=1e-12), v["name"]
+PY
+make "$work/vc" --view-calibration "$work/view.json" || fail "make-dataset --view-calibration"
+expect_failure 3 "has no left view at yaw 20" "" -- "$bin" "${args[@]}" -o "$work/vc2" --view-calibration \
+  "$work/view.json" --yaw-left 20
+[ -z "$(find "$work/vc2" -name '*.tar' 2> /dev/null)" ] || fail "vc2: a shard was written"
 
 # Same bytes: killed with -9 once a unit has landed, then resumed; and two workers.
 "$bin" "${args[@]}" -o "$work/b" & pid=$!
