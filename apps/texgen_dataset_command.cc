@@ -168,8 +168,9 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->group("Shards");
   app->add_flag("--keep-going", o.keep_going, "Skip subjects or photos with bad input and list them at the end");
   app->add_flag("--unwrap-lit", o.sample.unwrap_lit, "Unwrap the lit render instead of the diffuse-only one");
-  app->add_flag("--drop-background", o.sample.drop_background, "Texels whose sample touches the render's background "
-                                                                "(a fitted outline wider than the face) count as unseen");
+  app->add_option("--drop-background", o.sample.drop_background, "1: texels whose sample touches the render's background "
+                                                                  "(a fitted outline wider than the face) count as unseen; 0: keep them")
+      ->capture_default_str();
   app->add_flag("--with-renders", o.with_renders, "Also store each view's renders (render_<view>.png lit, bare_<view>.png diffuse only)");
 
   return [opt, app, shard, shards, &globals] {

@@ -45,7 +45,7 @@ struct TextureSampleOptions {
   bool unwrap_lit = false;     // unwrap the lit render instead of the diffuse-only one
   // Texels whose sample in the render touches the background (outside the face the render shows; a fitted outline
   // wider than the face samples black there) count as unseen (drop_background).
-  bool drop_background = false;
+  bool drop_background = true;
   // The landmark fit over the views (texgen/multiview_fit.h): "shared-shape" (one shape and expression for all
   // views, a pose per view), "rigid" (one shape and one head pose, the views' known rotations between them) or
   // "per-view" (an independent fit per view).
