@@ -29,7 +29,7 @@ Eigen::Matrix<double, 68, 2> points_of(const json& j, const std::string& file, c
   return p;
 }
 
-// Running sums per view (name, yaw).
+// The residuals (detected − true, per render size) of one view (name, yaw) over the reports.
 struct Sums {
   std::string name;
   double yaw_deg = 0;
