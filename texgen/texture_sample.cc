@@ -299,20 +299,6 @@ RenderedView render_view(const MorphableModel& model, const Subject& subject, co
 
 }  // namespace
 
-void drop_background(UnwarpResult& unwrap, const Image& face, const Mesh& posed, const Camera& camera,
-                     const UnwarpOptions& options) {
-  Image mask(face.width, face.height, 3, ColorSpace::Linear);
-  for (size_t i = 0; i < face.pixels.size(); ++i)
-    for (int c = 0; c < 3; ++c) mask.pixels[3 * i + size_t(c)] = face.pixels[i];
-  const UnwarpResult inside = unwarp(mask, posed, camera, options);
-  for (size_t i = 0; i < unwrap.confidence.pixels.size(); ++i) {
-    if (unwrap.confidence.pixels[i] <= 0 || inside.colour.pixels[3 * i] >= 0.999f) continue;
-    unwrap.confidence.pixels[i] = 0;
-    for (int c = 0; c < 3; ++c) unwrap.colour.pixels[3 * i + size_t(c)] = 0;
-    --unwrap.seen;
-  }
-}
-
 std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
                                const FaceLandmarkDetector& detect, const TextureSampleOptions& options) {
   const Camera camera = view_camera("front", options.render_size, Eigen::Vector3d::Zero(), 1000);
@@ -390,8 +376,8 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     v.shape_error_mm = aligned_distance(model.shape(v.fit.alpha, v.fit.beta), subject.mesh.V);
     UnwarpOptions unwarp_options;
     unwarp_options.size = options.input_res;
+    if (options.drop_background) unwarp_options.inside = &views[i].face;  // texels touching the background: unseen
     v.unwrap = unwarp(views[i].unwrapped, posed, camera, unwarp_options);
-    if (options.drop_background) drop_background(v.unwrap, views[i].face, posed, camera, unwarp_options);
     out.push_back(std::move(v));
   }
   return out;

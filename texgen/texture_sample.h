@@ -44,7 +44,7 @@ struct TextureSampleOptions {
   double merge_sharpness = 4;  // views are weighted by confidence^sharpness
   bool unwrap_lit = false;     // unwrap the lit render instead of the diffuse-only one
   // Texels whose sample in the render touches the background (outside the face the render shows; a fitted outline
-  // wider than the face samples black there) count as unseen (drop_background).
+  // wider than the face samples black there) count as unseen (UnwarpOptions::inside: sampled in the unwrap's own pass).
   bool drop_background = true;
   // The landmark fit over the views (texgen/multiview_fit.h): "shared-shape" (one shape and expression for all
   // views, a pose per view), "rigid" (one shape and one head pose, the views' known rotations between them) or
@@ -113,12 +113,6 @@ struct ViewFit {
   double alignment_rms_before = 0, alignment_rms_after = 0;  // disagreement with the other views (align.rounds > 0)
   UnwarpResult unwrap;            // through the fit, at input_res
 };
-
-// Sets unseen (confidence and colour 0) every texel of `unwrap` whose bilinear sample in the image falls partly
-// outside `face` (the render's face mask, 1 channel at the camera's size): the unwrap of the mask through the same
-// fit is below 1 there.
-void drop_background(UnwarpResult& unwrap, const Image& face, const Mesh& posed, const Camera& camera,
-                     const UnwarpOptions& options);
 
 struct MergedUnwrap {
   Image colour;      // linear RGB; 0 where no view saw the texel

@@ -17,6 +17,9 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
                        "give the image the camera was fitted to");
   }
   if (options.size < 1 || options.size > 16384) throw InvalidInput("", "--size must lie in [1, 16384]", "");
+  BS_CHECK(!options.inside || (options.inside->width == image.width && options.inside->height == image.height &&
+                               options.inside->channels == 1),
+           "unwarp: the inside mask must be one channel at the image's size");
   const Image lin = image.color_space == ColorSpace::sRGB ? to_linear(image) : image;
 
   // The depth buffer seen from the camera.
@@ -56,7 +59,9 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
       const double footprint = pinhole ? p.z() / camera.focal : 1 / camera.scale;  // mm per pixel
       const double slope = std::min(20.0, std::sqrt(std::max(0.0, 1 - cosine * cosine)) / std::max(cosine, 0.05));
       if (!(std::abs(p.z() - view.depth[pixel]) <= options.depth_tolerance + 1.5 * footprint * slope)) continue;
-      const Eigen::Vector3f c = sample_bilinear(lin, {p.x() / camera.width, 1 - p.y() / camera.height});
+      const Eigen::Vector2d at(p.x() / camera.width, 1 - p.y() / camera.height);
+      if (options.inside && sample_bilinear(*options.inside, at)[0] < 0.999f) continue;
+      const Eigen::Vector3f c = sample_bilinear(lin, at);
       for (int k = 0; k < 3; ++k) out.colour.pixels[3 * size_t(i) + size_t(k)] = c[k];
       out.confidence.pixels[size_t(i)] = float(cosine);
       ++s;

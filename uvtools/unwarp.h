@@ -14,6 +14,9 @@ namespace bareskin {
 struct UnwarpOptions {
   int size = 1024;              // UV map size
   double depth_tolerance = 1.0; // mm: a texel is seen when its depth is within this of the depth buffer
+  // Optional 1-channel mask at the image's size (e.g. where a face covers a render): a texel whose bilinear sample of
+  // it is below 1, i.e. that touches the mask's zeros, counts as unseen.
+  const Image* inside = nullptr;
 };
 
 struct UnwarpResult {

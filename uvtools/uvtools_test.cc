@@ -64,6 +64,48 @@ TEST(Unwarp, RoundTripReproducesTheSeenTexels) {
   }
 }
 
+TEST(Unwarp, InsideMaskLeavesTexelsTouchingItsZerosUnseen) {
+  const Mesh& mesh = testing::test_template().mesh;
+  const Eigen::Vector3d centre = 0.5 * (mesh.V.colwise().minCoeff() + mesh.V.colwise().maxCoeff()).transpose();
+  const Camera front = view_camera("front", 256, centre);
+  const Image image = render_frame(mesh, front, {}).albedo;
+  Image inside(256, 256, 1, ColorSpace::Data);
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 256; ++x) inside.pixels[size_t(y) * 256 + size_t(x)] = x < 128 ? 1.f : 0.f;  // image's left half
+  UnwarpOptions options;
+  options.size = 128;
+  const UnwarpResult all = unwarp(image, mesh, front, options);
+  options.inside = &inside;
+  const UnwarpResult half = unwarp(image, mesh, front, options);
+  // Every texel seen with the mask was seen without it, with the same colour; those that project right of x = 127
+  // (their bilinear footprint touches the zeros) are not seen; about half of the face remains.
+  const RasterOutput uv = rasterize_uv(mesh, 128);
+  int64_t kept = 0, dropped_right = 0;
+  for (size_t i = 0; i < half.confidence.pixels.size(); ++i) {
+    if (all.confidence.pixels[i] <= 0) {
+      EXPECT_EQ(half.confidence.pixels[i], 0.f);
+      continue;
+    }
+    const int32_t f = uv.triangle[i];
+    const double w[3] = {1.0 - uv.bary[2 * i] - uv.bary[2 * i + 1], uv.bary[2 * i], uv.bary[2 * i + 1]};
+    Eigen::Vector3d P = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k) P += w[k] * mesh.V.row(mesh.F(f, k)).transpose();
+    const double x = front.project(P).x();
+    if (half.confidence.pixels[i] > 0) {
+      ++kept;
+      EXPECT_LT(x, 128.0);
+      EXPECT_EQ(half.colour.pixels[3 * i], all.colour.pixels[3 * i]);
+    } else if (x >= 128.0) {
+      ++dropped_right;
+    } else {
+      EXPECT_GT(x, 126.5) << "a texel left of the edge was dropped";
+    }
+  }
+  EXPECT_EQ(half.seen, kept);
+  EXPECT_GT(kept, all.seen / 3);
+  EXPECT_GT(dropped_right, all.seen / 3);
+}
+
 TEST(Unwarp, RefusesAnImageOfAnotherSize) {
   const Mesh& mesh = testing::test_template().mesh;
   EXPECT_THROW(unwarp(Image(100, 100, 3), mesh, view_camera("front", 224, Eigen::Vector3d::Zero())), InvalidInput);
