@@ -210,7 +210,10 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     for (const auto& s : r.skipped) spdlog::warn("make-dataset: skipped {}: {}", s.item, s.reason);
     if (!r.skipped.empty()) spdlog::warn("make-dataset: {} item(s) skipped (listed above and in the manifests)", r.skipped.size());
     if (!r.complete) spdlog::info("make-dataset: other workers' units are still missing; the last worker to finish "
-                                  "writes the final manifests");
+                                  "writes the final manifests{}",
+                                  o.write_view_calibration.empty() ? "" : " and the view calibration");
+    else if (!o.write_view_calibration.empty())
+      spdlog::info("make-dataset: view calibration -> {}", o.write_view_calibration);
   };
 }
 
