@@ -18,6 +18,7 @@
 #include "core/png.h"
 #include "core/png_encoding.h"
 #include "core/scan_folder.h"
+#include "render/rasterize.h"
 #include "texgen/member_quantize.h"
 #include "texgen/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
@@ -116,16 +117,18 @@ std::array<std::vector<int>, 3> split_subjects(int n, const std::array<double, 3
   return out;
 }
 
-// The template layout's island rasters, one per registered-map size, built at the first subject of that size and
-// shared by every later one (the layout half of a bake does not depend on the subject).
+// The template layout's rasters, built once and shared by every subject: its island rasters, one per registered-map
+// size (the layout half of a bake; the bake thread's), and its UV raster at the input size (what every unwarp and
+// UV map of a subject's fit rasterises; the main thread's).
 class LayoutRasters {
  public:
-  explicit LayoutRasters(const Mesh& layout) : layout_(layout) {}
+  LayoutRasters(const Mesh& layout, int input_res) : uv(rasterize_uv(layout, input_res)), layout_(layout) {}
   const UvIslands& at(int size) {
     auto& r = rasters_[size];
     if (!r) r = std::make_unique<UvIslands>(layout_, size);
     return *r;
   }
+  const RasterOutput uv;
 
  private:
   const Mesh& layout_;
@@ -237,11 +240,11 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   for (int l = 0; l < o.lights; ++l) {
     t = clock::now();
     const auto light = sample_light(l, subject_seed);
-    std::vector<ViewFit> views = fit_views(model, subject, light, detect, o.sample);
+    std::vector<ViewFit> views = fit_views(model, subject, light, detect, o.sample, &rasters.uv);
     std::vector<const UnwarpResult*> unwraps;
     for (const ViewFit& v : views) unwraps.push_back(&v.unwrap);
     const MergedUnwrap merged = merge_by_confidence(unwraps, o.sample.merge_sharpness);
-    const ModelUvMaps mm = model_uv_maps(model, views[0].fit, o.sample.input_res);
+    const ModelUvMaps mm = model_uv_maps(model, views[0].fit, o.sample.input_res, &rasters.uv);
     fit_s += since(t);
     t = clock::now();
     shards::Sample sample;
@@ -311,7 +314,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   for (int k = 0; k < o.masks_per_subject; ++k) {
     const ViewFit& v = unlit_fits[size_t(k) % unlit_fits.size()];
     UvMask m = synthetic_mask(model, v.fit, o.sample.fit_size, o.occluders, subject_seed + 1000 + uint64_t(k),
-                              o.sample.input_res);
+                              o.sample.input_res, &rasters.uv);
     m.meta["subject"] = subject.name;
     m.meta["view"] = v.name;
     char key[16];
@@ -586,7 +589,7 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
     todo.push_back(&u);
     total += int64_t(u.subjects.size() + u.photos.size());
   }
-  LayoutRasters rasters(model.topology);
+  LayoutRasters rasters(model.topology, o.sample.input_res);
   for (const Unit* u : todo) {
     run_unit(*u, subjects, model, o, detect, detect_photo, rasters, report, [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
     ++report.units_done;

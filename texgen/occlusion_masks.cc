@@ -41,7 +41,7 @@ std::string photo_path(const std::string& dir, int id) {
 }  // namespace
 
 UvMask synthetic_mask(const MorphableModel& model, const Coefficients& fit, int camera_size,
-                      const std::vector<Occluder>& occluders, uint64_t seed, int size) {
+                      const std::vector<Occluder>& occluders, uint64_t seed, int size, const RasterOutput* uv_raster) {
   BS_CHECK(!occluders.empty(), "synthetic_mask needs occluders");
   std::mt19937_64 rng(seed);
   std::vector<Occluder> chosen;
@@ -52,7 +52,7 @@ UvMask synthetic_mask(const MorphableModel& model, const Coefficients& fit, int 
   const Camera camera = view_camera("front", camera_size, Eigen::Vector3d::Zero(), 1000);
   const LabelImage labels = synthetic_labels(posed, camera, model.landmark_vertices, chosen, rng());
   int64_t kept = 0;
-  UvMask out{to_mask_image(uv_face_mask(labels, posed, camera, size, &kept), size), {{"source", "synthetic"}}};
+  UvMask out{to_mask_image(uv_face_mask(labels, posed, camera, size, &kept, uv_raster), size), {{"source", "synthetic"}}};
   auto names = nlohmann::json::array();
   for (Occluder o : chosen) names.push_back(to_string(o));
   out.meta["occluders"] = names;

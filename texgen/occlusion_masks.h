@@ -23,9 +23,11 @@ struct UvMask {
 };
 
 // A random non-empty subset of `occluders` (seeded) drawn over the fitted face seen by the canonical camera at
-// `camera_size`, unwrapped into a size² UV mask.
+// `camera_size`, unwrapped into a size² UV mask (`uv_raster`: rasterize_uv of the model's topology at size, when the
+// caller has it).
 UvMask synthetic_mask(const MorphableModel& model, const Coefficients& fit, int camera_size,
-                      const std::vector<Occluder>& occluders, uint64_t seed, int size);
+                      const std::vector<Occluder>& occluders, uint64_t seed, int size,
+                      const RasterOutput* uv_raster = nullptr);
 
 // CelebAMask-HQ's layout: <dir>/CelebA-HQ-img/<id>.jpg and <dir>/CelebAMask-HQ-mask-anno/<id / 2000>/<id, 5 digits>_<part>.png.
 // The photo ids with an image, ascending. InvalidInput naming the folder when either subfolder is missing or empty.

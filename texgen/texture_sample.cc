@@ -145,12 +145,15 @@ Image resize_square(const Image& image, int size) {
   return out;
 }
 
-ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size) {
+ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size, const RasterOutput* uv_raster) {
   ModelUvMaps maps;
   Mesh shape = model.topology;
   shape.V = model.shape(fit.alpha, fit.beta);
   const Eigen::MatrixX3d N = vertex_normals(shape.V, shape.F);
-  const RasterOutput uv = rasterize_uv(shape, size);
+  RasterOutput own_uv;
+  if (!uv_raster) own_uv = rasterize_uv(shape, size);
+  const RasterOutput& uv = uv_raster ? *uv_raster : own_uv;
+  BS_CHECK(uv.width == size && uv.height == size, "model_uv_maps: the given UV raster is not size²");
   maps.normal = Image(size, size, 3, ColorSpace::Data);
   maps.position = Image(size, size, 3, ColorSpace::Data);
   parallel_for(0, int64_t(size) * size, [&](int64_t b, int64_t e) {
@@ -300,7 +303,8 @@ RenderedView render_view(const MorphableModel& model, const Subject& subject, co
 }  // namespace
 
 std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
-                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options) {
+                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options,
+                               const RasterOutput* uv_raster) {
   const Camera camera = view_camera("front", options.render_size, Eigen::Vector3d::Zero(), 1000);
   std::vector<RenderedView> views;
   for (const ViewSpec& v : options.views) views.push_back(render_view(model, subject, v, light, detect, camera, options));
@@ -363,6 +367,8 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
   }
   std::vector<ViewFit> out;
   const Camera small = view_camera("front", options.fit_size, Eigen::Vector3d::Zero(), 1000);
+  RasterOutput own_uv;
+  if (!uv_raster) own_uv = rasterize_uv(model.topology, options.input_res);
   for (size_t i = 0; i < views.size(); ++i) {
     ViewFit& v = views[i].fit;
     v.fit = geometry[i];
@@ -377,6 +383,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     UnwarpOptions unwarp_options;
     unwarp_options.size = options.input_res;
     if (options.drop_background) unwarp_options.inside = &views[i].face;  // texels touching the background: unseen
+    unwarp_options.uv_raster = uv_raster ? uv_raster : &own_uv;
     v.unwrap = unwarp(views[i].unwrapped, posed, camera, unwarp_options);
     out.push_back(std::move(v));
   }

@@ -130,7 +130,9 @@ struct ModelUvMaps {
   Image albedo, normal, position;
   double position_offset = -160, position_scale = 320;
 };
-ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size);
+// `uv_raster`: rasterize_uv of the model's topology at size when the caller has it.
+ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size,
+                          const RasterOutput* uv_raster = nullptr);
 
 // SH lighting for light index l: 0 = render/shade.h's default (Deep3DFaceRecon's ambient and a soft key light);
 // above, a random light from `seed` around that ambient.
@@ -140,9 +142,11 @@ std::array<double, 27> sample_light(int l, uint64_t seed);
 // inference), fits the model to them (landmark_fit_mode: one shape for all views with a pose per view or one head
 // pose, or independent fits), then per view the photometric fit at fit_size and the unwrap of the diffuse-only render
 // (what BareSkinNet hands texture inference: bare skin without light; `unwrap_lit`: the lit render) through its fit.
-// InvalidInput naming the subject and view when the detector finds no face.
+// InvalidInput naming the subject and view when the detector finds no face. `uv_raster`: rasterize_uv of the model's
+// topology at input_res when the caller has it (one for every subject and view); nullptr: made here.
 std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subject, const std::array<double, 27>& light,
-                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options);
+                               const FaceLandmarkDetector& detect, const TextureSampleOptions& options,
+                               const RasterOutput* uv_raster = nullptr);
 
 // The subject's landmark vertices plus `offsets` (the detector's convention, model frame; nullptr: none) turned by
 // the view and projected by `camera` (px): the points a detector with the calibrated convention and no error finds.

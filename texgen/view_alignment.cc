@@ -69,6 +69,7 @@ Level make_level(const MorphableModel& model, const std::vector<Coefficients>& v
     L.points.push_back(std::move(points));
     UnwarpOptions o;
     o.size = size;
+    o.uv_raster = &uv;
     const UnwarpResult seen = unwarp(L.images.back(), posed_mesh(model, views[v]), L.camera, o);
     std::vector<float> c(L.texels.size());
     for (size_t j = 0; j < L.texels.size(); ++j) c[j] = seen.confidence.pixels[size_t(L.texels[j])];
@@ -246,10 +247,20 @@ struct ShapeProblem {
   Pose pose(const Eigen::VectorXd& theta, size_t v) const {
     return v < first_free ? poses[v] : Pose(poses[v] + theta.segment<6>(K() + 6 * Eigen::Index(v - first_free)));
   }
-  double residuals(const Eigen::VectorXd& theta, Eigen::VectorXd& r) const {
+  using Colours = std::vector<std::vector<Eigen::Vector3f>>;  // [view][j]
+  // View v's image sampled at its texels under θ (the shared shape moved by base + Δα).
+  std::vector<Eigen::Vector3f> sample(const Eigen::VectorXd& theta, size_t v) const {
     const Eigen::VectorXd dalpha = base + theta.head(K());
-    std::vector<std::vector<Eigen::Vector3f>> colours;
-    for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample_view(*L, v, pose(theta, v), &dalpha));
+    return sample_view(*L, v, pose(theta, v), &dalpha);
+  }
+  Colours sample_all(const Eigen::VectorXd& theta) const {
+    Colours colours;
+    for (size_t v = 0; v < poses.size(); ++v) colours.push_back(sample(theta, v));
+    return colours;
+  }
+  // The residuals at θ from the views' colours sampled at θ; returns their squared norm.
+  double residuals(const Eigen::VectorXd& theta, const Colours& colours, Eigen::VectorXd& r) const {
+    const Eigen::VectorXd dalpha = base + theta.head(K());
     const Eigen::Index n = 3 * Eigen::Index(pairs.size());
     r.resize(n + 136 * Eigen::Index(poses.size()) + K());
     r.setZero();
@@ -276,19 +287,29 @@ struct ShapeProblem {
   }
 };
 
-// Levenberg–Marquardt on θ from 0; forward-difference Jacobian.
+// Levenberg–Marquardt on θ from 0; forward-difference Jacobian. A free view's pose moves only that view's samples,
+// so its six columns resample that view alone (the others' colours at θ are reused: the same values, a third of the
+// sampling); Δα's columns resample every view.
 Eigen::VectorXd solve_shape(const ShapeProblem& P, int iterations) {
-  const Eigen::Index m = P.parameters();
+  const Eigen::Index m = P.parameters(), K = P.K();
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(m), r, r_h;
-  double cost = P.residuals(theta, r), lambda = 1e-3;
+  ShapeProblem::Colours colours = P.sample_all(theta);
+  double cost = P.residuals(theta, colours, r), lambda = 1e-3;
   for (int it = 0; it < iterations; ++it) {
     Eigen::MatrixXd J(r.size(), m);
     for (Eigen::Index k = 0; k < m; ++k) {
-      const Eigen::Index q = k - P.K();
-      const double h = k < P.K() ? 1e-2 : (q % 6 < 3 ? 1e-3 : 0.1);
+      const Eigen::Index q = k - K;
+      const double h = k < K ? 1e-2 : (q % 6 < 3 ? 1e-3 : 0.1);
       Eigen::VectorXd t = theta;
       t[k] += h;
-      P.residuals(t, r_h);
+      if (k < K) {
+        P.residuals(t, P.sample_all(t), r_h);
+      } else {
+        const size_t v = P.first_free + size_t(q / 6);
+        ShapeProblem::Colours moved = colours;
+        moved[v] = P.sample(t, v);
+        P.residuals(t, moved, r_h);
+      }
       J.col(k) = (r_h - r) / h;
     }
     const Eigen::MatrixXd H = J.transpose() * J;
@@ -298,10 +319,12 @@ Eigen::VectorXd solve_shape(const ShapeProblem& P, int iterations) {
       Eigen::MatrixXd A = H;
       A.diagonal() += lambda * H.diagonal() + Eigen::VectorXd::Constant(m, 1e-9);
       const Eigen::VectorXd next = theta - A.ldlt().solve(g);
+      ShapeProblem::Colours next_colours = P.sample_all(next);
       Eigen::VectorXd r_next;
-      const double c = P.residuals(next, r_next);
+      const double c = P.residuals(next, next_colours, r_next);
       if (c < cost) {
-        theta = next, cost = c, r = std::move(r_next), lambda = std::max(1e-6, lambda / 3), improved = true;
+        theta = next, cost = c, r = std::move(r_next), colours = std::move(next_colours);
+        lambda = std::max(1e-6, lambda / 3), improved = true;
       } else {
         lambda *= 8;
       }

@@ -181,7 +181,7 @@ LabelImage synthetic_labels(const Mesh& mesh, const Camera& camera, const std::v
 }
 
 std::vector<uint8_t> uv_face_mask(const LabelImage& labels, const Mesh& mesh, const Camera& camera, int size,
-                                  int64_t* kept) {
+                                  int64_t* kept, const RasterOutput* uv_raster) {
   if (labels.width != camera.width || labels.height != camera.height) {
     throw InvalidInput("", "the label image is " + std::to_string(labels.width) + "x" + std::to_string(labels.height) +
                                ", the camera " + std::to_string(camera.width) + "x" + std::to_string(camera.height),
@@ -191,6 +191,7 @@ std::vector<uint8_t> uv_face_mask(const LabelImage& labels, const Mesh& mesh, co
   for (size_t i = 0; i < labels.label.size(); ++i) face.pixels[i] = is_face_surface(labels.label[i]) ? 1.f : 0.f;
   UnwarpOptions options;
   options.size = size;
+  options.uv_raster = uv_raster;
   const UnwarpResult r = unwarp(face, mesh, camera, options);
   std::vector<uint8_t> mask(size_t(size) * size_t(size), 0);
   int64_t n = 0;

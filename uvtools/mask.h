@@ -15,6 +15,8 @@
 
 namespace bareskin {
 
+struct RasterOutput;  // render/rasterize.h
+
 // CelebAMask-HQ label indices, plus 19 for a hand (which that set does not label).
 enum FaceLabel : uint8_t {
   kBackground = 0, kSkin = 1, kNose = 2, kGlasses = 3, kLeftEye = 4, kRightEye = 5, kLeftBrow = 6, kRightBrow = 7,
@@ -49,8 +51,9 @@ LabelImage synthetic_labels(const Mesh& mesh, const Camera& camera, const std::v
                             const std::vector<Occluder>& occluders, uint64_t seed);
 
 // The UV mask (size x size, 1 = face surface seen and uncovered) of a label image through the mesh and camera.
-// InvalidInput when the labels' size is not the camera's.
+// InvalidInput when the labels' size is not the camera's. `uv_raster`: rasterize_uv(mesh, size) when the caller has
+// it (UnwarpOptions::uv_raster).
 std::vector<uint8_t> uv_face_mask(const LabelImage& labels, const Mesh& mesh, const Camera& camera, int size,
-                                  int64_t* kept = nullptr);
+                                  int64_t* kept = nullptr, const RasterOutput* uv_raster = nullptr);
 
 }  // namespace bareskin

@@ -25,7 +25,10 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
   // The depth buffer seen from the camera.
   const RasterOutput view = rasterize_mesh(mesh, camera);
 
-  const RasterOutput uv = rasterize_uv(mesh, options.size);
+  RasterOutput own_uv;
+  if (!options.uv_raster) own_uv = rasterize_uv(mesh, options.size);
+  const RasterOutput& uv = options.uv_raster ? *options.uv_raster : own_uv;
+  BS_CHECK(uv.width == options.size && uv.height == options.size, "unwarp: the given UV raster is not of the UV size");
   const Eigen::MatrixX3d N = vertex_normals(mesh.V, mesh.F);
   const Eigen::Vector3d centre = -camera.R.transpose() * camera.t;           // pinhole: the camera's position
   const Eigen::Vector3d toward = camera.R.transpose() * Eigen::Vector3d::UnitZ();  // weak perspective: its direction

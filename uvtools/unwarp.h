@@ -11,12 +11,17 @@
 
 namespace bareskin {
 
+struct RasterOutput;  // render/rasterize.h
+
 struct UnwarpOptions {
   int size = 1024;              // UV map size
   double depth_tolerance = 1.0; // mm: a texel is seen when its depth is within this of the depth buffer
   // Optional 1-channel mask at the image's size (e.g. where a face covers a render): a texel whose bilinear sample of
   // it is below 1, i.e. that touches the mask's zeros, counts as unseen.
   const Image* inside = nullptr;
+  // Optional: rasterize_uv(mesh, size), for callers that unwarp many times into one layout (the UV raster depends on
+  // the UVs and faces only, not on the pose); nullptr: made here.
+  const RasterOutput* uv_raster = nullptr;
 };
 
 struct UnwarpResult {
