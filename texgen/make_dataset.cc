@@ -8,6 +8,7 @@
 #include <future>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <random>
 
 #include "core/error.h"
@@ -123,7 +124,8 @@ std::array<std::vector<int>, 3> split_subjects(int n, const std::array<double, 3
 class LayoutRasters {
  public:
   LayoutRasters(const Mesh& layout, int input_res) : uv(rasterize_uv(layout, input_res)), layout_(layout) {}
-  const UvIslands& at(int size) {
+  const UvIslands& at(int size) {  // from any bake thread
+    std::lock_guard<std::mutex> lock(mutex_);
     auto& r = rasters_[size];
     if (!r) r = std::make_unique<UvIslands>(layout_, size);
     return *r;
@@ -132,6 +134,7 @@ class LayoutRasters {
 
  private:
   const Mesh& layout_;
+  std::mutex mutex_;
   std::map<int, std::unique_ptr<UvIslands>> rasters_;
 };
 
@@ -214,6 +217,35 @@ class TargetBake {
   std::future<std::map<std::string, std::string>> members_;  // last: its destructor waits for the thread
 };
 
+// A worker's subjects in the order it visits them, each one's target bake started while the subject before it is
+// still finishing (after its fits), so that a subject's renders do not wait for its maps to be read and the bake
+// thread is not idle between subjects. One bake ahead at most.
+class BakeAhead {
+ public:
+  BakeAhead(std::vector<std::string> order, LayoutRasters& rasters, const TextureDatasetOptions& o)
+      : order_(std::move(order)), rasters_(rasters), o_(o) {}
+  // The bake of `dir`: the one started ahead for it, or a new one.
+  std::unique_ptr<TargetBake> take(const std::string& dir) {
+    if (next_ && next_dir_ == dir) return std::move(next_);
+    next_.reset();  // started for a subject that was skipped: waits for its thread
+    return std::make_unique<TargetBake>(dir, rasters_, o_);
+  }
+  // Starts the bake of the subject after `dir` in the order, if there is one.
+  void start_after(const std::string& dir) {
+    const auto it = std::find(order_.begin(), order_.end(), dir);
+    if (it == order_.end() || it + 1 == order_.end() || next_) return;
+    next_dir_ = *(it + 1);
+    next_ = std::make_unique<TargetBake>(next_dir_, rasters_, o_);
+  }
+
+ private:
+  std::vector<std::string> order_;
+  LayoutRasters& rasters_;
+  const TextureDatasetOptions& o_;
+  std::string next_dir_;
+  std::unique_ptr<TargetBake> next_;
+};
+
 struct SubjectOutput {
   std::vector<shards::Sample> samples, masks;
   json report;
@@ -221,13 +253,13 @@ struct SubjectOutput {
 
 SubjectOutput process_subject(const MorphableModel& model, const std::string& dir, int index, const std::string& split,
                               const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
-                              LayoutRasters& rasters) {
+                              LayoutRasters& rasters, BakeAhead& bakes) {
   using clock = std::chrono::steady_clock;
   const auto t0 = clock::now();
   auto since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
-  TargetBake bake(dir, rasters, o);  // runs beside everything below until bake.members()
+  const std::unique_ptr<TargetBake> bake = bakes.take(dir);  // runs beside everything below until bake->members()
   Subject subject = load_subject_mesh(dir, model);
-  subject.diffuse = bake.texture();
+  subject.diffuse = bake->texture();
   const uint64_t subject_seed = o.seed * 0x9E3779B97F4A7C15ull ^ fnv1a(subject.name);
   SubjectOutput out;
   out.report = {{"subject", subject.name}, {"split", split}, {"lights", json::array()}};
@@ -310,6 +342,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
     out.report["lights"].push_back(light_report);
     if (l == 0) unlit_fits = std::move(views);
   }
+  bakes.start_after(dir);
   t = clock::now();
   for (int k = 0; k < o.masks_per_subject; ++k) {
     const ViewFit& v = unlit_fits[size_t(k) % unlit_fits.size()];
@@ -323,9 +356,9 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   }
   timing["masks"] = since(t);
   t = clock::now();
-  std::map<std::string, std::string> targets = bake.members();
+  std::map<std::string, std::string> targets = bake->members();
   timing["targets_wait"] = since(t);  // what the bake still needed after the fits and masks
-  timing["bake"] = bake.seconds();    // the bake's own wall time, beside the rest
+  timing["bake"] = bake->seconds();   // the bake's own wall time, beside the rest (it may start before the subject)
   for (size_t i = 0; i < out.samples.size(); ++i) {
     if (i + 1 == out.samples.size()) out.samples[i].members.merge(targets);
     else out.samples[i].members.insert(targets.begin(), targets.end());
@@ -339,8 +372,8 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
 // Runs one unit into a scratch folder and renames its shards into place; then its index entry.
 void run_unit(const Unit& unit, const std::vector<std::string>& subjects, const MorphableModel& model,
               const TextureDatasetOptions& o, const FaceLandmarkDetector& detect,
-              const FaceLandmarkDetector& detect_photo, LayoutRasters& rasters, TextureDatasetReport& report,
-              const std::function<void(const std::string&)>& step) {
+              const FaceLandmarkDetector& detect_photo, LayoutRasters& rasters, BakeAhead& bakes,
+              TextureDatasetReport& report, const std::function<void(const std::string&)>& step) {
   const std::string scratch = o.output + "/.tmp/" + numbered("unit", unit.id);
   fs::remove_all(scratch);
   struct Cleanup {
@@ -364,7 +397,7 @@ void run_unit(const Unit& unit, const std::vector<std::string>& subjects, const 
       step(subjects[size_t(s)]);
       try {
         check_subject_files(dir, o);
-        SubjectOutput r = process_subject(model, dir, s, kSplits[unit.split], o, detect, rasters);
+        SubjectOutput r = process_subject(model, dir, s, kSplits[unit.split], o, detect, rasters, bakes);
         for (const auto& x : r.samples) textures.write(x);
         for (const auto& x : r.masks) mask_writer.write(x);
         samples += int64_t(r.samples.size());
@@ -590,8 +623,13 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
     total += int64_t(u.subjects.size() + u.photos.size());
   }
   LayoutRasters rasters(model.topology, o.sample.input_res);
+  std::vector<std::string> order;
+  for (const Unit* u : todo)
+    for (int s : u->subjects) order.push_back(o.registered + "/" + subjects[size_t(s)]);
+  BakeAhead bakes(std::move(order), rasters, o);
   for (const Unit* u : todo) {
-    run_unit(*u, subjects, model, o, detect, detect_photo, rasters, report, [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
+    run_unit(*u, subjects, model, o, detect, detect_photo, rasters, bakes, report,
+             [&](const std::string& item) { bareskin::report(progress, done++, total, item); });
     ++report.units_done;
   }
   bareskin::report(progress, done, total, "manifests");
