@@ -56,13 +56,24 @@ void fill_gutter(std::vector<float>& value, std::vector<uint8_t>& filled, int s,
         f(size_t(yy) * size_t(s) + size_t(xx));
       }
   };
+  // The first front: unfilled texels with a filled neighbour, row by row (no index division per texel).
   std::vector<uint8_t> queued(filled.size(), 0);
   std::vector<size_t> front;
-  for (size_t i = 0; i < filled.size(); ++i) {
-    if (!filled[i]) continue;
-    neighbours(i, [&](size_t j) {
-      if (!filled[j] && !queued[j]) queued[j] = 1, front.push_back(j);
-    });
+  for (int y = 0; y < s; ++y) {
+    const uint8_t* above = y > 0 ? &filled[size_t(y - 1) * size_t(s)] : nullptr;
+    const uint8_t* row = &filled[size_t(y) * size_t(s)];
+    const uint8_t* below = y + 1 < s ? &filled[size_t(y + 1) * size_t(s)] : nullptr;
+    for (int x = 0; x < s; ++x) {
+      if (row[x]) continue;
+      const int x0 = std::max(0, x - 1), x1 = std::min(s - 1, x + 1);
+      bool next_to_filled = false;
+      for (int xx = x0; xx <= x1 && !next_to_filled; ++xx)
+        next_to_filled = row[xx] || (above && above[xx]) || (below && below[xx]);
+      if (next_to_filled) {
+        queued[size_t(y) * size_t(s) + size_t(x)] = 1;
+        front.push_back(size_t(y) * size_t(s) + size_t(x));
+      }
+    }
   }
   for (int pass = 0; pass < passes && !front.empty(); ++pass) {
     // Values of this pass come from texels filled before it only; the front is unfilled, so the order is free.
@@ -186,33 +197,33 @@ void decode_band(const MapFile& m, bool decode_srgb, int C, int Cin, int N, int 
 void filter_band(Kind kind, int C, int Cin, int N, int y0, int rows, const std::vector<float>& band,
                  const std::vector<uint8_t>& mask, Output& o) {
   const int f = o.factor, out_rows = rows / f;
-  parallel_for(0, int64_t(out_rows) * o.size, [&](int64_t t0, int64_t t1) {
-    for (int64_t t = t0; t < t1; ++t) {
-      const int oy = int(t / o.size), ox = int(t % o.size);
-      double sum[4] = {0, 0, 0, 0};
-      int n = 0;
-      for (int dy = 0; dy < f; ++dy) {
-        const size_t row = size_t(oy * f + dy) * size_t(N);
-        for (int dx = 0; dx < f; ++dx) {
-          const size_t i = row + size_t(ox * f + dx);
-          if (!mask[i]) continue;
-          const float* p = &band[i * size_t(Cin)];
-          for (int c = 0; c < C; ++c) sum[c] += p[c];
-          ++n;
+  parallel_for(0, int64_t(out_rows), [&](int64_t r0, int64_t r1) {
+    for (int oy = int(r0); oy < int(r1); ++oy)
+      for (int ox = 0; ox < o.size; ++ox) {
+        double sum[4] = {0, 0, 0, 0};
+        int n = 0;
+        for (int dy = 0; dy < f; ++dy) {
+          const size_t row = size_t(oy * f + dy) * size_t(N);
+          for (int dx = 0; dx < f; ++dx) {
+            const size_t i = row + size_t(ox * f + dx);
+            if (!mask[i]) continue;
+            const float* p = &band[i * size_t(Cin)];
+            for (int c = 0; c < C; ++c) sum[c] += p[c];
+            ++n;
+          }
+        }
+        if (!n) continue;
+        const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
+        o.filled[o_i] = 1;
+        float* v = &o.value[o_i * size_t(C)];
+        for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
+        if (kind == Kind::Normal) {
+          const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+          o.length[o_i] = len;
+          for (int c = 0; c < 3; ++c) v[c] /= std::max(len, 1e-12f);
         }
       }
-      if (!n) continue;
-      const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
-      o.filled[o_i] = 1;
-      float* v = &o.value[o_i * size_t(C)];
-      for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
-      if (kind == Kind::Normal) {
-        const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        o.length[o_i] = len;
-        for (int c = 0; c < 3; ++c) v[c] /= std::max(len, 1e-12f);
-      }
-    }
-  }, 256);
+  }, std::max(1, 256 / o.size));  // output rows per task: about 256 texels at least
 }
 
 // Toksvig: the averaged normal's length L < 1 measures the normal variance under the texel; with GGX alpha =
