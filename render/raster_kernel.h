@@ -60,8 +60,11 @@ BARESKIN_HD SetupResult setup(const RasterInput& in, const float* xyw, const flo
   if (!(s.area > 1e-12 || s.area < -1e-12)) return kDropped;
   // y is down on screen, so a counter-clockwise (front-facing) triangle has a negative area here.
   if (in.cull_back_faces && s.area > 0) return kDropped;
-  const double lo_x = floor(min3(s.x[0], s.x[1], s.x[2]) - 0.5), hi_x = ceil(max3(s.x[0], s.x[1], s.x[2]) - 0.5);
-  const double lo_y = floor(min3(s.y[0], s.y[1], s.y[2]) - 0.5), hi_y = ceil(max3(s.y[0], s.y[1], s.y[2]) - 0.5);
+  // The pixels whose centres (px + 0.5, py + 0.5) lie in the corners' bounding box: no other can pass sample(). A
+  // triangle between pixel centres (most of a dense mesh in a small image) has none and is dropped here.
+  const double lo_x = ceil(min3(s.x[0], s.x[1], s.x[2]) - 0.5), hi_x = floor(max3(s.x[0], s.x[1], s.x[2]) - 0.5);
+  const double lo_y = ceil(min3(s.y[0], s.y[1], s.y[2]) - 0.5), hi_y = floor(max3(s.y[0], s.y[1], s.y[2]) - 0.5);
+  if (lo_x > hi_x || lo_y > hi_y) return kDropped;
   if (hi_x < 0 || hi_y < 0 || lo_x > in.width - 1 || lo_y > in.height - 1) return kDropped;
   s.x0 = lo_x < 0 ? 0 : int(lo_x);
   s.x1 = hi_x > in.width - 1 ? in.width - 1 : int(hi_x);

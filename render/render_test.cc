@@ -98,6 +98,59 @@ TEST(Rasterize, TiledEqualsReference) {
   }
 }
 
+// Set-up's bounding box holds every pixel centre a triangle covers, and drops triangles that lie between pixel centres:
+// against an oracle that tests every pixel of the image for every triangle, on a dense soup of tiny triangles (most
+// between centres; a quarter with their lowest corner and a quarter with their highest corner on a pixel centre, the
+// box's edge cases) in a small image.
+TEST(Rasterize, BoundingBoxLosesNoPixelCentre) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> at(-1, 17), d(-0.6, 0.6), up(0.05, 0.6);
+  std::vector<float> xyw;
+  std::vector<int32_t> tri;
+  for (int f = 0; f < 4000; ++f) {
+    double cx = at(rng), cy = at(rng);
+    const bool on_centre = f % 4 < 2, lowest = f % 4 == 0;
+    if (on_centre) cx = std::round(cx) + 0.5, cy = std::round(cy) + 0.5;
+    for (int k = 0; k < 3; ++k) {
+      const double ox = k == 0 ? 0 : on_centre ? (lowest ? up(rng) : -up(rng)) : d(rng);
+      const double oy = k == 0 ? 0 : on_centre ? (lowest ? up(rng) : -up(rng)) : d(rng);
+      xyw.insert(xyw.end(), {float(cx + ox), float(cy + oy), 1.f + f * 1e-4f});
+    }
+    tri.insert(tri.end(), {3 * f, 3 * f + 1, 3 * f + 2});
+  }
+  const RasterInput in = input(xyw, tri, 16);
+  const RasterOutput out = rasterize(in);
+  std::vector<int32_t> oracle(16 * 16, -1);
+  std::vector<float> nearest(16 * 16, HUGE_VALF);
+  int dropped_between_centres = 0;
+  for (int64_t f = 0; f < in.triangle_count; ++f) {
+    raster::Setup s;
+    const raster::SetupResult r = raster::setup(in, in.xyw, in.z, f, s);
+    if (r == raster::kDropped) {
+      ++dropped_between_centres;
+      // recompute what set-up dropped, with the whole image as the box
+      for (int k = 0; k < 3; ++k) {
+        s.x[k] = xyw[size_t(3 * tri[size_t(3 * f + k)])];
+        s.y[k] = xyw[size_t(3 * tri[size_t(3 * f + k)] + 1)];
+        s.inv_w[k] = 1 / double(xyw[size_t(3 * tri[size_t(3 * f + k)] + 2)]);
+        s.z[k] = 1 / s.inv_w[k];
+      }
+      s.area = (s.x[1] - s.x[0]) * (s.y[2] - s.y[0]) - (s.y[1] - s.y[0]) * (s.x[2] - s.x[0]);
+      if (!(std::abs(s.area) > 1e-12)) continue;
+    }
+    for (int py = 0; py < 16; ++py)
+      for (int px = 0; px < 16; ++px) {
+        float depth, b1, b2;
+        if (!raster::sample(s, px, py, false, depth, b1, b2)) continue;
+        const size_t i = size_t(py) * 16 + size_t(px);
+        if (depth < nearest[i] || (depth == nearest[i] && int32_t(f) < oracle[i])) nearest[i] = depth, oracle[i] = int32_t(f);
+      }
+  }
+  EXPECT_EQ(out.triangle, oracle);
+  EXPECT_GT(dropped_between_centres, 1000);  // most of the soup covers no centre
+  EXPECT_GT(std::count_if(out.triangle.begin(), out.triangle.end(), [](int32_t t) { return t >= 0; }), 100);
+}
+
 // The CUDA rasterizer's algorithm (raster::cover then raster::resolve over 64-bit atomic minima), run here on CPU
 // threads with the lanes of each warp interleaved in a shuffled order: it must equal rasterize() to the bit, ties,
 // culling, weak perspective and triangles behind the camera included. The GPU itself is checked by
