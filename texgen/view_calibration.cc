@@ -63,7 +63,8 @@ std::vector<std::string> report_files(const std::string& dataset_folder) {
 }
 
 ViewCalibration learn_view_calibration(const std::vector<std::string>& files) {
-  if (files.empty()) throw InvalidInput("--write-view-calibration", "no make-dataset reports to learn from", "");
+  if (files.empty()) throw InvalidInput("--write-view-calibration", "no make-dataset reports to learn from",
+                                         "run make-dataset over training subjects first (their reports/ folder)");
   std::vector<Sums> sums;
   ViewCalibration out;
   bool first = true;
@@ -72,9 +73,11 @@ ViewCalibration learn_view_calibration(const std::vector<std::string>& files) {
     try {
       report = json::parse(read_file(file));
     } catch (const json::exception& e) {
-      throw InvalidInput(file, std::string("is not a make-dataset report: ") + e.what(), "");
+      throw InvalidInput(file, std::string("is not a make-dataset report: ") + e.what(),
+                         "remove it from reports/, or run make-dataset again");
     }
-    if (!report.contains("lights")) throw InvalidInput(file, "is not a make-dataset report (no lights)", "");
+    if (!report.contains("lights")) throw InvalidInput(file, "is not a make-dataset report (no lights)",
+                                                          "remove it from reports/, or run make-dataset again");
     for (const json& light : report["lights"]) {
       const std::string calibration = light.value("landmark_calibration", "");
       if (first) out.landmark_calibration = calibration;
@@ -161,11 +164,13 @@ ViewCalibration read_view_calibration(const std::string& path) {
       view.bias = points_of(v.at("bias"), path, "bias");
       const json& s = v.at("scatter_rms");
       for (int k = 0; k < 68 && k < int(s.size()); ++k) view.scatter(k) = s[size_t(k)].get<double>();
-      if (!view.bias.allFinite()) throw InvalidInput(path, "has non-finite offsets", "");
+      if (!view.bias.allFinite())
+        throw InvalidInput(path, "has non-finite offsets", "learn it again with make-dataset --write-view-calibration");
       c.views.push_back(view);
     }
   } catch (const json::exception& e) {
-    throw InvalidInput(path, std::string("is not a view calibration: ") + e.what(), "");
+    throw InvalidInput(path, std::string("is not a view calibration: ") + e.what(),
+                       "make it with make-dataset --write-view-calibration");
   }
   return c;
 }
