@@ -200,23 +200,29 @@ void filter_band(Kind kind, int C, int Cin, int N, int y0, int rows, const std::
   parallel_for(0, int64_t(out_rows), [&](int64_t r0, int64_t r1) {
     for (int oy = int(r0); oy < int(r1); ++oy)
       for (int ox = 0; ox < o.size; ++ox) {
-        double sum[4] = {0, 0, 0, 0};
-        int n = 0;
-        for (int dy = 0; dy < f; ++dy) {
-          const size_t row = size_t(oy * f + dy) * size_t(N);
-          for (int dx = 0; dx < f; ++dx) {
-            const size_t i = row + size_t(ox * f + dx);
-            if (!mask[i]) continue;
-            const float* p = &band[i * size_t(Cin)];
-            for (int c = 0; c < C; ++c) sum[c] += p[c];
-            ++n;
-          }
-        }
-        if (!n) continue;
         const size_t o_i = size_t(y0 / f + oy) * size_t(o.size) + size_t(ox);
-        o.filled[o_i] = 1;
         float* v = &o.value[o_i * size_t(C)];
-        for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
+        if (f == 1) {  // the input size itself: the island texels as they are (what the mean of one gives)
+          const size_t i = size_t(oy) * size_t(N) + size_t(ox);
+          if (!mask[i]) continue;
+          for (int c = 0; c < C; ++c) v[c] = band[i * size_t(Cin) + size_t(c)];
+        } else {
+          double sum[4] = {0, 0, 0, 0};
+          int n = 0;
+          for (int dy = 0; dy < f; ++dy) {
+            const size_t row = size_t(oy * f + dy) * size_t(N);
+            for (int dx = 0; dx < f; ++dx) {
+              const size_t i = row + size_t(ox * f + dx);
+              if (!mask[i]) continue;
+              const float* p = &band[i * size_t(Cin)];
+              for (int c = 0; c < C; ++c) sum[c] += p[c];
+              ++n;
+            }
+          }
+          if (!n) continue;
+          for (int c = 0; c < C; ++c) v[c] = float(sum[c] / n);
+        }
+        o.filled[o_i] = 1;
         if (kind == Kind::Normal) {
           const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
           o.length[o_i] = len;
