@@ -32,7 +32,7 @@ print(f"{sys.argv[2]:<28} noise {float(sys.argv[3]):.1f} mm | corr median {m('co
 PY
 }
 echo "$count scans per row, $(nproc) cores, template $(grep -c '^v ' "$template/face.obj") vertices"
-amberg="--consistency 0 --affine-stiffness 1 --stiffness 20 10 5 2 1 0.5 --landmark-weight 30 20 10 5 2 1"
+amberg="--consistency 0 --affine-stiffness 1 --stiffness 20 10 5 2 1 0.5 --landmark-weight 30 20 10 5 2 1 --tangential-weight 0 0 0 0 0 0"
 row "ours (default)" 0
 row "anchor: Amberg NICP per vertex" 0 --nodes 0 $amberg
 row "Amberg term on 2k nodes" 0 $amberg

@@ -371,10 +371,19 @@ class Nicp {
     }
     if (beta > 0) add_dense(landmarks_, beta * beta, A, B);
     if (extra) add_dense(*extra, 1.0, A, B);
+    const double w_t = options_.tangential_weight.empty() || stiffness > 0 ? 0.0 : options_.tangential_weight[size_t(s)];
+    if (w_t > 0 && start_.rows() != m_) set_tangential_reference();
+    if (w_t > 0)
+      for (Eigen::Index i = 0; i < m_; ++i)
+        for (int b = 0; b < 4; ++b)
+          for (int a = 0; a < 4; ++a) A.coeffRef(4 * i + a, 4 * i + b) += w_t * v_(i, a) * v_(i, b);
     const auto t_f = std::chrono::steady_clock::now();
     solver_.factorize(A);
     if (solver_.info() != Eigen::Success) throw InternalError("NICP: the sparse system is not positive definite");
-    const Eigen::MatrixXd X_new = solver_.solve(B);
+    Eigen::MatrixXd X_new = solver_.solve(B + tangential_rhs(w_t, X_));
+    // The tangential term w_t |P_i (x_i - s_i)|^2 couples x, y, z; majorised by w_t |x_i - t_i|^2 with t_i the point
+    // of the reference normal line nearest the last solution, a few solves with the same factor reach its minimum.
+    for (int inner = 0; w_t > 0 && inner < kTangentialSolves; ++inner) X_new = solver_.solve(B + tangential_rhs(w_t, X_new));
     stats_.seconds_factorize += seconds_since(t_f);
     const double change = (X_new - X_).norm() / std::sqrt(double(m_));
     X_ = X_new;
@@ -408,6 +417,27 @@ class Nicp {
     Eigen::MatrixX3d P(m_, 3);
     for (Eigen::Index i = 0; i < m_; ++i) P.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
     return to_mm(P);
+  }
+  // The tangential prior's reference: the nodes when the term first applies, e.g. after a first, stiff step has
+  // taken out what the landmark similarity left (scale, pose, the face's proportions).
+  void set_tangential_reference() {
+    start_.resize(m_, 3);
+    for (Eigen::Index i = 0; i < m_; ++i) start_.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
+    start_normal_ = vertex_normals(start_, e_.F);
+  }
+  static constexpr int kTangentialSolves = 4;
+  // The tangential term's right-hand side: w_t v_i^T t_i per node, t_i = s_i + ((x_i - s_i) . n_i) n_i, where x_i is
+  // node i under X, s_i its reference position and n_i the reference normal (normalised coordinates).
+  Eigen::MatrixXd tangential_rhs(double w_t, const Eigen::MatrixXd& X) const {
+    Eigen::MatrixXd R = Eigen::MatrixXd::Zero(4 * m_, 3);
+    if (w_t <= 0) return R;
+    for (Eigen::Index i = 0; i < m_; ++i) {
+      const Eigen::RowVector3d start = start_.row(i), n = start_normal_.row(i);
+      const Eigen::RowVector3d x = v_.row(i) * X.block<4, 3>(4 * i, 0);
+      const Eigen::RowVector3d t = start + (x - start).dot(n) * n;
+      R.block<4, 3>(4 * i, 0) = w_t * v_.row(i).transpose() * t;
+    }
+    return R;
   }
   // scale * sum_j w_j |blend_j(X) - p_j|^2, accumulated per node block first (many targets share a few blocks).
   void add_dense(const DenseTerm& t, double scale, Eigen::SparseMatrix<double>& A, Eigen::MatrixXd& B) const {
@@ -446,6 +476,7 @@ class Nicp {
   NodeEmbedding e_;
   Eigen::Index m_;
   Eigen::MatrixX4d v_, v_dense_;
+  Eigen::MatrixX3d start_, start_normal_;  // the tangential prior's reference nodes and normals (normalised coordinates)
   DenseTerm landmarks_;
   double landmark_scale_ = 1;
   Eigen::SparseMatrix<double> K_;
@@ -531,12 +562,14 @@ void texture_rounds(const TemplateFace& face, const Mesh& scan, const Registrati
 
 void RegisterOptions::check() const {
   if (stiffness.empty()) throw InvalidInput("", "the stiffness schedule is empty", "give at least one step");
-  if (landmark_weight.size() != stiffness.size() || trim_mm.size() != stiffness.size()) {
-    throw InvalidInput("", "stiffness, landmark weight and trim schedules differ in length", "give one value per step");
+  if (landmark_weight.size() != stiffness.size() || trim_mm.size() != stiffness.size() ||
+      (!tangential_weight.empty() && tangential_weight.size() != stiffness.size())) {
+    throw InvalidInput("", "stiffness, landmark weight, trim and tangential weight schedules differ in length", "give one value per step");
   }
   for (size_t k = 0; k < stiffness.size(); ++k) {
-    if (!(stiffness[k] > 0) || !(landmark_weight[k] >= 0) || !(trim_mm[k] > 0)) {
-      throw InvalidInput("", "schedules need stiffness > 0, landmark weight >= 0 and trim > 0", "");
+    if (!(stiffness[k] > 0) || !(landmark_weight[k] >= 0) || !(trim_mm[k] > 0) ||
+        (!tangential_weight.empty() && !(tangential_weight[k] >= 0))) {
+      throw InvalidInput("", "schedules need stiffness > 0, landmark and tangential weights >= 0 and trim > 0", "");
     }
   }
   texture.check();
