@@ -217,9 +217,10 @@ class TargetBake {
   std::future<std::map<std::string, std::string>> members_;  // last: its destructor waits for the thread
 };
 
-// A worker's subjects in the order it visits them, each one's target bake started while the subject before it is
-// still finishing (after its fits), so that a subject's renders do not wait for its maps to be read and the bake
-// thread is not idle between subjects. One bake ahead at most.
+// A worker's subjects in the order it visits them, each one's target bake started as soon as the subject before it
+// has its diffuse (beside that subject's renders, fits and remaining maps), so that a subject's renders do not wait
+// for its maps to be read and no core idles while the main thread runs its one-threaded parts (the detector, the
+// solvers). One bake ahead at most.
 class BakeAhead {
  public:
   BakeAhead(std::vector<std::string> order, LayoutRasters& rasters, const TextureDatasetOptions& o)
@@ -260,6 +261,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
   const std::unique_ptr<TargetBake> bake = bakes.take(dir);  // runs beside everything below until bake->members()
   Subject subject = load_subject_mesh(dir, model);
   subject.diffuse = bake->texture();
+  bakes.start_after(dir);  // the next subject's maps are read while this one's renders and fits run
   const uint64_t subject_seed = o.seed * 0x9E3779B97F4A7C15ull ^ fnv1a(subject.name);
   SubjectOutput out;
   out.report = {{"subject", subject.name}, {"split", split}, {"lights", json::array()}};
@@ -342,7 +344,6 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
     out.report["lights"].push_back(light_report);
     if (l == 0) unlit_fits = std::move(views);
   }
-  bakes.start_after(dir);
   t = clock::now();
   for (int k = 0; k < o.masks_per_subject; ++k) {
     const ViewFit& v = unlit_fits[size_t(k) % unlit_fits.size()];
