@@ -104,6 +104,14 @@ TEST(Unwarp, InsideMaskLeavesTexelsTouchingItsZerosUnseen) {
   EXPECT_EQ(half.seen, kept);
   EXPECT_GT(kept, all.seen / 3);
   EXPECT_GT(dropped_right, all.seen / 3);
+  // The caller's UV raster (one for many unwarps of a layout) gives the same result; one of another size is refused.
+  options.uv_raster = &uv;
+  const UnwarpResult shared = unwarp(image, mesh, front, options);
+  EXPECT_EQ(shared.colour.pixels, half.colour.pixels);
+  EXPECT_EQ(shared.confidence.pixels, half.confidence.pixels);
+  const RasterOutput other = rasterize_uv(mesh, 64);
+  options.uv_raster = &other;
+  EXPECT_ANY_THROW(unwarp(image, mesh, front, options));
 }
 
 TEST(Unwarp, RefusesAnImageOfAnotherSize) {
