@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/stats.h"
 
 namespace bareskin::texgen {
 
@@ -115,9 +116,7 @@ ViewCalibration learn_view_calibration(const std::vector<std::string>& files) {
     for (int k = 0; k < 68; ++k)
       for (int c = 0; c < 2; ++c) {
         for (size_t i = 0; i < values.size(); ++i) values[i] = s.residuals[i](k, c);
-        std::sort(values.begin(), values.end());
-        const size_t m = values.size() / 2;
-        v.bias(k, c) = values.size() % 2 ? values[m] : 0.5 * (values[m - 1] + values[m]);
+        v.bias(k, c) = median(values);
       }
     for (const auto& r : s.residuals) v.scatter += (r - v.bias).rowwise().squaredNorm() / double(s.residuals.size());
     v.scatter = v.scatter.cwiseSqrt();
