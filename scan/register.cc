@@ -569,7 +569,8 @@ void RegisterOptions::check() const {
   for (size_t k = 0; k < stiffness.size(); ++k) {
     if (!(stiffness[k] > 0) || !(landmark_weight[k] >= 0) || !(trim_mm[k] > 0) ||
         (!tangential_weight.empty() && !(tangential_weight[k] >= 0))) {
-      throw InvalidInput("", "schedules need stiffness > 0, landmark and tangential weights >= 0 and trim > 0", "");
+      throw InvalidInput("", "schedules need stiffness > 0, landmark and tangential weights >= 0 and trim > 0",
+                         "fix the values of --stiffness, --landmark-weight, --tangential-weight and --trim");
     }
   }
   texture.check();
