@@ -19,7 +19,7 @@ struct TemplateCommandOptions {
 
 std::function<void()> setup_template_command(CLI::App& app, const Globals& globals) {
   auto opt = std::make_shared<TemplateCommandOptions>();
-  app.add_option("-o,--output", opt->output, "Output directory (face.obj, landmarks.json, regions.json, face.safetensors)")
+  app.add_option("-o,--output", opt->output, "Output directory (face.obj, landmarks.json, regions.json, face.safetensors, nodes.safetensors)")
       ->capture_default_str();
   app.add_option("--assets", opt->assets, "Folder filled by 'make deps' (default: BARESKIN_ASSETS, then the installed "
                                           "assets, then the source tree's; docs/cli.md)");

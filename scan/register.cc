@@ -179,61 +179,30 @@ struct NodeEmbedding {
   std::vector<Eigen::Vector3d> weight;   // ... and barycentric weights
 };
 
-// The node mesh of a template: its rest surface remeshed (each node on a template triangle, by barycentric weights)
-// and each template vertex's node triangle. The remesh is the costly part (about 3 s for 65k -> 2k vertices) and
-// depends only on the template, so it is made once per template and node count and kept for the process.
-struct NodeLayout {
-  Eigen::MatrixX3i F;                    // node triangles
-  std::vector<int> face;                 // per node: the template triangle it lies on
-  std::vector<Eigen::Vector3d> on_face;  // ... and its barycentric weights there
-  std::vector<std::array<int, 3>> node;  // per template vertex: its node triangle's corners
-  std::vector<Eigen::Vector3d> weight;   // ... and barycentric weights
-};
-
-uint64_t fingerprint(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, int nodes) {
-  const uint64_t h = fnv1a(V.data(), sizeof(double) * size_t(V.size()), kFnv1aBasis ^ uint64_t(nodes));
-  return fnv1a(F.data(), sizeof(int) * size_t(F.size()), h);
-}
-
-std::shared_ptr<const NodeLayout> node_layout(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3i& F, int nodes) {
+// The node mesh of a template (template/node_layout.h): the template folder's when it was made for this surface and
+// node count, else made here once per template and node count and kept for the process (a folder of scans pays once).
+std::shared_ptr<const NodeLayout> node_layout(const TemplateFace& face, int nodes) {
+  const uint64_t key = node_layout_fingerprint(face.mesh.V, face.mesh.F, nodes);
+  if (face.nodes && face.nodes->template_fingerprint == key && face.nodes->node.size() == size_t(face.mesh.V.rows()) &&
+      std::all_of(face.nodes->face.begin(), face.nodes->face.end(), [&](int f) { return f >= 0 && f < face.mesh.F.rows(); }))
+    return face.nodes;
   static std::mutex mutex;
   static std::map<uint64_t, std::shared_ptr<const NodeLayout>> cache;
-  const uint64_t key = fingerprint(rest, F, nodes);
   std::lock_guard<std::mutex> lock(mutex);  // another scan's thread waits rather than remeshing the same template
   if (const auto it = cache.find(key); it != cache.end()) return it->second;
-  auto layout = std::make_shared<NodeLayout>();
-  Eigen::MatrixX3d Vn;
-  isotropic_remesh(rest, F, nodes, 3, Vn, layout->F);
-  const SurfaceLocator on_template(rest, F), on_nodes(Vn, layout->F);
-  layout->face.resize(size_t(Vn.rows()));
-  layout->on_face.resize(size_t(Vn.rows()));
-  for (Eigen::Index j = 0; j < Vn.rows(); ++j) {
-    const SurfacePoint p = on_template.locate(Vn.row(j).transpose());
-    layout->face[size_t(j)] = p.face;
-    layout->on_face[size_t(j)] = p.barycentric;
-  }
-  const Eigen::Index n = rest.rows();
-  layout->node.resize(size_t(n));
-  layout->weight.resize(size_t(n));
-  parallel_for(0, n, [&](int64_t b0, int64_t b1) {
-    for (int64_t i = b0; i < b1; ++i) {
-      const SurfacePoint p = on_nodes.locate(rest.row(i).transpose());
-      layout->node[size_t(i)] = {layout->F(p.face, 0), layout->F(p.face, 1), layout->F(p.face, 2)};
-      layout->weight[size_t(i)] = p.barycentric;
-    }
-  }, 1024);
+  auto layout = std::make_shared<const NodeLayout>(make_node_layout(face.mesh.V, face.mesh.F, nodes));
   cache.emplace(key, layout);
   return layout;
 }
 
 // V0: the template's vertices where NICP starts (the rest template after a similarity, or the model's fitted shape);
 // the nodes follow V0 by their barycentric weights on the template's triangles.
-NodeEmbedding embed_in_nodes(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3d& V0, const Eigen::MatrixX3i& F,
-                             int nodes) {
+NodeEmbedding embed_in_nodes(const TemplateFace& face, const Eigen::MatrixX3d& V0, int nodes) {
+  const Eigen::MatrixX3i& F = face.mesh.F;
   const Eigen::Index n = V0.rows();
   NodeEmbedding e;
-  if (nodes > 0 && n > nodes + nodes / 5) {
-    const std::shared_ptr<const NodeLayout> layout = node_layout(rest, F, nodes);
+  if (uses_node_mesh(n, nodes)) {
+    const std::shared_ptr<const NodeLayout> layout = node_layout(face, nodes);
     e.F = layout->F;
     e.V.resize(Eigen::Index(layout->face.size()), 3);
     for (Eigen::Index j = 0; j < e.V.rows(); ++j) {
@@ -321,7 +290,7 @@ class Nicp {
       : face_(face), options_(options), surface_(surface), stats_(stats), ids_(landmark_ids(options)),
         centre_(V0.colwise().mean()),
         radius_(std::sqrt((V0.rowwise() - centre_).rowwise().squaredNorm().mean())),
-        e_(timed(stats.seconds_nodes, [&] { return embed_in_nodes(face.mesh.V, V0, face.mesh.F, options.nodes); })),
+        e_(timed(stats.seconds_nodes, [&] { return embed_in_nodes(face, V0, options.nodes); })),
         m_(e_.V.rows()) {
     stats.nodes = int(m_);
     v_ = homogeneous(e_.V);

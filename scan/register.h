@@ -47,7 +47,7 @@ struct RegisterOptions {
   bool project = true;               // finally move accepted vertices onto their closest scan point
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
-  int nodes = 2000;
+  int nodes = kDefaultNodes;  // 2000: the template folder keeps this layout (template/node_layout.h)
   // Per landmark (68 values, or empty: unknown): the detector's uncertainty (mm). The model prior weights each landmark
   // by (median σ / σ_k)², and so does NICP's landmark term when sigma_weighted_nicp is set.
   std::vector<double> landmark_sigma_mm;

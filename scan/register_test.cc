@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/test_util.h"
 #include "scan/test_template.h"
 #include "scan/register.h"
 #include "scan/register_folder.h"
@@ -307,6 +308,29 @@ TEST(Register, ModelFitVerticesAreSpreadEvenly) {
   EXPECT_GT(closest, 0.5 * even);
   EXPECT_LT(farthest, 1.5 * even);
   EXPECT_EQ(spread_vertices(mesh.V, mesh.F, 0).size(), size_t(mesh.V.rows()));
+}
+
+// The node mesh stored in a template folder (template/node_layout.h) is the one a registration would make: the same
+// bytes out, without the remesh; a layout made for other vertices is not used, and a damaged file is named.
+TEST(Register, TheTemplateFoldersNodeLayoutGivesTheSameRegistration) {
+  const std::string dir = testing::temp_dir() + "/node_template";
+  write_template(dir, test_template(), "test");
+  const TemplateFace stored = read_template_folder(dir);
+  ASSERT_TRUE(stored.nodes);
+  TemplateFace bare = stored;
+  bare.nodes.reset();
+  const SyntheticScan scan = make_scan(4);
+  const Registration with = register_scan(stored, scan.mesh, &scan.landmarks);
+  const Registration without = register_scan(bare, scan.mesh, &scan.landmarks);
+  EXPECT_EQ(with.stats.nodes, without.stats.nodes);
+  EXPECT_TRUE(with.V == without.V) << "max difference " << (with.V - without.V).cwiseAbs().maxCoeff() << " mm";
+  EXPECT_LT(10 * with.stats.seconds_nodes, without.stats.seconds_nodes);  // read, not remeshed
+  TemplateFace moved = stored;  // a layout of other vertices (an edited face.obj) is made again, not used
+  moved.mesh.V(0, 0) += 1e-6;
+  const Registration remade = register_scan(moved, scan.mesh, &scan.landmarks);
+  EXPECT_GT(remade.stats.seconds_nodes, 10 * with.stats.seconds_nodes);
+  write_file_atomic(dir + "/nodes.safetensors", "not a safetensors file");
+  EXPECT_THROW(read_template_folder(dir), InvalidInput);
 }
 
 TEST(Register, BadLandmarksAreNamed) {

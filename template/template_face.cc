@@ -206,6 +206,11 @@ void write_template(const std::string& dir, const TemplateFace& face, const std:
   st.set_metadata("uv_origin", "bottom-left");
   st.set_metadata("provenance", provenance);
   st.write(dir + "/face.safetensors");
+  const Mesh written = read_mesh(dir + "/face.obj");  // the layout's fingerprint is of the vertices readers will see
+  if (uses_node_mesh(written.V.rows(), kDefaultNodes))
+    write_node_layout(dir + "/nodes.safetensors", make_node_layout(written.V, written.F, kDefaultNodes));
+  else
+    std::filesystem::remove(dir + "/nodes.safetensors");  // an older, denser template's
 }
 
 TemplateFace read_template(const std::string& obj_path, const std::string& landmarks_path) {
@@ -243,6 +248,8 @@ TemplateFace read_template(const std::string& obj_path, const std::string& landm
       }
     }
   }
+  const std::string nodes = (std::filesystem::path(landmarks_path).parent_path() / "nodes.safetensors").string();
+  if (std::filesystem::exists(nodes)) t.nodes = std::make_shared<const NodeLayout>(read_node_layout(nodes));
   return t;
 }
 

@@ -4,12 +4,14 @@
 // can take its place: see read_template.
 #pragma once
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/mesh.h"
 #include "core/progress.h"
 #include "template/mediapipe_face.h"
+#include "template/node_layout.h"
 
 namespace bareskin {
 
@@ -17,6 +19,8 @@ struct TemplateFace {
   Mesh mesh;                                        // V in mm, UV per corner
   std::vector<int> landmark_vertices;               // 68 vertex ids, iBUG order
   std::map<std::string, std::vector<int>> regions;  // named vertex contours (lips, eyes, brows, silhouette)
+  // NICP's node mesh for kDefaultNodes (the folder's nodes.safetensors; null when the folder has none).
+  std::shared_ptr<const NodeLayout> nodes;
 };
 
 struct TemplateOptions {
@@ -35,12 +39,13 @@ TemplateFace coarse_template(const CanonicalFace& face, const FaceMeshTables& ta
 TemplateFace refine_template(const TemplateFace& coarse, const TemplateOptions& options,
                              const ProgressCallback& progress = {});
 
-// Writes dir/face.obj, dir/landmarks.json (3D points + "vertex_ids"), dir/regions.json and dir/face.safetensors
-// (V, F, UV, FUV, landmark ids) for the Torch side, which reads no OBJ.
+// Writes dir/face.obj, dir/landmarks.json (3D points + "vertex_ids"), dir/regions.json, dir/face.safetensors
+// (V, F, UV, FUV, landmark ids) for the Torch side, which reads no OBJ, and dir/nodes.safetensors (NICP's node mesh,
+// node_layout.h, made from face.obj as read back) when the template is dense enough to use one.
 void write_template(const std::string& dir, const TemplateFace& face, const std::string& provenance);
 
 // Reads a template: an OBJ with UVs plus a landmark JSON holding either "vertex_ids" or 68 3D points (snapped to the
-// nearest vertex). regions.json beside the landmarks is optional.
+// nearest vertex). regions.json and nodes.safetensors beside the landmarks are optional.
 TemplateFace read_template(const std::string& obj_path, const std::string& landmarks_path);
 
 // The template folder (face.obj + landmarks.json) commands use: `given` (--template) if not empty, else the search
