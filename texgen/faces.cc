@@ -561,16 +561,16 @@ FacesReport FaceGenerator::run(const detect::PhotoDetector& detector, const Prog
       done += e - b;
       report(progress, done, total, "faces");
     }
-    // Written into a hidden folder beside the split, then renamed into place: a kill leaves no partial shard.
-    const fs::path partial = dir / ("." + name + ".partial");
-    fs::remove_all(partial);
+    // Written into a hidden folder of this process beside the split (never committed: the scratch goes when it leaves
+    // scope, a killed run's is removed by the next run), then the shard is renamed into place: a kill leaves no partial
+    // shard, and two runs over the same output never write into each other's files.
+    const AtomicDirectory scratch((dir / name).string());
     {
-      shards::ShardWriter writer(partial.string(), "faces", int64_t(samples.size()) + 1);
+      shards::ShardWriter writer(scratch.path(), "faces", int64_t(samples.size()) + 1);
       for (const auto& s : samples) writer.write(s);
       writer.finish();
     }
-    fs::rename(partial / "faces-000000.tar", dir / name);
-    fs::remove_all(partial);
+    fs::rename(fs::path(scratch.path()) / "faces-000000.tar", dir / name);
     ++out.shards_written;
     out.samples_written += int64_t(samples.size());
   }

@@ -218,7 +218,8 @@ expect_error nomaps_asked "0 of 8 subjects have a diffuse map" --registered "$d"
 clean_build() { build "$work/s" --registered "$work/k/registered" --maps-res 64 -o "$work/k/model.safetensors"; }
 clean_build || fail "mm-build from scans"
 mv "$work/k/model.safetensors" "$work/reference.safetensors" && rm -rf "$work/k"
-clean_build &
+"$bin" mm-build -q --template "$work/t" --appearance-res 32 "$work/s" --registered "$work/k/registered" --maps-res 64 \
+  -o "$work/k/model.safetensors" &  # clean_build's flags, the binary itself in the background (kill -9 must end it)
 pid=$!
 for _ in $(seq 200); do
   [ "$(ls "$work/k/registered" 2> /dev/null | grep -c subject_)" -ge 2 ] && break

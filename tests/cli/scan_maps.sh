@@ -32,7 +32,8 @@ ok
 # The kill must land mid-run: the process still running when killed (SIGKILL is what ended it), at least one subject
 # finished and at least one not, else the resume would prove nothing.
 synth --count 3 --res 512 -o "$work/ref" || fail "reference run"
-synth --count 3 --res 512 -o "$work/killed" &
+"$bin" scan synth -q --template "$work/t" --vertices 3000 --count 3 --res 512 -o "$work/killed" &  # not the function: see
+# cli/texgen_faces.sh (kill -9 must end the binary, not a subshell around it)
 pid=$!
 for _ in $(seq 1 600); do [ -d "$work/killed/subject_0000" ] && break; sleep 0.05; done
 kill -9 $pid 2> /dev/null || fail "the run had ended before kill -9"

@@ -62,8 +62,9 @@ for split in ("train", "val", "test"):
 assert sum(1 for s in subjects if s.startswith("scan/")) == 3 and sum(1 for s in subjects if s.startswith("mm/")) == 5
 PY
 
-# kill -9 mid-run, then resume: the same bytes as the uninterrupted run.
-make "$work/b" --count 24 --shard-size 2 > /dev/null 2>&1 &
+# kill -9 mid-run, then resume: the same bytes as the uninterrupted run. The binary itself runs in the background (a
+# shell function run with & is a subshell: kill -9 would end the subshell and leave the binary writing beside the resume).
+"$bin" "${args[@]}" -o "$work/b" --count 24 --shard-size 2 > /dev/null 2>&1 &
 pid=$!
 for _ in $(seq 1 600); do
   ls "$work"/b/*/faces-*.tar > /dev/null 2>&1 && break
