@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -22,6 +23,10 @@
 
 namespace bareskin {
 namespace {
+
+// Below this share of template vertices with an accepted closest point at the end, a registration has nothing to
+// stand on (a fragment, a wrong unit, no face) and is refused rather than written.
+constexpr double kMinAcceptedFraction = 0.3;
 
 namespace fs = std::filesystem;
 
@@ -225,6 +230,12 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
     }
   }
   const Registration reg = register_scan(face, scan, landmarks, lm.nicp, {}, texture, model);
+  if (reg.stats.accepted_fraction < kMinAcceptedFraction) {  // a fragment, or no face: nothing is registered to
+    char what[160];
+    std::snprintf(what, sizeof what, "the template found this surface under only %.0f%% of its vertices (a face scan: 80%%+)",
+                  100 * reg.stats.accepted_fraction);
+    throw InvalidInput(mesh_path, what, "give a whole face scan in millimetres, not a fragment");
+  }
   const Truth truth = read_truth(scan_dir, face.mesh.V.rows());
   const RegistrationErrors err = measure_registration(face, reg.V, scan, landmarks, truth.point ? &*truth.point : nullptr,
                                                       truth.face ? &*truth.face : nullptr);

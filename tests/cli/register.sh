@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # scan register through the command line: a population registers with errors against the truth and transferred maps;
-# a scan in metres and a mirrored scan each get one line naming the problem (exit 3, nothing written for that scan);
+# a scan in metres, a mirrored scan and a fragment each get one line naming the problem (exit 3, nothing written for that scan);
 # --keep-going registers the rest and lists the failures; without landmarks the fallback is flagged. Scans as users
 # bring them (quads, fewer maps, another folder) are tests/cli/third_party.sh.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -60,7 +60,19 @@ lm = json.load(open(d + "/landmarks.json"))
 lm["points"] = [[-p[0], p[1], p[2]] for p in lm["points"]]
 json.dump(lm, open(d + "/landmarks.json", "w"))
 PY
-for name in metres mirrored; do
+fragment=$(broken fragment)  # only the triangles within 15 mm of the nose tip; the landmarks as they were
+$py - "$fragment/subject_0000" <<'PY'
+import json, sys
+import numpy as np
+d = sys.argv[1]
+lines = open(d + "/mesh.obj").readlines()
+V = np.array([[float(t) for t in l.split()[1:4]] for l in lines if l.startswith("v ")])
+tip = np.array(json.load(open(d + "/landmarks.json"))["points"][30])
+near = np.linalg.norm(V - tip, axis=1) < 15
+keep = lambda l: not l.startswith("f ") or all(near[int(t.split("/")[0]) - 1] for t in l.split()[1:])
+open(d + "/mesh.obj", "w").writelines(l for l in lines if keep(l))
+PY
+for name in metres mirrored fragment; do
   expect_failure 3 "$name" "$work/out_$name" -- reg --scans "$work/b_$name" -o "$work/out_$name"  # no folder left
 done
 
@@ -81,4 +93,4 @@ mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work
 "$bin" scan register -q --no-landmarks --template "$work/t" --maps-res 0 --scans "$work/nolm" -o "$work/out_nolm" \
   || fail "fallback registration"
 grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
-echo "6 passed, 0 failed"
+echo "7 passed, 0 failed"
