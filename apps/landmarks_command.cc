@@ -143,8 +143,8 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                                                             "features on faint texture)")
       ->capture_default_str()->check(CLI::Range(0.0001, 0.1))->group("COLMAP");
   s->add_flag("--colmap-dsp", sc->colmap.domain_size_pooling, "With --capture: DSP-SIFT descriptors")->group("COLMAP");
-  s->add_option("--colmap-focal", sc->colmap.focal_px, "With --capture: the rig's focal length in px, COLMAP's starting "
-                                                       "value (default: EXIF, else COLMAP's guess)")
+  s->add_option("--colmap-focal", sc->colmap.focal_px, "With --capture: the rig's calibrated focal length in px, held "
+                                                       "fixed (default: EXIF, else COLMAP's guess, refined)")
       ->check(CLI::PositiveNumber)->group("COLMAP");
   s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
                                                 "this folder: a synthetic capture");

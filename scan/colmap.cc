@@ -126,7 +126,7 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, const
       "colmap exhaustive_matcher --database_path " + db + " --SiftMatching.use_gpu 0 --SiftMatching.num_threads " + t,
       "colmap mapper --database_path " + db + " --image_path " + img + " --output_path " +
           shell_quote(work + "/sparse") + " --Mapper.num_threads " + t + " --Mapper.init_min_num_inliers " +
-          std::to_string(o.init_min_inliers),
+          std::to_string(o.init_min_inliers) + (o.focal_px > 0 ? " --Mapper.ba_refine_focal_length 0" : ""),
   };
   for (const std::string& step : steps)
     if (std::system((step + out).c_str()) != 0)

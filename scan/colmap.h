@@ -34,8 +34,9 @@ struct ColmapOptions {
   double peak_threshold = 0.02 / 3;    // SIFT's contrast threshold (lower: more features on faint texture)
   bool domain_size_pooling = false;    // DSP-SIFT descriptors (better matches across scale, slower)
   int init_min_inliers = 100;          // inliers the mapper's first image pair needs
-  double focal_px = 0;                 // the rig's focal length in px, a starting value COLMAP refines (0: from EXIF,
-                                       // else COLMAP's guess of 1.2 x the photo's size, far off for long lenses)
+  double focal_px = 0;                 // the rig's calibrated focal length in px, held fixed in bundle adjustment
+                                       // (0: COLMAP's, from EXIF, else a guess of 1.2 x the photo's size refined by
+                                       // bundle adjustment: far off for long lenses, and it drifts run to run)
 };
 
 // Reads cameras.txt, images.txt and points3D.txt of a TXT model. Pinhole models (SIMPLE_PINHOLE, PINHOLE) are read
