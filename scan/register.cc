@@ -14,7 +14,6 @@
 #include <unordered_map>
 
 #include "core/error.h"
-#include "core/hash.h"
 #include "core/stats.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
