@@ -182,9 +182,7 @@ struct NodeEmbedding {
 // node count, else made here once per template and node count and kept for the process (a folder of scans pays once).
 std::shared_ptr<const NodeLayout> node_layout(const TemplateFace& face, int nodes) {
   const uint64_t key = node_layout_fingerprint(face.mesh.V, face.mesh.F, nodes);
-  if (face.nodes && face.nodes->template_fingerprint == key && face.nodes->node.size() == size_t(face.mesh.V.rows()) &&
-      std::all_of(face.nodes->face.begin(), face.nodes->face.end(), [&](int f) { return f >= 0 && f < face.mesh.F.rows(); }))
-    return face.nodes;
+  if (face.nodes && face.nodes->template_fingerprint == key) return face.nodes;  // checked against the mesh when read
   static std::mutex mutex;
   static std::map<uint64_t, std::shared_ptr<const NodeLayout>> cache;
   std::lock_guard<std::mutex> lock(mutex);  // another scan's thread waits rather than remeshing the same template

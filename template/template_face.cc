@@ -3,6 +3,7 @@
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Subdivider/Uniform/ModifiedButterFlyT.hh>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -249,7 +250,18 @@ TemplateFace read_template(const std::string& obj_path, const std::string& landm
     }
   }
   const std::string nodes = (std::filesystem::path(landmarks_path).parent_path() / "nodes.safetensors").string();
-  if (std::filesystem::exists(nodes)) t.nodes = std::make_shared<const NodeLayout>(read_node_layout(nodes));
+  if (std::filesystem::exists(nodes)) {
+    NodeLayout layout = read_node_layout(nodes);
+    // Kept only when made for this face.obj (after an edit it is stale: registrations make their own); a file that
+    // claims to be but does not index this mesh is damaged.
+    if (layout.template_fingerprint == node_layout_fingerprint(t.mesh.V, t.mesh.F, kDefaultNodes)) {
+      const bool indexes = layout.node.size() == size_t(t.mesh.V.rows()) &&
+                           std::all_of(layout.face.begin(), layout.face.end(),
+                                       [&](int f) { return f >= 0 && f < t.mesh.F.rows(); });
+      if (!indexes) throw InvalidInput(nodes, "does not index " + obj_path, "remake the folder with `bareskin template`");
+      t.nodes = std::make_shared<const NodeLayout>(std::move(layout));
+    }
+  }
   return t;
 }
 

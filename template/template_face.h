@@ -19,7 +19,7 @@ struct TemplateFace {
   Mesh mesh;                                        // V in mm, UV per corner
   std::vector<int> landmark_vertices;               // 68 vertex ids, iBUG order
   std::map<std::string, std::vector<int>> regions;  // named vertex contours (lips, eyes, brows, silhouette)
-  // NICP's node mesh for kDefaultNodes (the folder's nodes.safetensors; null when the folder has none).
+  // NICP's node mesh for kDefaultNodes (the folder's nodes.safetensors when made for this mesh; else null).
   std::shared_ptr<const NodeLayout> nodes;
 };
 
