@@ -59,8 +59,8 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
       ->capture_default_str()->group("NICP");
   app->add_option("--huber", n.huber_mm, "Robust loss threshold (mm)")->capture_default_str()->group("NICP");
   app->add_option("--tangential-weight", n.tangential_weight,
-                  "Per step: weight on each node's displacement within the tangent plane of the first weighted "
-                  "step's start (a prior that shapes differ along the normals; docs/pipeline.md); zeros: off")
+                  "Per step: weight on each node's displacement along the surface from the start placed by the "
+                  "best-fitting similarity (a prior that shapes differ along the normals; docs/pipeline.md); zeros: off")
       ->capture_default_str()->group("NICP");
   ModelPriorOptions& mp = n.prior;
   app->add_option("--model", f.model,

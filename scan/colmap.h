@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/mesh.h"
+#include "core/similarity.h"
 #include "render/camera.h"
 #include "scan/multiview.h"
 
@@ -55,14 +56,7 @@ ColmapModel run_colmap(const std::string& images, const std::string& work, const
 // verified (two-view geometry) matches, read with the sqlite3 command; -1 each when it cannot be read.
 std::pair<long, long> colmap_database_stats(const std::string& work);
 
-// x_scan = s R x_model + t.
-struct Similarity {
-  double s = 1;
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  Eigen::Vector3d apply(const Eigen::Vector3d& x) const { return s * R * x + t; }
-};
-
+// The similarities below take the model's frame to the scan's: x_scan = s R x_model + t.
 // The similarity taking `from` onto `to` over the rows finite in both (Umeyama); InvalidInput with fewer than 4.
 Similarity similarity_from_points(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to);
 

@@ -16,6 +16,7 @@
 #include "core/error.h"
 #include "core/stats.h"
 #include "core/parallel.h"
+#include "core/similarity.h"
 #include "render/rasterize.h"
 #include "template/surface.h"
 
@@ -276,6 +277,37 @@ struct DenseTerm {
   std::vector<double> weight;          // squared-residual weights
 };
 
+// The similarity under which `rest` best explains `current` as displacements along its `normals`: the (s, R, t)
+// minimising sum_i |P_i (x_i - (s R r_i + t))|^2, P_i = I - (R n_i)(R n_i)^T, by Gauss-Newton from `frame` (the
+// normals held within an iteration; updates R <- exp([w]x) R, s <- s e^sigma, t <- t + tau).
+Similarity normal_displacement_frame(const Eigen::MatrixX3d& rest, const Eigen::MatrixX3d& normals,
+                                     const Eigen::MatrixX3d& current, Similarity frame) {
+  for (int it = 0; it < 8; ++it) {
+    Eigen::Matrix<double, 7, 7> H = Eigen::Matrix<double, 7, 7>::Zero();
+    Eigen::Matrix<double, 7, 1> g = Eigen::Matrix<double, 7, 1>::Zero();
+    for (Eigen::Index i = 0; i < rest.rows(); ++i) {
+      const Eigen::Vector3d a = frame.s * frame.R * rest.row(i).transpose(), n = frame.R * normals.row(i).transpose();
+      const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - n * n.transpose();
+      Eigen::Matrix<double, 3, 7> J;  // d(s R r + t) / d(w, sigma, tau)
+      J.leftCols<3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;  // -[a]x
+      J.col(3) = a;
+      J.rightCols<3>().setIdentity();
+      const Eigen::Matrix<double, 3, 7> PJ = P * J;
+      H += PJ.transpose() * PJ;
+      g += PJ.transpose() * (P * (current.row(i).transpose() - a - frame.t));
+    }
+    H.diagonal().array() += 1e-9 * (1 + H.diagonal().array());  // a flat patch leaves directions unobserved
+    const Eigen::Matrix<double, 7, 1> d = H.ldlt().solve(g);
+    if (!d.allFinite()) break;
+    const Eigen::Vector3d w = d.head<3>();
+    if (w.norm() > 0) frame.R = Eigen::AngleAxisd(w.norm(), w / w.norm()).toRotationMatrix() * frame.R;
+    frame.s *= std::exp(d(3));
+    frame.t += d.tail<3>();
+    if (d.norm() < 1e-10) break;
+  }
+  return frame;
+}
+
 // Phase 2: optimal-step NICP in normalised coordinates (centred, unit RMS radius), so the schedules do not depend on
 // size. Per iteration: A = alpha^2 K + sum_i w_i v_i v_i^T + beta^2 r^T r per landmark (r: the landmark's blended row)
 // [+ w_t r^T r per texture target]; B likewise; X = A^-1 B. dense(): each template vertex by the blend of its node
@@ -301,6 +333,7 @@ class Nicp {
         landmarks_.weight.push_back(sigma_weight.empty() ? 1.0 : sigma_weight[size_t(k)]);
       }
     }
+    rest_normal_ = vertex_normals(v_.leftCols<3>(), e_.F);
     K_ = stiffness_matrix(v_, e_, face.landmark_vertices, options);
     solver_.analyzePattern(K_);
     X_ = Eigen::MatrixXd::Zero(4 * m_, 3);
@@ -338,7 +371,7 @@ class Nicp {
     if (beta > 0) add_dense(landmarks_, beta * beta, A, B);
     if (extra) add_dense(*extra, 1.0, A, B);
     const double w_t = options_.tangential_weight.empty() || stiffness > 0 ? 0.0 : options_.tangential_weight[size_t(s)];
-    if (w_t > 0 && start_.rows() != m_) set_tangential_reference();
+    if (w_t > 0) update_tangential_reference();
     if (w_t > 0)
       for (Eigen::Index i = 0; i < m_; ++i)
         for (int b = 0; b < 4; ++b)
@@ -384,12 +417,16 @@ class Nicp {
     for (Eigen::Index i = 0; i < m_; ++i) P.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
     return to_mm(P);
   }
-  // The tangential prior's reference: the nodes when the term first applies, e.g. after a first, stiff step has
-  // taken out what the landmark similarity left (scale, pose, the face's proportions).
-  void set_tangential_reference() {
-    start_.resize(m_, 3);
-    for (Eigen::Index i = 0; i < m_; ++i) start_.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
-    start_normal_ = vertex_normals(start_, e_.F);
+  // The tangential prior's reference: the start nodes under the similarity that best explains the current nodes as
+  // displacements along the start's normals (refitted at every iteration from the last frame): a reference that has
+  // the scan's placement and scale but none of its shape, so a bump pushes the points over it outward, not aside.
+  void update_tangential_reference() {
+    Eigen::MatrixX3d x(m_, 3);
+    for (Eigen::Index i = 0; i < m_; ++i) x.row(i) = v_.row(i) * X_.block<4, 3>(4 * i, 0);
+    const Eigen::MatrixX3d rest = v_.leftCols<3>();
+    frame_ = normal_displacement_frame(rest, rest_normal_, x, frame_);
+    start_ = (frame_.s * rest * frame_.R.transpose()).rowwise() + frame_.t.transpose();
+    start_normal_ = rest_normal_ * frame_.R.transpose();
   }
   static constexpr int kTangentialSolves = 4;
   // The tangential term's right-hand side: w_t v_i^T t_i per node, t_i = s_i + ((x_i - s_i) . n_i) n_i, where x_i is
@@ -442,6 +479,8 @@ class Nicp {
   NodeEmbedding e_;
   Eigen::Index m_;
   Eigen::MatrixX4d v_, v_dense_;
+  Eigen::MatrixX3d rest_normal_;           // the start nodes' normals
+  Similarity frame_;                       // the tangential prior's frame: start nodes -> reference
   Eigen::MatrixX3d start_, start_normal_;  // the tangential prior's reference nodes and normals (normalised coordinates)
   DenseTerm landmarks_;
   double landmark_scale_ = 1;

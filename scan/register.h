@@ -39,11 +39,11 @@ struct RegisterOptions {
   double huber_mm = 1.0;             // robust loss: weight min(1, huber / distance)
   // Tangential-displacement prior, per step (empty or zeros: off): each node's displacement from a reference is
   // penalised in the reference's tangent plane with this weight (against the closest-point term's <= 1), so that shape
-  // differences are explained along the normals rather than by sliding points over a bump. The reference is the node
-  // mesh when the first step with a weight > 0 begins: the first step's 0 makes it the stiffest fit, which has taken
-  // out what the landmark similarity left (scale, pose, proportions). A prior: shape differences lie mostly along the
-  // normal (bench/BENCHMARKS.md: p95 with true landmarks 1.77 -> 1.65 mm on the demo's scans).
-  std::vector<double> tangential_weight = {0, 0.1, 0.1, 0.1, 0.1, 0.1};
+  // differences are explained along the normals rather than by sliding points over a bump. The reference is NICP's
+  // start under the similarity that best explains the current fit as displacements along the start's normals (refitted
+  // every iteration): the scan's placement and scale, none of its shape. A prior: shape differences lie mostly along
+  // the normal (bench/BENCHMARKS.md: p95 with true landmarks 1.65 -> 1.16 mm on the demo's scans).
+  std::vector<double> tangential_weight = {0.1, 0.1, 0.1, 0.1, 0.1, 0.1};
   bool project = true;               // finally move accepted vertices onto their closest scan point
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).
