@@ -2,15 +2,92 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fmt/format.h>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
+#include "core/stats.h"
 
 namespace bareskin::detect {
+
+namespace {
+
+// The capture's camera model: the user's sparse model, or COLMAP run on the photos (its database and models removed
+// once read; its log stays, named in the messages). Nullopt, after one warning naming the fallback, when COLMAP
+// reconstructs nothing.
+std::optional<ColmapModel> capture_model(const CaptureLandmarkOptions& c, int views) {
+  if (!c.sparse.empty()) return read_colmap_text_model(c.sparse);
+  const std::string work = (std::filesystem::temp_directory_path() /
+                            ("bareskin_colmap_" + std::to_string(std::hash<std::string>{}(c.photos) % 1000000)))
+                               .string();
+  std::filesystem::remove_all(work);
+  std::filesystem::remove(work + ".log");
+  try {
+    ColmapModel model = run_colmap(c.photos, work, c.colmap, work + ".log");
+    std::filesystem::remove_all(work);
+    return model;
+  } catch (const Error& e) {
+    std::filesystem::remove_all(work);
+    spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), views);
+    return std::nullopt;
+  }
+}
+
+// The model's frame on the scan's, and what it took.
+struct CaptureAlignment {
+  std::vector<LandmarkView> views;  // the photos' detections, cameras in the model's frame; dropped ones score 0
+  std::vector<int> dropped;         // photos whose camera disagrees with the others
+  Similarity S;
+  double icp_rms_mm = 0;
+  Eigen::Index on_head = 0;
+  double landmark_gap_mm = 0;  // median over 17-67: the photos' landmarks, aligned, to the virtual views'
+};
+
+// Detects the landmarks in each photo, leaves out photos whose camera disagrees with the others, and brings the
+// model's frame onto the scan: a similarity from landmarks 17-67 (photos vs virtual views), then ICP of the model's
+// head points (those within a tenth of the scan's `size` after the landmark start, which is good to a few mm: not the
+// backdrop, floor or rig). Nullopt when too few landmarks are found on the photos.
+std::optional<CaptureAlignment> align_capture(const FaceApi& net, const Mesh& mesh, double size,
+                                              const Eigen::MatrixX3d& on_scan, const ColmapModel& model,
+                                              const std::string& capture, const MultiviewOptions& options) {
+  CaptureAlignment a;
+  for (const ColmapImage& im : model.images)
+    a.views.push_back(detect_view(net, read_image(capture + "/" + im.name), im.camera, options.refinements,
+                                  options.triangulate.min_score));
+  // The start: landmarks 17-67 in the model's frame (photos) against the scan's (virtual views).
+  Eigen::MatrixX3d in_model = triangulate_free(a.views, options.triangulate.pixel_sigma, options.triangulate.min_score);
+  // A photo COLMAP placed wrongly disagrees with the points the others triangulate: it takes no further part.
+  a.dropped = inconsistent_views(a.views, in_model, options.triangulate.min_score);
+  for (int v : a.dropped) {
+    spdlog::warn("landmarks scan: {}/{}: its camera disagrees with the other photos (the landmarks they triangulate "
+                 "project far from its detections): left out", capture, model.images[size_t(v)].name);
+    a.views[size_t(v)].score = 0;
+  }
+  if (!a.dropped.empty())
+    in_model = triangulate_free(a.views, options.triangulate.pixel_sigma, options.triangulate.min_score);
+  in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
+  try {
+    a.S = similarity_from_points(in_model, on_scan);
+    const Eigen::MatrixX3d head = points_near_mesh(model.points, mesh, a.S, 0.1 * size);
+    a.on_head = head.rows();
+    a.S = align_points_to_mesh(head, mesh, a.S, 100, 0.2, &a.icp_rms_mm);
+  } catch (const InvalidInput&) {
+    return std::nullopt;
+  }
+  std::vector<double> gap;
+  for (Eigen::Index i = 17; i < 68; ++i)
+    if (in_model.row(i).allFinite() && on_scan.row(i).allFinite())
+      gap.push_back((a.S.apply(in_model.row(i).transpose()) - on_scan.row(i).transpose()).norm());
+  a.landmark_gap_mm = gap.empty() ? std::numeric_limits<double>::infinity() : median(gap);
+  return a;
+}
+
+}  // namespace
 
 nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, MultiviewScanLandmarks& m,
                                  const CaptureLandmarkOptions& c, const MultiviewOptions& options) {
@@ -21,78 +98,55 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
     const std::string ext = lower_extension(e.path().string());
     photos += ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
   }
+  const double size = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
+  // A model whose aligned landmarks land far from the virtual views' (more than 5% of the scan's size; they agree to
+  // 1-3 mm on a good one) is distorted: COLMAP's matching is not repeatable, so its own run gets one more try.
+  const int tries = c.sparse.empty() ? 2 : 1;
   ColmapModel model;
-  if (!c.sparse.empty()) {
-    model = read_colmap_text_model(c.sparse);
-  } else {
-    const std::string work = (std::filesystem::temp_directory_path() /
-                              ("bareskin_colmap_" + std::to_string(std::hash<std::string>{}(capture) % 1000000)))
-                                 .string();
-    std::filesystem::remove_all(work);
-    std::filesystem::remove(work + ".log");
-    // COLMAP's database and models are removed once read; its log stays (named in the messages).
-    try {
-      model = run_colmap(capture, work, c.colmap, work + ".log");
-      std::filesystem::remove_all(work);
-    } catch (const Error& e) {
-      std::filesystem::remove_all(work);
-      spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", e.what(), options.views);
+  CaptureAlignment a;
+  for (int attempt = 1;; ++attempt) {
+    std::optional<ColmapModel> found = capture_model(c, options.views);
+    if (!found) return nullptr;
+    model = std::move(*found);
+    std::optional<CaptureAlignment> aligned = align_capture(net, mesh, size, m.result.landmarks.points, model, capture, options);
+    if (!aligned) {
+      spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back "
+                   "to the {} virtual views of the scan", capture, options.views);
       return nullptr;
     }
-  }
-  std::vector<LandmarkView> views;
-  for (const ColmapImage& im : model.images)
-    views.push_back(detect_view(net, read_image(capture + "/" + im.name), im.camera, options.refinements,
-                                        options.triangulate.min_score));
-  // The start: landmarks 17-67 in the model's frame (photos) against the scan's (virtual views).
-  Eigen::MatrixX3d in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
-  // A photo COLMAP placed wrongly disagrees with the points the others triangulate: it takes no further part.
-  const std::vector<int> dropped = inconsistent_views(views, in_model, options.triangulate.min_score);
-  for (int v : dropped) {
-    spdlog::warn("landmarks scan: {}/{}: its camera disagrees with the other photos (the landmarks they triangulate "
-                 "project far from its detections): left out", capture, model.images[size_t(v)].name);
-    views[size_t(v)].score = 0;
-  }
-  if (!dropped.empty())
-    in_model = triangulate_free(views, options.triangulate.pixel_sigma, options.triangulate.min_score);
-  Eigen::MatrixX3d on_scan = m.result.landmarks.points;
-  in_model.topRows(17).setConstant(std::numeric_limits<double>::quiet_NaN());
-  Similarity S;
-  double rms = 0;
-  Eigen::Index on_head = 0;
-  try {
-    S = similarity_from_points(in_model, on_scan);
-    // ICP on the head's points only: those on a backdrop, floor or rig are dropped by their distance to the mesh
-    // after the landmark start (a tenth of the scan's size: the start is good to a few mm).
-    const double size = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
-    const Eigen::MatrixX3d head = points_near_mesh(model.points, mesh, S, 0.1 * size);
-    on_head = head.rows();
-    S = align_points_to_mesh(head, mesh, S, 100, 0.2, &rms);
-  } catch (const InvalidInput&) {
-    spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back to "
-                 "the {} virtual views of the scan", capture, options.views);
-    return nullptr;
+    a = std::move(*aligned);
+    if (a.landmark_gap_mm <= 0.05 * size) break;
+    const std::string why = fmt::format("{}: the photos' landmarks land {:.1f} mm from the virtual views' once COLMAP's "
+                                        "model is aligned to the scan (ICP RMS {:.2f} mm): the model is distorted",
+                                        capture, a.landmark_gap_mm, a.icp_rms_mm);
+    if (attempt >= tries) {
+      spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", why, options.views);
+      return nullptr;
+    }
+    spdlog::warn("landmarks scan: {}; running COLMAP once more", why);
   }
   nlohmann::json cams = nlohmann::json::array();
+  std::vector<LandmarkView>& views = a.views;
   for (size_t v = 0; v < views.size(); ++v) {
-    views[v].camera = transform_camera(views[v].camera, S);
-    const Camera& c = views[v].camera;
+    views[v].camera = transform_camera(views[v].camera, a.S);
+    const Camera& cam = views[v].camera;
     nlohmann::json R = nlohmann::json::array();
-    for (int r = 0; r < 3; ++r) R.push_back({c.R(r, 0), c.R(r, 1), c.R(r, 2)});
-    cams.push_back({{"image", model.images[v].name}, {"focal", c.focal}, {"cx", c.cx}, {"cy", c.cy}, {"R", R},
-                    {"t", {c.t.x(), c.t.y(), c.t.z()}}, {"score", views[v].score},
-                    {"dropped", std::count(dropped.begin(), dropped.end(), int(v)) > 0}});
+    for (int r = 0; r < 3; ++r) R.push_back({cam.R(r, 0), cam.R(r, 1), cam.R(r, 2)});
+    cams.push_back({{"image", model.images[v].name}, {"focal", cam.focal}, {"cx", cam.cx}, {"cy", cam.cy}, {"R", R},
+                    {"t", {cam.t.x(), cam.t.y(), cam.t.z()}}, {"score", views[v].score},
+                    {"dropped", std::count(a.dropped.begin(), a.dropped.end(), int(v)) > 0}});
   }
   m.result = triangulate_landmarks(mesh, views, options.triangulate);
   m.views = views;
   m.pictures.clear();
   spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points ({} on the head), reprojection "
-               "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%)", capture,
-               model.images.size(), photos, model.points.rows(), on_head, model.reprojection_px, S.s, rms);
+               "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%, landmarks {:.2f} mm "
+               "from the virtual views')", capture, model.images.size(), photos, model.points.rows(), a.on_head,
+               model.reprojection_px, a.S.s, a.icp_rms_mm, a.landmark_gap_mm);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
-          {"points_on_head", on_head}, {"cameras_dropped", dropped.size()}, {"reprojection_px", model.reprojection_px}, {"scale", S.s},
-          {"icp_rms_mm", rms}, {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs},
-          {"cameras", cams}};
+          {"points_on_head", a.on_head}, {"cameras_dropped", a.dropped.size()}, {"reprojection_px", model.reprojection_px},
+          {"scale", a.S.s}, {"icp_rms_mm", a.icp_rms_mm}, {"landmark_gap_mm", a.landmark_gap_mm},
+          {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs}, {"cameras", cams}};
 }
 
 }  // namespace bareskin::detect

@@ -58,6 +58,24 @@ for k in 1 2 3; do oiiotool --pattern constant:color=0.5,0.5,0.5 256x256 3 -d ui
   || fail "not one warning naming the fallback: $(cat "$work/fallback.log")"
 [ -s "$work/fallback.json" ] && ! grep -q '"capture"' "$work/fallback.json" || fail "fallback output"
 
+# 2b. A model whose points disagree with its cameras (a user's --sparse model of the true cameras, its points shifted
+# 20 mm: ICP fits the points, so the cameras land 20 mm off, as in a distorted COLMAP run): one warning naming the
+# fallback, exit 0, output without the capture.
+$py "$here/../../bench/capture_model.py" "$work/photos/cameras.json" "$scan/mesh.obj" "$work/sparse" --points 2000 \
+  > /dev/null || fail "capture_model.py"
+$py - "$work/sparse/points3D.txt" <<'PY' || fail "shift the points"
+import sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+for f in rows:
+    f[1] = "%.9g" % (float(f[1]) + 0.0137 * 20)  # capture_model.py's frame: 0.0137 model units per mm
+open(sys.argv[1], "w").write("".join(" ".join(f) + "\n" for f in rows))
+PY
+"$bin" landmarks scan -q "$scan" --views 8 --view-size 256 --capture "$work/photos" --sparse "$work/sparse" \
+  -o "$work/distorted.json" 2> "$work/distorted.log" || fail "the distorted model's fallback failed: $(cat "$work/distorted.log")"
+grep -q "the model is distorted; falling back to the 8 virtual views" "$work/distorted.log" \
+  || fail "no warning naming the distorted model's fallback: $(cat "$work/distorted.log")"
+[ -s "$work/distorted.json" ] && ! grep -q '"capture"' "$work/distorted.json" || fail "distorted model's output"
+
 # 3. Bad input: one line, exit 3, no output.
 expect_failure 3 "is not a folder" "$work/bad.json" -- "$bin" landmarks scan -q "$scan" --views 4 \
   --capture "$work/nothing" -o "$work/bad.json"
