@@ -108,7 +108,8 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
     std::optional<ColmapModel> found = capture_model(c, options.views);
     if (!found) return nullptr;
     model = std::move(*found);
-    std::optional<CaptureAlignment> aligned = align_capture(net, mesh, size, m.result.landmarks.points, model, capture, options);
+    std::optional<CaptureAlignment> aligned =
+        align_capture(net, mesh, size, m.result.landmarks.points, model, capture, options);
     if (!aligned) {
       spdlog::warn("landmarks scan: {}: too few landmarks found on the photos to align COLMAP's model; falling back "
                    "to the {} virtual views of the scan", capture, options.views);
@@ -116,9 +117,10 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
     }
     a = std::move(*aligned);
     if (a.landmark_gap_mm <= 0.05 * size) break;
-    const std::string why = fmt::format("{}: the photos' landmarks land {:.1f} mm from the virtual views' once COLMAP's "
-                                        "model is aligned to the scan (ICP RMS {:.2f} mm): the model is distorted",
-                                        capture, a.landmark_gap_mm, a.icp_rms_mm);
+    const std::string why =
+        fmt::format("{}: the photos' landmarks land {:.1f} mm from the virtual views' once COLMAP's model is "
+                    "aligned to the scan (ICP RMS {:.2f} mm): the model is distorted",
+                    capture, a.landmark_gap_mm, a.icp_rms_mm);
     if (attempt >= tries) {
       spdlog::warn("landmarks scan: {}; falling back to the {} virtual views of the scan", why, options.views);
       return nullptr;
@@ -144,8 +146,9 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
                "from the virtual views')", capture, model.images.size(), photos, model.points.rows(), a.on_head,
                model.reprojection_px, a.S.s, a.icp_rms_mm, a.landmark_gap_mm);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
-          {"points_on_head", a.on_head}, {"cameras_dropped", a.dropped.size()}, {"reprojection_px", model.reprojection_px},
-          {"scale", a.S.s}, {"icp_rms_mm", a.icp_rms_mm}, {"landmark_gap_mm", a.landmark_gap_mm},
+          {"points_on_head", a.on_head}, {"cameras_dropped", a.dropped.size()},
+          {"reprojection_px", model.reprojection_px}, {"scale", a.S.s}, {"icp_rms_mm", a.icp_rms_mm},
+          {"landmark_gap_mm", a.landmark_gap_mm},
           {"median_features", model.median_features}, {"verified_pairs", model.verified_pairs}, {"cameras", cams}};
 }
 

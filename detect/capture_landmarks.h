@@ -25,8 +25,9 @@ struct CaptureLandmarkOptions {
 // `found` holds the scan's virtual-view landmarks (detect_multiview_landmarks), the start of the alignment. On success
 // found.result and found.views are replaced by the photos' and a summary (photos, registered cameras, points,
 // reprojection, alignment, each camera on the scan) is returned. When COLMAP cannot reconstruct the folder, too few
-// landmarks are found on the photos or the model stays distorted, one warning names the fallback (the virtual views, left in `found`) and null is
-// returned. InvalidInput when the folder does not exist or the sparse model cannot be read.
+// landmarks are found on the photos or the model stays distorted, one warning names the fallback (the virtual views,
+// left in `found`) and null is returned. InvalidInput when the folder does not exist or the sparse model cannot be
+// read.
 nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& scan, MultiviewScanLandmarks& found,
                                  const CaptureLandmarkOptions& capture, const MultiviewOptions& options);
 
