@@ -42,12 +42,18 @@ def boundary_vertices(F):
     u, c = np.unique(e, axis=0, return_counts=True)
     return np.unique(u[c == 1])
 
+def vertex_normals(V, F):
+    """Area-weighted vertex normals (unit length)."""
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(N, F[:, k], fn)
+    return N / np.linalg.norm(N, axis=1, keepdims=True)
+
 def main():
     template, registered, scans = sys.argv[1], sys.argv[2], sys.argv[3]
     Vt, Ft = read_obj(os.path.join(template, 'face.obj'))
-    fn = np.cross(Vt[Ft[:, 1]] - Vt[Ft[:, 0]], Vt[Ft[:, 2]] - Vt[Ft[:, 0]]); Nt = np.zeros_like(Vt)
-    for k in range(3): np.add.at(Nt, Ft[:, k], fn)
-    Nt /= np.linalg.norm(Nt, axis=1, keepdims=True)
+    Nt = vertex_normals(Vt, Ft)
     lm = np.array(json.load(open(os.path.join(template, 'landmarks.json')))['points'])
     lmv = cKDTree(Vt).query(lm)[1]
     rim = cKDTree(Vt[boundary_vertices(Ft)]).query(Vt)[0]
@@ -56,8 +62,6 @@ def main():
                ('nose (27-35, 12 mm)', near_lm(list(range(27, 36)), 12)), ('eyes (36-47, 8 mm)', near_lm(list(range(36, 48)), 8)),
                ('mouth (48-67, 8 mm)', near_lm(list(range(48, 68)), 8)), ('brows (17-26, 8 mm)', near_lm(list(range(17, 27)), 8)),
                ('jaw line (0-16, 10 mm)', near_lm(list(range(0, 17)), 10))]
-    tot = {name: [] for name, _ in regions}; tot['next to a hole (5 mm)'] = []; tot['rest'] = []
-    shares = []
     for d in sorted(glob.glob(os.path.join(registered, 'subject_*'))):
         sid = os.path.basename(d)
         V, N, F = read_ply(os.path.join(d, 'mesh.ply'))

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from register_errmap import read_obj, read_ply, safetensors  # noqa: E402
+from register_errmap import read_obj, read_ply, safetensors, vertex_normals  # noqa: E402
 
 
 def umeyama(X, Y):
@@ -46,11 +46,7 @@ def tangential(D, N, valid):
 def main():
     template, registered, scans = sys.argv[1:4]
     Vt, Ft = read_obj(os.path.join(template, 'face.obj'))
-    fn = np.cross(Vt[Ft[:, 1]] - Vt[Ft[:, 0]], Vt[Ft[:, 2]] - Vt[Ft[:, 0]])
-    Nt = np.zeros_like(Vt)
-    for k in range(3):
-        np.add.at(Nt, Ft[:, k], fn)
-    Nt /= np.linalg.norm(Nt, axis=1, keepdims=True)
+    Nt = vertex_normals(Vt, Ft)
     lmv = cKDTree(Vt).query(np.array(json.load(open(os.path.join(template, 'landmarks.json')))['points']))[1]
     rng = np.random.default_rng(0)
     print("scan: truth's tangential displacement median / p95 (mm) from rest | landmarks | fitted; registration error")
