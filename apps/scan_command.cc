@@ -45,6 +45,8 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
   RegisterOptions& n = f.nicp;
   app->add_option("--stiffness", n.stiffness, "NICP stiffness schedule")->capture_default_str()->group("NICP");
   app->add_option("--landmark-weight", n.landmark_weight, "Landmark weight per step")->capture_default_str()->group("NICP");
+  app->add_option("--landmark-ids", n.landmark_ids, "Use only these landmarks (iBUG 0-67; default: all)")
+      ->check(CLI::Range(0, 67))->group("NICP");
   app->add_option("--trim", n.trim_mm, "Correspondence distance trim per step (mm)")->capture_default_str()->group("NICP");
   app->add_option("--nodes", n.nodes, "NICP node count (template remeshed; 0: every template vertex)")
       ->capture_default_str()->group("NICP");
@@ -87,6 +89,12 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
   TextureRefineOptions& t = n.texture;
   app->add_option("--texture-refine", t.iterations,
                   "Rounds of texture-aware refinement after NICP (flow in UV to --texture-reference; 0: off)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-landmarks", t.landmark_rounds,
+                  "Rounds of finding the brows, eyes and lips in the scan's texture (flow to --texture-reference) and "
+                  "registering again from them (for detected landmarks; docs/pipeline.md; 0: off)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--texture-landmark-res", t.landmark_resolution, "UV size of the texture landmarks' flow (power of two)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-reference", f.texture_reference,
                   "Reference diffuse in the template UV (e.g. the mean of a first pass's diffuse maps; "

@@ -563,6 +563,16 @@ void texture_rounds(const TemplateFace& face, const Mesh& scan, const Registrati
   }
 }
 
+// The hand-placed landmarks' weights (RegisterOptions' default) for a schedule of `steps` steps: the default when the
+// lengths agree, else from its first value to its last, geometrically.
+std::vector<double> hand_placed_landmark_weights(size_t steps) {
+  const std::vector<double> w = RegisterOptions{}.landmark_weight;
+  if (steps == w.size()) return w;
+  std::vector<double> out(steps, w.front());
+  for (size_t k = 1; k < steps; ++k) out[k] = w.front() * std::pow(w.back() / w.front(), double(k) / double(steps - 1));
+  return out;
+}
+
 }  // namespace
 
 void RegisterOptions::check() const {
@@ -651,20 +661,41 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
 
   // 2. Optimal-step NICP on the nodes, the dense template following them.
   const auto t_nicp = std::chrono::steady_clock::now();
-  Nicp nicp(face, V0, landmarks, options, surface, stats);
-  if (model) nicp.scale_landmark_weights(options.prior.nicp_landmark_scale);
-  nicp.run(progress);
-  out.V = nicp.dense();
+  auto nicp = std::make_unique<Nicp>(face, V0, landmarks, options, surface, stats);
+  if (model) nicp->scale_landmark_weights(options.prior.nicp_landmark_scale);
+  nicp->run(progress);
+  out.V = nicp->dense();
 
   // 3. Projection: accepted vertices go onto the scan (the last step's rejection rules).
   project_onto_scan(out, face.mesh.F, surface, options);
   stats.seconds_nicp = seconds_since(t_nicp);
 
+  // 3b. Texture landmarks: the brows, eyes and lips where the scan's texture puts them, then NICP again from them.
+  const bool textured = texture.scan_diffuse && texture.reference;
+  TextureLandmarks& found = out.texture_landmarks;
+  RegisterOptions again = options;  // outlives the Nicp that refers to it
+  again.landmark_weight = hand_placed_landmark_weights(options.stiffness.size());
+  again.sigma_weighted_nicp = false;
+  for (int round = 0; textured && round < options.texture.landmark_rounds; ++round) {
+    const auto t_round = std::chrono::steady_clock::now();
+    found = texture_landmarks(face, out.V, scan, surface.locator, *texture.scan_diffuse, *texture.reference, options.texture);
+    stats.texture_landmarks_found.push_back(int(found.ids.size()));
+    stats.texture_landmarks_move_mm.push_back(found.median_move_mm);
+    if (found.ids.size() < 10) break;  // too few features in this texture: keep the registration
+    again.landmark_ids = found.ids;
+    V0 = similarity_alignment(face, scan, &found.landmarks, again, surface, stats);
+    nicp = std::make_unique<Nicp>(face, V0, &found.landmarks, again, surface, stats);
+    nicp->run({});
+    out.V = nicp->dense();
+    project_onto_scan(out, face.mesh.F, surface, again);
+    stats.seconds_texture_landmarks += seconds_since(t_round);
+  }
+
   // 4. Texture refinement: the scan's texture says where along the surface each point belongs.
-  if (options.texture.iterations > 0 && texture.scan_diffuse && texture.reference) {
+  if (options.texture.iterations > 0 && textured) {
     const auto t_texture = std::chrono::steady_clock::now();
     out.V_before_texture = out.V;
-    texture_rounds(face, scan, texture, options, surface, nicp, out);
+    texture_rounds(face, scan, texture, options, surface, *nicp, out);
     stats.seconds_texture = seconds_since(t_texture);
   }
 

@@ -18,6 +18,7 @@
 #include "core/progress.h"
 #include "morphable/model.h"
 #include "scan/model_prior.h"
+#include "scan/texture_landmarks.h"
 #include "scan/texture_refine.h"
 #include "template/template_face.h"
 
@@ -77,6 +78,10 @@ struct RegistrationStats {
   std::vector<int> texture_targets;
   std::vector<double> texture_median_flow_mm;
   double seconds_texture = 0;
+  // Texture landmarks, per round: how many were found, their median move (mm).
+  std::vector<int> texture_landmarks_found;
+  std::vector<double> texture_landmarks_move_mm;
+  double seconds_texture_landmarks = 0;
 };
 
 struct Registration {
@@ -84,6 +89,7 @@ struct Registration {
   std::vector<bool> accepted;  // per template vertex: had an accepted correspondence at the end
   Eigen::MatrixX3d V_before_texture;  // V before the texture refinement (empty when it did not run)
   Eigen::MatrixX3d V_model;           // the model prior's fitted shape, NICP's start (empty without a model)
+  TextureLandmarks texture_landmarks;  // the last round's (no ids when none ran)
   RegistrationStats stats;
 };
 
@@ -101,7 +107,9 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 // Registers the template to `scan`. Without landmarks (nullptr) the fallback is documented: the template is centred
 // and scaled onto the scan's centroid and RMS radius, assuming the scan is in the template's orientation (+y up, +z
 // out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
-// With options.texture.iterations > 0 and both texture images, the texture refinement runs last. With a `model` (built
+// With both texture images, options.texture.landmark_rounds rounds of texture landmarks follow NICP (each: the
+// brows, eyes and lips found in the texture, then the similarity and NICP again from them alone, with the default
+// landmark weights, and no model), and with options.texture.iterations > 0 the texture refinement runs last. With a `model` (built
 // on this template: check_model_template), its shape is fitted after the similarity and NICP starts from it, with its
 // landmark weights times options.prior.nicp_landmark_scale (default 1).
 Registration register_scan(const TemplateFace& face, const Mesh& scan, const Landmarks* landmarks,

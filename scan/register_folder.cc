@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/stats.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -208,6 +209,8 @@ nlohmann::json model_report(const TemplateFace& face, const Registration& reg, c
   return j;
 }
 
+bool uses_texture(const TextureRefineOptions& o) { return o.iterations > 0 || o.landmark_rounds > 0; }
+
 nlohmann::json register_one(const TemplateFace& face, const std::string& scan_dir, const RegisterFolderOptions& options,
                             const Image* texture_reference, const MorphableModel* model) {
   // 1. Read the scan and its landmarks (given, detected or none).
@@ -223,7 +226,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   // 2. Register, and measure against the surface, the landmarks and (for synthetic scans) the truth.
   std::optional<Image> scan_diffuse;
   RegistrationTexture texture;
-  if (options.nicp.texture.iterations > 0 && texture_reference) {
+  if (uses_texture(options.nicp.texture) && texture_reference) {
     if (const std::string p = find_scan_map(scan_dir, "diffuse"); !p.empty() && scan.has_uv()) {
       scan_diffuse = to_linear(read_image(p));
       texture = {&*scan_diffuse, texture_reference};
@@ -271,6 +274,20 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   if (reg.V_before_texture.rows() > 0) report["texture_refine"] = texture_report(face, reg, scan, truth);
   else if (options.nicp.texture.iterations > 0) report["texture_refine"] = {{"note", "the scan has no diffuse map or no UVs: not refined"}};
   report["seconds"]["texture_refine"] = s.seconds_texture;
+  if (!s.texture_landmarks_found.empty()) {
+    report["texture_landmarks"] = {{"rounds", s.texture_landmarks_found.size()},
+                                   {"found", s.texture_landmarks_found},
+                                   {"median_move_mm", s.texture_landmarks_move_mm}};
+    if (truth.point) {  // the last round's landmarks against the truth's points at the template's landmark vertices
+      std::vector<double> e;
+      for (const int k : reg.texture_landmarks.ids)
+        e.push_back((reg.texture_landmarks.landmarks.points.row(k) - truth.point->row(face.landmark_vertices[size_t(k)])).norm());
+      if (!e.empty()) report["texture_landmarks"]["error_mm"] = {{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
+    }
+  } else if (options.nicp.texture.landmark_rounds > 0) {
+    report["texture_landmarks"] = {{"note", "the scan has no diffuse map or no UVs: none found"}};
+  }
+  report["seconds"]["texture_landmarks"] = s.seconds_texture_landmarks;
   report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
                                    ", blue 0 to red " + std::to_string(options.heat_max_mm) + " mm"}};
   write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");
@@ -343,9 +360,10 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
 
   // 2. Register them, in parallel over scans (one scan: the registration's own loops get every thread).
   std::optional<Image> reference;
-  if (options.nicp.texture.iterations > 0 && !todo.empty()) {
+  if (uses_texture(options.nicp.texture) && !todo.empty()) {
     if (options.texture_reference.empty()) {
-      throw InvalidInput("--texture-refine", "needs a reference diffuse in the template UV",
+      throw InvalidInput(options.nicp.texture.iterations > 0 ? "--texture-refine" : "--texture-landmarks",
+                         "needs a reference diffuse in the template UV",
                          "give --texture-reference UV.png (docs/pipeline.md says how to make one)");
     }
     reference = read_image(options.texture_reference);

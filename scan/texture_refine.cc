@@ -138,6 +138,13 @@ void TextureRefineOptions::check() const {
   if (resolution < 64 || resolution > 2048 || (resolution & (resolution - 1)) != 0) {
     throw InvalidInput("", "--texture-res must be a power of two in [64, 2048]", "use 256");
   }
+  if (landmark_rounds < 0 || landmark_rounds > 5) throw InvalidInput("", "--texture-landmarks must lie in [0, 5] rounds", "");
+  if (landmark_resolution < 128 || landmark_resolution > 2048 || (landmark_resolution & (landmark_resolution - 1)) != 0) {
+    throw InvalidInput("", "--texture-landmark-res must be a power of two in [128, 2048]", "use 512");
+  }
+  if (!(landmark_structure_sigma > 0) || !(landmark_window > 0) || !(landmark_smoothing > 0)) {
+    throw InvalidInput("", "texture landmarks' flow sizes must be > 0", "");
+  }
   if (levels < 1 || (resolution >> (levels - 1)) < 16) {
     throw InvalidInput("", "the texture flow needs 1 or more pyramid levels, the coarsest at least 16 texels", "");
   }
@@ -193,7 +200,8 @@ Image resample_square(const Image& image, int size) {
   return out;
 }
 
-Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor) {
+Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor,
+                        TextureChannel channel) {
   BS_CHECK(linear.width == linear.height && linear.channels >= 3, "texture_structure needs a square RGB image");
   const int n = linear.width;
   Plane log_lum = zeros(n), mask = zeros(n);
@@ -201,7 +209,8 @@ Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, 
     const float r = linear.pixels[i * 3], g = linear.pixels[i * 3 + 1], b = linear.pixels[i * 3 + 2];
     if (!valid[i] || !(r + g + b > 0)) continue;
     mask.v[i] = 1;
-    log_lum.v[i] = std::log(0.2126f * r + 0.7152f * g + 0.0722f * b + 0.01f);
+    log_lum.v[i] = channel == TextureChannel::Luminance ? std::log(0.2126f * r + 0.7152f * g + 0.0722f * b + 0.01f)
+                                                        : std::log((r + 0.01f) / (g + 0.01f));
   }
   // A texel's worth of smoothing (pores and sensor noise are not what the flow should follow), then the local mean
   // and deviation; the deviation has a floor so that plain skin stays flat instead of amplified noise.
@@ -245,6 +254,28 @@ UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_
   return out;
 }
 
+int template_triangle_at_uv(const Mesh& mesh, const RasterOutput& raster, const Eigen::Vector2d& uv, Eigen::Vector3d& w) {
+  const int size = raster.width;
+  const int cx = int(std::floor(uv.x() * size)), cy = int(std::floor((1 - uv.y()) * size));
+  for (int r = 0; r <= 1; ++r)
+    for (int y = cy - r; y <= cy + r; ++y)
+      for (int x = cx - r; x <= cx + r; ++x) {
+        if (x < 0 || y < 0 || x >= size || y >= size) continue;
+        const int f = raster.triangle[size_t(y) * size_t(size) + size_t(x)];
+        if (f < 0) continue;
+        const Eigen::Vector2d a = mesh.UV.row(mesh.FUV(f, 0)), e0 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 1))) - a,
+                              e1 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 2))) - a, q = uv - a;
+        const double det = e0.x() * e1.y() - e0.y() * e1.x();
+        if (!(std::abs(det) > 1e-18)) continue;
+        const double l1 = (q.x() * e1.y() - q.y() * e1.x()) / det, l2 = (e0.x() * q.y() - e0.y() * q.x()) / det;
+        w = Eigen::Vector3d(1 - l1 - l2, l1, l2).cwiseMax(0.0);
+        if (!(w.sum() > 0)) continue;
+        w /= w.sum();
+        return f;
+      }
+  return -1;
+}
+
 TextureTargets texture_targets(const Mesh& mesh, const Eigen::MatrixX3d& V, const RasterOutput& raster,
                                const UvFlow& flow, const SurfaceLocator& scan_locator, const TextureRefineOptions& o) {
   const Eigen::Index n = mesh.V.rows();
@@ -252,27 +283,6 @@ TextureTargets texture_targets(const Mesh& mesh, const Eigen::MatrixX3d& V, cons
   std::vector<int> uv_of(size_t(n), -1);
   for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     for (int k = 0; k < 3; ++k) uv_of[size_t(mesh.F(f, k))] = mesh.FUV(f, k);
-  // The template triangle whose UV holds `uv` (the texel under it, then its neighbours) and its barycentrics there.
-  const auto triangle_at = [&](const Eigen::Vector2d& uv, Eigen::Vector3d& w) {
-    const int cx = int(std::floor(uv.x() * size)), cy = int(std::floor((1 - uv.y()) * size));
-    for (int r = 0; r <= 1; ++r)
-      for (int y = cy - r; y <= cy + r; ++y)
-        for (int x = cx - r; x <= cx + r; ++x) {
-          if (x < 0 || y < 0 || x >= size || y >= size) continue;
-          const int f = raster.triangle[size_t(y) * size_t(size) + size_t(x)];
-          if (f < 0) continue;
-          const Eigen::Vector2d a = mesh.UV.row(mesh.FUV(f, 0)), e0 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 1))) - a,
-                                e1 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 2))) - a, q = uv - a;
-          const double det = e0.x() * e1.y() - e0.y() * e1.x();
-          if (!(std::abs(det) > 1e-18)) continue;
-          const double l1 = (q.x() * e1.y() - q.y() * e1.x()) / det, l2 = (e0.x() * q.y() - e0.y() * q.x()) / det;
-          w = Eigen::Vector3d(1 - l1 - l2, l1, l2).cwiseMax(0.0);
-          if (!(w.sum() > 0)) continue;
-          w /= w.sum();
-          return f;
-        }
-    return -1;
-  };
   std::vector<Eigen::Vector3d> point(static_cast<size_t>(n), Eigen::Vector3d::Zero());
   std::vector<double> confidence(size_t(n), 0.0), moved(size_t(n), 0.0);
   parallel_for(0, n, [&](int64_t b, int64_t e) {
@@ -283,7 +293,7 @@ TextureTargets texture_targets(const Mesh& mesh, const Eigen::MatrixX3d& V, cons
       const Eigen::Vector2f d = flow.at(uv, &c);
       if (!(c >= o.min_confidence) || !d.allFinite()) continue;
       Eigen::Vector3d w;
-      const int f = triangle_at(uv + Eigen::Vector2d(d.x(), -d.y()) / double(size), w);
+      const int f = template_triangle_at_uv(mesh, raster, uv + Eigen::Vector2d(d.x(), -d.y()) / double(size), w);
       if (f < 0) continue;
       Eigen::Vector3d p = Eigen::Vector3d::Zero();
       for (int k = 0; k < 3; ++k) p += w[k] * V.row(mesh.F(f, k)).transpose();

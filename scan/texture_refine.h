@@ -39,6 +39,12 @@ struct TextureRefineOptions {
   double stiffness = 0.4;       // NICP stiffness during refinement (stiffer than the schedule's end: slides are smooth)
   double min_confidence = 0.5;  // vertices whose flow confidence is lower get no texture correspondence
   double max_move_mm = 5;       // larger moves are treated as mismatches
+  // Texture landmarks (texture_landmarks.h): rounds of finding the brows, eyes and lips in the texture and running
+  // NICP again from them with the hand-placed landmarks' weights (0: off), and the flow's UV size for it.
+  // Their flow's sizes, in texels at landmark_resolution: finer than the refinement's, since only the features count.
+  int landmark_rounds = 0;
+  int landmark_resolution = 512;
+  double landmark_structure_sigma = 8, landmark_window = 3, landmark_smoothing = 6;
   void check() const;           // InvalidInput when out of range
 };
 
@@ -60,9 +66,14 @@ Image transfer_diffuse(const RasterOutput& raster, const Mesh& template_mesh, co
 // An image resampled to size x size (box filter when size divides it, else bilinear), linear colour.
 Image resample_square(const Image& image, int size);
 
-// The structure of a colour texture: log-luminance minus its local (Gaussian, `sigma` texels) mean, over its local
+// What a structure image is made of: log-luminance (brows, eyes, nostrils, freckles), or redness, log(R / G), which
+// shows lips against skin even where their luminance hardly differs (darker skin).
+enum class TextureChannel { Luminance, Redness };
+
+// The structure of a colour texture: the channel minus its local (Gaussian, `sigma` texels) mean, over its local
 // standard deviation, over the valid texels (0 elsewhere). A multiplicative skin tone and slow shading drop out.
-Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor);
+Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor,
+                        TextureChannel channel = TextureChannel::Luminance);
 
 // Displacement field (texels, x right, y down) with moving(u + d) ~ fixed(u), and a confidence in [0, 1] per texel:
 // lambda / (lambda + kappa), lambda the smaller eigenvalue of the windowed structure tensor of `fixed` (the reference:
@@ -75,6 +86,10 @@ struct UvFlow {
   Eigen::Vector2f at(const Eigen::Vector2d& uv, float* confidence_out) const;
 };
 UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_t>& mask, const TextureRefineOptions& o);
+
+// The template triangle whose UV holds `uv` (the raster's texel under it, then its neighbours) and its barycentrics
+// there; -1 when none does.
+int template_triangle_at_uv(const Mesh& mesh, const RasterOutput& raster, const Eigen::Vector2d& uv, Eigen::Vector3d& w);
 
 // Per template vertex with enough confidence: the registered surface's point at its UV moved by the flow, projected
 // onto the scan, with the flow's confidence.

@@ -1,0 +1,74 @@
+#include "scan/texture_landmarks.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/stats.h"
+#include "render/rasterize.h"
+
+namespace bareskin {
+
+namespace {
+
+// The channel that shows landmark k's feature; false for points the skin's texture does not mark.
+bool feature_channel(int k, TextureChannel& channel) {
+  if ((k >= 17 && k <= 26) || (k >= 36 && k <= 47)) return channel = TextureChannel::Luminance, true;
+  if (k >= 48 && k <= 67) return channel = TextureChannel::Redness, true;
+  return false;
+}
+
+}  // namespace
+
+TextureLandmarks texture_landmarks(const TemplateFace& face, const Eigen::MatrixX3d& V, const Mesh& scan,
+                                   const SurfaceLocator& scan_locator, const Image& scan_diffuse,
+                                   const Image& reference, const TextureRefineOptions& options) {
+  const Mesh& mesh = face.mesh;
+  const int n = options.landmark_resolution;
+  TextureRefineOptions o = options;
+  o.resolution = n, o.window = options.landmark_window, o.smoothing = options.landmark_smoothing;
+  const double sigma = options.landmark_structure_sigma;
+  const RasterOutput raster = rasterize_uv(mesh, n);
+  std::vector<uint8_t> valid;
+  const Image moved = transfer_diffuse(raster, mesh, V, scan, scan_locator, scan_diffuse, valid);
+  std::vector<uint8_t> reference_valid(valid.size(), 0);
+  for (size_t i = 0; i < valid.size(); ++i) reference_valid[i] = raster.triangle[i] >= 0, valid[i] = valid[i] && reference_valid[i];
+  const Image fixed = resample_square(reference, n);
+  std::vector<int> uv_of(size_t(mesh.V.rows()), -1);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int c = 0; c < 3; ++c) uv_of[size_t(mesh.F(f, c))] = mesh.FUV(f, c);
+
+  TextureLandmarks out;
+  out.landmarks.units = "mm";
+  out.landmarks.points.resize(68, 3);
+  for (int i = 0; i < 68; ++i) out.landmarks.points.row(i) = V.row(face.landmark_vertices[size_t(i)]);
+  std::vector<double> moves;
+  for (const TextureChannel channel : {TextureChannel::Luminance, TextureChannel::Redness}) {
+    const UvFlow flow = uv_flow(texture_structure(moved, valid, sigma, o.structure_floor, channel),
+                                texture_structure(fixed, reference_valid, sigma, o.structure_floor, channel), valid, o);
+    for (int i = 0; i < 68; ++i) {
+      TextureChannel wanted;
+      const int v = face.landmark_vertices[size_t(i)];
+      if (!feature_channel(i, wanted) || wanted != channel || uv_of[size_t(v)] < 0) continue;
+      const Eigen::Vector2d uv = mesh.UV.row(uv_of[size_t(v)]);
+      float confidence = 0;
+      const Eigen::Vector2f d = flow.at(uv, &confidence);
+      if (!(confidence >= o.min_confidence) || !d.allFinite()) continue;
+      Eigen::Vector3d w;
+      const int f = template_triangle_at_uv(mesh, raster, uv + Eigen::Vector2d(d.x(), -d.y()) / double(n), w);
+      if (f < 0) continue;
+      Eigen::Vector3d p = Eigen::Vector3d::Zero();
+      for (int c = 0; c < 3; ++c) p += w[c] * V.row(mesh.F(f, c)).transpose();
+      const Eigen::Vector3d q = scan_locator.locate(p).point;
+      const double move = (q - V.row(v).transpose()).norm();
+      if (!(move <= o.max_move_mm)) continue;
+      out.landmarks.points.row(i) = q.transpose();
+      out.ids.push_back(i);
+      moves.push_back(move);
+    }
+  }
+  std::sort(out.ids.begin(), out.ids.end());
+  if (!moves.empty()) out.median_move_mm = quantile(moves, 0.5);
+  return out;
+}
+
+}  // namespace bareskin
