@@ -13,7 +13,7 @@ namespace {
 // The channel that shows landmark k's feature; false for points the skin's texture does not mark.
 bool feature_channel(int k, TextureChannel& channel) {
   if ((k >= 17 && k <= 26) || (k >= 36 && k <= 47)) return channel = TextureChannel::Luminance, true;
-  if (k >= 48 && k <= 67) return channel = TextureChannel::Redness, true;
+  if (k >= 48 && k <= 59) return channel = TextureChannel::Redness, true;
   return false;
 }
 
@@ -25,8 +25,9 @@ TextureLandmarks texture_landmarks(const TemplateFace& face, const Eigen::Matrix
   const Mesh& mesh = face.mesh;
   const int n = options.landmark_resolution;
   TextureRefineOptions o = options;
-  o.resolution = n, o.window = options.landmark_window, o.smoothing = options.landmark_smoothing;
-  const double sigma = options.landmark_structure_sigma;
+  const double k = double(n) / 512;  // the sizes are given at 512 texels
+  o.resolution = n, o.window = options.landmark_window * k, o.smoothing = options.landmark_smoothing * k;
+  const double sigma = options.landmark_structure_sigma * k;
   const RasterOutput raster = rasterize_uv(mesh, n);
   std::vector<uint8_t> valid;
   const Image moved = transfer_diffuse(raster, mesh, V, scan, scan_locator, scan_diffuse, valid);

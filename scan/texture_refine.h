@@ -41,7 +41,8 @@ struct TextureRefineOptions {
   double max_move_mm = 5;       // larger moves are treated as mismatches
   // Texture landmarks (texture_landmarks.h): rounds of finding the brows, eyes and lips in the texture and running
   // NICP again from them with the hand-placed landmarks' weights (0: off), and the flow's UV size for it.
-  // Their flow's sizes, in texels at landmark_resolution: finer than the refinement's, since only the features count.
+  // Their flow's sizes, in texels at 512 (scaled with landmark_resolution): finer than the refinement's, since only
+  // the features count.
   int landmark_rounds = 0;
   int landmark_resolution = 512;
   double landmark_structure_sigma = 8, landmark_window = 3, landmark_smoothing = 6;

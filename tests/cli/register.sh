@@ -93,4 +93,13 @@ mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work
 "$bin" scan register -q --no-landmarks --template "$work/t" --maps-res 0 --scans "$work/nolm" -o "$work/out_nolm" \
   || fail "fallback registration"
 grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
-echo "7 passed, 0 failed"
+# --texture-landmarks: needs a reference (one line, nothing written); with one (here another subject's transferred
+# diffuse) the report says how many brow, eye and lip points the texture gave (accuracy: scan_test's
+# Register.TextureLandmarksFindTheFeaturesASlideMoved).
+expect_failure 3 "--texture-reference" "$work/out_tl0" -- reg --scans "$work/s" -o "$work/out_tl0" --texture-landmarks 1
+mkdir -p "$work/one" && cp -r "$work/s/subject_0000" "$work/one/"
+reg --scans "$work/one" -o "$work/out_tl" --texture-landmarks 1 --texture-reference "$work/r/subject_0001/diffuse.png" \
+  --texture-landmark-res 128 || fail "texture landmarks"
+$py -c "import json,sys; t=json.load(open(sys.argv[1]))['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 42, t" \
+  "$work/out_tl/subject_0000/report.json" || fail "texture landmarks report"
+echo "9 passed, 0 failed"
