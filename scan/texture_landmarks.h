@@ -26,8 +26,8 @@ struct TextureLandmarks {
 };
 
 // V: the current registration (template topology, on the scan). The flow runs at options.landmark_resolution with
-// options.landmark_* sizes (given at 512 texels, scaled to it); a landmark whose flow confidence is below options.min_confidence or which moves more
-// than options.max_move_mm is not found.
+// options.landmark_* sizes (given at 512 texels, scaled to it); a landmark whose flow confidence is below
+// options.min_confidence or which moves more than options.max_move_mm is not found.
 TextureLandmarks texture_landmarks(const TemplateFace& face, const Eigen::MatrixX3d& V, const Mesh& scan,
                                    const SurfaceLocator& scan_locator, const Image& scan_diffuse,
                                    const Image& reference, const TextureRefineOptions& options);
