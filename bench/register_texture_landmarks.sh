@@ -20,7 +20,7 @@ cat > "$out/texture_landmarks.variants" <<VARIANTS
 detected_alone|
 texture_landmarks_1|--texture-reference $ref --texture-landmarks 1
 texture_landmarks_2|--texture-reference $ref --texture-landmarks 2
-true_42_features_only|--landmark-ids $features
+true_34_features_only|--landmark-ids $features
 VARIANTS
 bash "$here/register_variants.sh" "$bin" "$template" "$out/variants" "$out/texture_landmarks.variants" \
     detected=$out/det_n01 detected=$out/det_n03 true=$out/scans_n01 true=$out/scans_n03

@@ -100,6 +100,6 @@ expect_failure 3 "--texture-reference" "$work/out_tl0" -- reg --scans "$work/s" 
 mkdir -p "$work/one" && cp -r "$work/s/subject_0000" "$work/one/"
 reg --scans "$work/one" -o "$work/out_tl" --texture-landmarks 1 --texture-reference "$work/r/subject_0001/diffuse.png" \
   --texture-landmark-res 128 || fail "texture landmarks"
-$py -c "import json,sys; t=json.load(open(sys.argv[1]))['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 42, t" \
+$py -c "import json,sys; t=json.load(open(sys.argv[1]))['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 34, t" \
   "$work/out_tl/subject_0000/report.json" || fail "texture landmarks report"
 echo "9 passed, 0 failed"
