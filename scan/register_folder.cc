@@ -10,10 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
-#include "core/stats.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
+#include "core/stats.h"
 #include "core/log.h"
 #include "core/mesh_io.h"
 #include "core/parallel.h"
