@@ -13,12 +13,12 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
-#include "core/stats.h"
 #include "core/log.h"
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
 #include "core/scan_folder.h"
+#include "core/stats.h"
 #include "render/preview.h"
 #include "scan/transfer.h"
 
