@@ -32,12 +32,12 @@ TextureLandmarks texture_landmarks(const TemplateFace& face, const Eigen::Matrix
   std::vector<uint8_t> valid;
   const Image moved = transfer_diffuse(raster, mesh, V, scan, scan_locator, scan_diffuse, valid);
   std::vector<uint8_t> reference_valid(valid.size(), 0);
-  for (size_t i = 0; i < valid.size(); ++i) reference_valid[i] = raster.triangle[i] >= 0, valid[i] = valid[i] && reference_valid[i];
+  for (size_t i = 0; i < valid.size(); ++i) {
+    reference_valid[i] = raster.triangle[i] >= 0;
+    valid[i] = valid[i] && reference_valid[i];
+  }
   const Image fixed = resample_square(reference, n);
-  std::vector<int> uv_of(size_t(mesh.V.rows()), -1);
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int c = 0; c < 3; ++c) uv_of[size_t(mesh.F(f, c))] = mesh.FUV(f, c);
-
+  const std::vector<int> uv_rows = vertex_uv_rows(mesh);
   TextureLandmarks out;
   out.landmarks.units = "mm";
   out.landmarks.points.resize(68, 3);
@@ -48,23 +48,14 @@ TextureLandmarks texture_landmarks(const TemplateFace& face, const Eigen::Matrix
                                 texture_structure(fixed, reference_valid, sigma, o.structure_floor, channel), valid, o);
     for (int i = 0; i < 68; ++i) {
       TextureChannel wanted;
-      const int v = face.landmark_vertices[size_t(i)];
-      if (!feature_channel(i, wanted) || wanted != channel || uv_of[size_t(v)] < 0) continue;
-      const Eigen::Vector2d uv = mesh.UV.row(uv_of[size_t(v)]);
-      float confidence = 0;
-      const Eigen::Vector2f d = flow.at(uv, &confidence);
-      if (!(confidence >= o.min_confidence) || !d.allFinite()) continue;
-      Eigen::Vector3d w;
-      const int f = template_triangle_at_uv(mesh, raster, uv + Eigen::Vector2d(d.x(), -d.y()) / double(n), w);
-      if (f < 0) continue;
-      Eigen::Vector3d p = Eigen::Vector3d::Zero();
-      for (int c = 0; c < 3; ++c) p += w[c] * V.row(mesh.F(f, c)).transpose();
-      const Eigen::Vector3d q = scan_locator.locate(p).point;
-      const double move = (q - V.row(v).transpose()).norm();
-      if (!(move <= o.max_move_mm)) continue;
-      out.landmarks.points.row(i) = q.transpose();
+      FlowTarget t;
+      if (!feature_channel(i, wanted) || wanted != channel ||
+          !flow_target(mesh, V, raster, flow, scan_locator, uv_rows, face.landmark_vertices[size_t(i)], o, t)) {
+        continue;
+      }
+      out.landmarks.points.row(i) = t.point.transpose();
       out.ids.push_back(i);
-      moves.push_back(move);
+      moves.push_back(t.move_mm);
     }
   }
   std::sort(out.ids.begin(), out.ids.end());

@@ -131,6 +131,30 @@ Plane lucas_kanade(const Plane& moving, const Plane& fixed, const Plane& mask, P
   return confidence;
 }
 
+// The template triangle whose UV holds `uv` (the raster's texel under it, then its neighbours) and its barycentrics
+// there; -1 when none does.
+int template_triangle_at_uv(const Mesh& mesh, const RasterOutput& raster, const Eigen::Vector2d& uv, Eigen::Vector3d& w) {
+  const int size = raster.width;
+  const int cx = int(std::floor(uv.x() * size)), cy = int(std::floor((1 - uv.y()) * size));
+  for (int r = 0; r <= 1; ++r)
+    for (int y = cy - r; y <= cy + r; ++y)
+      for (int x = cx - r; x <= cx + r; ++x) {
+        if (x < 0 || y < 0 || x >= size || y >= size) continue;
+        const int f = raster.triangle[size_t(y) * size_t(size) + size_t(x)];
+        if (f < 0) continue;
+        const Eigen::Vector2d a = mesh.UV.row(mesh.FUV(f, 0)), e0 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 1))) - a,
+                              e1 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 2))) - a, q = uv - a;
+        const double det = e0.x() * e1.y() - e0.y() * e1.x();
+        if (!(std::abs(det) > 1e-18)) continue;
+        const double l1 = (q.x() * e1.y() - q.y() * e1.x()) / det, l2 = (e0.x() * q.y() - e0.y() * q.x()) / det;
+        w = Eigen::Vector3d(1 - l1 - l2, l1, l2).cwiseMax(0.0);
+        if (!(w.sum() > 0)) continue;
+        w /= w.sum();
+        return f;
+      }
+  return -1;
+}
+
 }  // namespace
 
 void TextureRefineOptions::check() const {
@@ -254,64 +278,50 @@ UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_
   return out;
 }
 
-int template_triangle_at_uv(const Mesh& mesh, const RasterOutput& raster, const Eigen::Vector2d& uv, Eigen::Vector3d& w) {
-  const int size = raster.width;
-  const int cx = int(std::floor(uv.x() * size)), cy = int(std::floor((1 - uv.y()) * size));
-  for (int r = 0; r <= 1; ++r)
-    for (int y = cy - r; y <= cy + r; ++y)
-      for (int x = cx - r; x <= cx + r; ++x) {
-        if (x < 0 || y < 0 || x >= size || y >= size) continue;
-        const int f = raster.triangle[size_t(y) * size_t(size) + size_t(x)];
-        if (f < 0) continue;
-        const Eigen::Vector2d a = mesh.UV.row(mesh.FUV(f, 0)), e0 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 1))) - a,
-                              e1 = Eigen::Vector2d(mesh.UV.row(mesh.FUV(f, 2))) - a, q = uv - a;
-        const double det = e0.x() * e1.y() - e0.y() * e1.x();
-        if (!(std::abs(det) > 1e-18)) continue;
-        const double l1 = (q.x() * e1.y() - q.y() * e1.x()) / det, l2 = (e0.x() * q.y() - e0.y() * q.x()) / det;
-        w = Eigen::Vector3d(1 - l1 - l2, l1, l2).cwiseMax(0.0);
-        if (!(w.sum() > 0)) continue;
-        w /= w.sum();
-        return f;
-      }
-  return -1;
+std::vector<int> vertex_uv_rows(const Mesh& mesh) {
+  std::vector<int> rows(size_t(mesh.V.rows()), -1);
+  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) rows[size_t(mesh.F(f, k))] = mesh.FUV(f, k);
+  return rows;
+}
+
+bool flow_target(const Mesh& mesh, const Eigen::MatrixX3d& V, const RasterOutput& raster, const UvFlow& flow,
+                 const SurfaceLocator& scan_locator, const std::vector<int>& uv_rows, int v,
+                 const TextureRefineOptions& o, FlowTarget& out) {
+  if (uv_rows[size_t(v)] < 0) return false;
+  const Eigen::Vector2d uv = mesh.UV.row(uv_rows[size_t(v)]);
+  float c = 0;
+  const Eigen::Vector2f d = flow.at(uv, &c);
+  if (!(c >= o.min_confidence) || !d.allFinite()) return false;
+  Eigen::Vector3d w;
+  const int f = template_triangle_at_uv(mesh, raster, uv + Eigen::Vector2d(d.x(), -d.y()) / double(raster.width), w);
+  if (f < 0) return false;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) p += w[k] * V.row(mesh.F(f, k)).transpose();
+  out.point = scan_locator.locate(p).point;
+  out.move_mm = (out.point - V.row(v).transpose()).norm();
+  out.confidence = c;
+  return out.move_mm <= o.max_move_mm;
 }
 
 TextureTargets texture_targets(const Mesh& mesh, const Eigen::MatrixX3d& V, const RasterOutput& raster,
                                const UvFlow& flow, const SurfaceLocator& scan_locator, const TextureRefineOptions& o) {
   const Eigen::Index n = mesh.V.rows();
-  const int size = raster.width;
-  std::vector<int> uv_of(size_t(n), -1);
-  for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) uv_of[size_t(mesh.F(f, k))] = mesh.FUV(f, k);
-  std::vector<Eigen::Vector3d> point(static_cast<size_t>(n), Eigen::Vector3d::Zero());
-  std::vector<double> confidence(size_t(n), 0.0), moved(size_t(n), 0.0);
+  const std::vector<int> uv_rows = vertex_uv_rows(mesh);
+  std::vector<FlowTarget> target(static_cast<size_t>(n));
   parallel_for(0, n, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
-      if (uv_of[size_t(i)] < 0) continue;
-      const Eigen::Vector2d uv = mesh.UV.row(uv_of[size_t(i)]);
-      float c = 0;
-      const Eigen::Vector2f d = flow.at(uv, &c);
-      if (!(c >= o.min_confidence) || !d.allFinite()) continue;
-      Eigen::Vector3d w;
-      const int f = template_triangle_at_uv(mesh, raster, uv + Eigen::Vector2d(d.x(), -d.y()) / double(size), w);
-      if (f < 0) continue;
-      Eigen::Vector3d p = Eigen::Vector3d::Zero();
-      for (int k = 0; k < 3; ++k) p += w[k] * V.row(mesh.F(f, k)).transpose();
-      const Eigen::Vector3d q = scan_locator.locate(p).point;
-      moved[size_t(i)] = (q - V.row(i).transpose()).norm();
-      if (!(moved[size_t(i)] <= o.max_move_mm)) continue;
-      point[size_t(i)] = q;
-      confidence[size_t(i)] = c;
-    }
+    for (int64_t i = b; i < e; ++i)
+      if (!flow_target(mesh, V, raster, flow, scan_locator, uv_rows, int(i), o, target[size_t(i)])) target[size_t(i)] = {};
   }, 1024);
   TextureTargets t;
   std::vector<double> kept;
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (confidence[size_t(i)] <= 0) continue;
+    const FlowTarget& f = target[size_t(i)];
+    if (f.confidence <= 0) continue;
     t.vertex.push_back(int(i));
-    t.point.push_back(point[size_t(i)]);
-    t.confidence.push_back(confidence[size_t(i)]);
-    kept.push_back(moved[size_t(i)]);
+    t.point.push_back(f.point);
+    t.confidence.push_back(f.confidence);
+    kept.push_back(f.move_mm);
   }
   if (!kept.empty()) t.median_move_mm = quantile(kept, 0.5);
   return t;

@@ -88,9 +88,20 @@ struct UvFlow {
 };
 UvFlow uv_flow(const Plane& moving, const Plane& fixed, const std::vector<uint8_t>& mask, const TextureRefineOptions& o);
 
-// The template triangle whose UV holds `uv` (the raster's texel under it, then its neighbours) and its barycentrics
-// there; -1 when none does.
-int template_triangle_at_uv(const Mesh& mesh, const RasterOutput& raster, const Eigen::Vector2d& uv, Eigen::Vector3d& w);
+// Per vertex of `mesh`: its row in mesh.UV (-1: on no face).
+std::vector<int> vertex_uv_rows(const Mesh& mesh);
+
+// Where the flow takes template vertex v: the registered surface V (template topology) at v's UV moved by the flow,
+// projected onto the scan; false when v has no UV (uv_rows: vertex_uv_rows), the flow's confidence there is below
+// o.min_confidence, no template triangle holds the moved UV, or the point moved more than o.max_move_mm.
+struct FlowTarget {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double confidence = 0, move_mm = 0;
+};
+bool flow_target(const Mesh& mesh, const Eigen::MatrixX3d& V, const RasterOutput& raster, const UvFlow& flow,
+                 const SurfaceLocator& scan_locator, const std::vector<int>& uv_rows, int v,
+                 const TextureRefineOptions& o, FlowTarget& out);
+
 
 // Per template vertex with enough confidence: the registered surface's point at its UV moved by the flow, projected
 // onto the scan, with the flow's confidence.
