@@ -60,9 +60,12 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   const DetectedLandmarks found = options.detect(scan, diffuse ? &*diffuse : nullptr);
   out.landmarks = found.landmarks;
   // Calibrated points follow the template's convention, jaw included; otherwise the jaw contour (where a 2D
-  // detector sees the outline) and points that were not triangulated are left out.
+  // detector sees the outline) and points that were not triangulated are left out; --landmark-ids narrows them.
+  const std::vector<int> asked = out.nicp.landmark_ids;
+  out.nicp.landmark_ids.clear();
   for (int k = found.calibrated ? 0 : 17; k < 68; ++k)
-    if (found.landmarks.points.row(k).allFinite()) out.nicp.landmark_ids.push_back(k);
+    if (found.landmarks.points.row(k).allFinite() && (asked.empty() || std::count(asked.begin(), asked.end(), k)))
+      out.nicp.landmark_ids.push_back(k);
   for (int k = 0; k < 68; ++k)
     if (!found.landmarks.points.row(k).allFinite()) out.landmarks->points.row(k).setZero();  // unused, kept finite
   for (size_t i = 0; i < out.nicp.landmark_weight.size(); ++i)

@@ -4,8 +4,9 @@
 // rough landmarks carries the scan's diffuse into that UV a few texels off, and the flow between it and a reference
 // (e.g. the mean of other scans' transfers) says how far. Per landmark of those features, the template vertex's UV
 // moved by the flow is where the scan's texture puts it; the registration's surface there is the landmark.
-// Luminance finds the brows (17-26) and the eyes (36-47), redness the lips (48-67), whose luminance hardly differs
-// from the skin's on darker faces. The nose (27-35) and the jaw line (0-16) are skin-coloured: not found here.
+// Luminance finds the brows (17-26) and the eyes (36-47), redness the outer lip line (48-59), whose luminance hardly
+// differs from the skin's on darker faces. The nose (27-35), the inner lip line (60-67, where the lips meet) and the
+// jaw line (0-16) are not marked in the skin: not found here.
 #pragma once
 #include <Eigen/Core>
 #include <vector>

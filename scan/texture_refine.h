@@ -102,7 +102,6 @@ bool flow_target(const Mesh& mesh, const Eigen::MatrixX3d& V, const RasterOutput
                  const SurfaceLocator& scan_locator, const std::vector<int>& uv_rows, int v,
                  const TextureRefineOptions& o, FlowTarget& out);
 
-
 // Per template vertex with enough confidence: the registered surface's point at its UV moved by the flow, projected
 // onto the scan, with the flow's confidence.
 struct TextureTargets {
