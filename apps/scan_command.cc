@@ -64,6 +64,11 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                   "Per step: weight on each node's displacement along the surface from the start placed by the "
                   "best-fitting similarity (a prior that shapes differ along the normals; docs/pipeline.md); zeros: off")
       ->capture_default_str()->group("NICP");
+  app->add_option("--outline-weight", n.outline_weight,
+                  "For scans cut along the template's face outline (forehead, temples, jaw line; e.g. `scan synth`): "
+                  "draw the template's outline to the scan's open border with this weight per vertex (0: off; "
+                  "0.3 measured best; wrong for scans that go on past the face)")
+      ->capture_default_str()->group("NICP");
   ModelPriorOptions& mp = n.prior;
   app->add_option("--model", f.model,
                   "3DMM (mm-build's model.safetensors, same template): fit its shape before NICP (docs/pipeline.md)")
@@ -91,8 +96,9 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                   "Rounds of texture-aware refinement after NICP (flow in UV to --texture-reference; 0: off)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-landmarks", t.landmark_rounds,
-                  "Rounds of finding the brows, eyes and lips in the scan's texture (flow to --texture-reference) and "
-                  "registering again from them (for detected landmarks; docs/pipeline.md; 0: off)")
+                  "Rounds of finding the brows, eyes and lips in the scan's texture (flow to --texture-reference) and the "
+                  "nose in its shape (curvature, flow to the template's), and registering again from them (for "
+                  "detected landmarks; docs/pipeline.md; 0: off)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-landmark-res", t.landmark_resolution, "UV size of the texture landmarks' flow (power of two)")
       ->capture_default_str()->group("Texture refinement");

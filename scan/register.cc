@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -107,15 +108,60 @@ Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
   return c;
 }
 
-// The scan as correspondences see it: closest points (AABB tree), face normals, boundary, the normal-angle limit.
+// The boundary edges of the longest border loop of a mesh: a face's outline (holes and openings are shorter).
+Eigen::MatrixX2i outer_border(const Eigen::MatrixX3i& F) {
+  const Eigen::MatrixX2i edges = boundary_edges(F);
+  std::unordered_map<int, std::vector<int>> next;
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) next[edges(e, 0)].push_back(edges(e, 1)), next[edges(e, 1)].push_back(edges(e, 0));
+  std::unordered_map<int, int> loop;  // vertex -> loop id, by flood fill along the border
+  std::vector<int> length;
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) {
+    if (loop.count(edges(e, 0))) continue;
+    const int id = int(length.size());
+    std::vector<int> stack{edges(e, 0)};
+    loop[edges(e, 0)] = id;
+    while (!stack.empty()) {
+      const int v = stack.back();
+      stack.pop_back();
+      for (const int w : next[v])
+        if (loop.emplace(w, id).second) stack.push_back(w);
+    }
+    length.push_back(0);
+  }
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) ++length[size_t(loop[edges(e, 0)])];
+  const int outer = int(std::max_element(length.begin(), length.end()) - length.begin());
+  Eigen::MatrixX2i out(length.empty() ? 0 : length[size_t(outer)], 2);
+  Eigen::Index k = 0;
+  for (Eigen::Index e = 0; e < edges.rows(); ++e)
+    if (loop[edges(e, 0)] == outer) out.row(k++) = edges.row(e);
+  return out;
+}
+
+// The closest point to p on the polyline of `edges` (rows of vertex ids into V).
+Eigen::Vector3d closest_on_edges(const Eigen::Vector3d& p, const Eigen::MatrixX3d& V, const Eigen::MatrixX2i& edges) {
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d q = p;
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) {
+    const Eigen::Vector3d a = V.row(edges(e, 0)).transpose(), ab = V.row(edges(e, 1)).transpose() - a;
+    const Eigen::Vector3d x = a + std::clamp((p - a).dot(ab) / std::max(1e-12, ab.squaredNorm()), 0.0, 1.0) * ab;
+    if ((x - p).squaredNorm() < best) best = (x - p).squaredNorm(), q = x;
+  }
+  return q;
+}
+
+// The scan as correspondences see it: closest points (AABB tree), face normals, boundary, the normal-angle limit, and
+// (only when the outline term is on) its outer border.
 struct ScanSurface {
-  ScanSurface(const Mesh& scan, double max_normal_angle_deg)
+  ScanSurface(const Mesh& scan, double max_normal_angle_deg, bool with_outline)
       : locator(scan.V, scan.F), normals(face_normals(scan.V, scan.F)), boundary(scan),
-        min_cos(std::cos(max_normal_angle_deg * M_PI / 180)) {}
+        min_cos(std::cos(max_normal_angle_deg * M_PI / 180)), V(scan.V),
+        outline(with_outline ? outer_border(scan.F) : Eigen::MatrixX2i()) {}
   SurfaceLocator locator;
   Eigen::MatrixX3d normals;
   BoundaryTest boundary;
   double min_cos;
+  const Eigen::MatrixX3d& V;  // the scan's vertices (the scan outlives its surface)
+  Eigen::MatrixX2i outline;
 };
 
 Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F, const ScanSurface& s, double trim,
@@ -333,6 +379,12 @@ class Nicp {
         landmarks_.weight.push_back(sigma_weight.empty() ? 1.0 : sigma_weight[size_t(k)]);
       }
     }
+    if (options.outline_weight > 0) {
+      const Eigen::MatrixX2i border = outer_border(face.mesh.F);
+      outline_.assign(border.data(), border.data() + border.size());
+      std::sort(outline_.begin(), outline_.end());
+      outline_.erase(std::unique(outline_.begin(), outline_.end()), outline_.end());
+    }
     rest_normal_ = vertex_normals(v_.leftCols<3>(), e_.F);
     K_ = stiffness_matrix(v_, e_, face.landmark_vertices, options);
     solver_.analyzePattern(K_);
@@ -369,6 +421,7 @@ class Nicp {
       B.block<4, 3>(4 * i, 0) += w * vi.transpose() * ((c.target.row(i) - centre_) / radius_);
     }
     if (beta > 0) add_dense(landmarks_, beta * beta, A, B);
+    if (!outline_.empty()) add_dense(outline_term(), 1.0, A, B);
     if (extra) add_dense(*extra, 1.0, A, B);
     const double w_t = options_.tangential_weight.empty() || stiffness > 0 ? 0.0 : options_.tangential_weight[size_t(s)];
     if (w_t > 0) update_tangential_reference();
@@ -393,12 +446,7 @@ class Nicp {
   Eigen::MatrixX3d dense() const {
     const Eigen::Index n = v_dense_.rows();
     Eigen::MatrixX3d out(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int k = 0; k < 3; ++k)
-        p += e_.weight[size_t(i)][k] * (v_dense_.row(i) * X_.block<4, 3>(4 * e_.node[size_t(i)][size_t(k)], 0));
-      out.row(i) = p;
-    }
+    for (Eigen::Index i = 0; i < n; ++i) out.row(i) = dense(i);
     return to_mm(out);
   }
   Eigen::Index node_count() const { return m_; }
@@ -469,6 +517,26 @@ class Nicp {
     }
   }
 
+  // Template vertex i where the nodes' affines now put it (normalised coordinates).
+  Eigen::RowVector3d dense(Eigen::Index i) const {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      p += e_.weight[size_t(i)][k] * (v_dense_.row(i) * X_.block<4, 3>(4 * e_.node[size_t(i)][size_t(k)], 0));
+    return p;
+  }
+
+  // The outline term: each template outline vertex drawn to the closest point of the scan's outer border.
+  DenseTerm outline_term() const {
+    DenseTerm t;
+    for (const int v : outline_) {
+      const Eigen::Vector3d p = (dense(v) * radius_ + centre_).transpose();
+      t.vertex.push_back(v);
+      t.point.push_back(closest_on_edges(p, surface_.V, surface_.outline));
+      t.weight.push_back(options_.outline_weight);
+    }
+    return t;
+  }
+
   const TemplateFace& face_;
   const RegisterOptions& options_;
   const ScanSurface& surface_;
@@ -483,6 +551,7 @@ class Nicp {
   Similarity frame_;                       // the tangential prior's frame: start nodes -> reference
   Eigen::MatrixX3d start_, start_normal_;  // the tangential prior's reference nodes and normals (normalised coordinates)
   DenseTerm landmarks_;
+  std::vector<int> outline_;  // the template's outline vertices (outline_weight > 0)
   double landmark_scale_ = 1;
   Eigen::SparseMatrix<double> K_;
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver_;
@@ -540,15 +609,12 @@ void texture_rounds(const TemplateFace& face, const Mesh& scan, const Registrati
   const TextureRefineOptions& o = options.texture;
   const RasterOutput raster = rasterize_uv(face.mesh, o.resolution);
   const Image reference = resample_square(*texture.reference, o.resolution);
-  std::vector<uint8_t> reference_valid(raster.triangle.size(), 0);
-  for (size_t i = 0; i < raster.triangle.size(); ++i) reference_valid[i] = raster.triangle[i] >= 0;
-  const Plane fixed = texture_structure(reference, reference_valid, o.structure_sigma * o.resolution / 256, o.structure_floor);
+  const Plane fixed = texture_structure(reference, layout_mask(raster), o.structure_sigma * o.resolution / 256, o.structure_floor);
   const int last = int(options.stiffness.size()) - 1;
   const double per_vertex = o.weight * double(nicp.node_count()) / double(face.mesh.V.rows());
   for (int round = 0; round < o.iterations; ++round) {
     std::vector<uint8_t> valid;
     const Image moved = transfer_diffuse(raster, face.mesh, out.V, scan, surface.locator, *texture.scan_diffuse, valid);
-    for (size_t i = 0; i < valid.size(); ++i) valid[i] = valid[i] && reference_valid[i];
     const UvFlow flow = uv_flow(texture_structure(moved, valid, o.structure_sigma * o.resolution / 256, o.structure_floor), fixed, valid, o);
     const TextureTargets t = texture_targets(face.mesh, out.V, raster, flow, surface.locator, o);
     DenseTerm term;
@@ -580,6 +646,9 @@ void RegisterOptions::check() const {
   if (landmark_weight.size() != stiffness.size() || trim_mm.size() != stiffness.size() ||
       (!tangential_weight.empty() && tangential_weight.size() != stiffness.size())) {
     throw InvalidInput("", "stiffness, landmark weight, trim and tangential weight schedules differ in length", "give one value per step");
+  }
+  if (!(outline_weight >= 0 && outline_weight < 1e6)) {
+    throw InvalidInput("", "--outline-weight must be >= 0", "0 is off; 0.3 is the measured best for scans cut at the outline");
   }
   for (size_t k = 0; k < stiffness.size(); ++k) {
     if (!(stiffness[k] > 0) || !(landmark_weight[k] >= 0) || !(trim_mm[k] > 0) ||
@@ -646,7 +715,11 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   const auto t_start = std::chrono::steady_clock::now();
   Registration out;
   RegistrationStats& stats = out.stats;
-  const ScanSurface surface(scan, options.max_normal_angle_deg);
+  const ScanSurface surface(scan, options.max_normal_angle_deg, options.outline_weight > 0);
+  if (options.outline_weight > 0 && surface.outline.rows() == 0) {
+    throw InvalidInput("", "the scan has no open border, so --outline-weight has no outline to draw the template's to",
+                       "leave --outline-weight at 0 for closed scans");
+  }
 
   // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then similarity ICP).
   Eigen::MatrixX3d V0 = similarity_alignment(face, scan, landmarks, options, surface, stats);
@@ -670,18 +743,25 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   project_onto_scan(out, face.mesh.F, surface, options);
   stats.seconds_nicp = seconds_since(t_nicp);
 
-  // 3b. Texture landmarks: the brows, eyes and lips where the scan's texture puts them, then NICP again from them.
+  // 3b. Texture landmarks: the brows, eyes and lips where the scan's texture puts them, the nose where its shape does,
+  // then NICP again from them. out.texture_landmarks: the last round used.
   const bool textured = texture.scan_diffuse && texture.reference;
   TextureLandmarks& found = out.texture_landmarks;
   RegisterOptions again = options;  // outlives the Nicp that refers to it
   again.landmark_weight = hand_placed_landmark_weights(options.stiffness.size());
   again.sigma_weighted_nicp = false;
+  std::unique_ptr<TextureLandmarkFinder> finder;
   for (int round = 0; textured && round < options.texture.landmark_rounds; ++round) {
     const auto t_round = std::chrono::steady_clock::now();
-    found = texture_landmarks(face, out.V, scan, surface.locator, *texture.scan_diffuse, *texture.reference, options.texture);
-    stats.texture_landmarks_found.push_back(int(found.ids.size()));
-    stats.texture_landmarks_move_mm.push_back(found.median_move_mm);
-    if (found.ids.size() < 10) break;  // too few features in this texture: keep the registration
+    if (!finder) finder = std::make_unique<TextureLandmarkFinder>(face, *texture.reference, options.texture);
+    TextureLandmarks next = finder->find(out.V, scan, surface.locator, *texture.scan_diffuse);
+    stats.texture_landmarks_found.push_back(int(next.ids.size()));
+    stats.texture_landmarks_move_mm.push_back(next.median_move_mm);
+    if (next.ids.size() < 10) {  // too few features in this texture: keep the registration
+      stats.seconds_texture_landmarks += seconds_since(t_round);
+      break;
+    }
+    found = std::move(next);
     again.landmark_ids = found.ids;
     V0 = similarity_alignment(face, scan, &found.landmarks, again, surface, stats);
     nicp = std::make_unique<Nicp>(face, V0, &found.landmarks, again, surface, stats);
@@ -714,7 +794,7 @@ Registration refine_with_texture(const TemplateFace& face, const Mesh& scan, con
   Registration out;
   out.V = V;
   out.V_before_texture = V;
-  const ScanSurface surface(scan, options.max_normal_angle_deg);
+  const ScanSurface surface(scan, options.max_normal_angle_deg, options.outline_weight > 0);
   Nicp nicp(face, V, landmarks, options, surface, out.stats);
   texture_rounds(face, scan, texture, options, surface, nicp, out);
   out.stats.used_landmarks = landmarks != nullptr;

@@ -45,6 +45,11 @@ struct RegisterOptions {
   // every iteration): the scan's placement and scale, none of its shape. A prior: shape differences lie mostly along
   // the normal (bench/BENCHMARKS.md: p95 with true landmarks 1.65 -> 1.16 mm on the demo's scans).
   std::vector<double> tangential_weight = {0.1, 0.1, 0.1, 0.1, 0.1, 0.1};
+  // Outline term (0: off): for scans cut along the template's face outline (forehead, temples, jaw line), as `scan
+  // synth` makes them or a face mask crops them. Every NICP iteration draws each template outline vertex (its longest
+  // border loop) to the closest point of the scan's longest border loop with this weight (against the closest-point
+  // term's <= 1 per node). Where a scan goes on past the outline (neck, ears) it is wrong: leave it off.
+  double outline_weight = 0;
   bool project = true;               // finally move accepted vertices onto their closest scan point
   // NICP nodes: the template is remeshed to about this many vertices for the optimisation and every template vertex
   // follows the blend of its node triangle's affines (0: one affine per template vertex, slow at 65k).

@@ -203,6 +203,12 @@ Image transfer_diffuse(const RasterOutput& raster, const Mesh& template_mesh, co
   return out;
 }
 
+std::vector<uint8_t> layout_mask(const RasterOutput& raster) {
+  std::vector<uint8_t> mask(raster.triangle.size(), 0);
+  for (size_t i = 0; i < mask.size(); ++i) mask[i] = raster.triangle[i] >= 0;
+  return mask;
+}
+
 Image resample_square(const Image& image, int size) {
   const Image in = image.color_space == ColorSpace::sRGB ? to_linear(image) : image;
   Image out(size, size, 3, ColorSpace::Linear, 0.f);
@@ -236,9 +242,14 @@ Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, 
     log_lum.v[i] = channel == TextureChannel::Luminance ? std::log(0.2126f * r + 0.7152f * g + 0.0722f * b + 0.01f)
                                                         : std::log((r + 0.01f) / (g + 0.01f));
   }
+  return plane_structure(log_lum, mask, sigma, floor);
+}
+
+Plane plane_structure(const Plane& values, const Plane& mask, double sigma, double floor) {
   // A texel's worth of smoothing (pores and sensor noise are not what the flow should follow), then the local mean
   // and deviation; the deviation has a floor so that plain skin stays flat instead of amplified noise.
-  const Plane smooth = weighted_blur(log_lum, mask, 1.0 * n / 256), mean = weighted_blur(smooth, mask, sigma);
+  const int n = values.size;
+  const Plane smooth = weighted_blur(values, mask, 1.0 * n / 256), mean = weighted_blur(smooth, mask, sigma);
   Plane sq = zeros(n);
   for (size_t i = 0; i < sq.v.size(); ++i) sq.v[i] = (smooth.v[i] - mean.v[i]) * (smooth.v[i] - mean.v[i]);
   const Plane var = weighted_blur(sq, mask, sigma);

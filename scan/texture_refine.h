@@ -59,10 +59,14 @@ struct Plane {
 
 // The scan's linear diffuse seen through a registration: per texel of `raster` (rasterize_uv of the template mesh),
 // the point of the registered surface `V` (template topology) there, its closest scan point and the scan's atlas UV
-// there, sampled bilinearly. `valid` gets 1 where a texel was filled (layout covered, scan found, not black).
+// there, sampled bilinearly. `valid` gets 1 where a texel was filled (layout covered, scan found, not black): a
+// subset of layout_mask(raster).
 Image transfer_diffuse(const RasterOutput& raster, const Mesh& template_mesh, const Eigen::MatrixX3d& V,
                        const Mesh& scan, const SurfaceLocator& scan_locator, const Image& scan_diffuse,
                        std::vector<uint8_t>& valid);
+
+// Texels of a UV raster (rasterize_uv) that the layout covers: 1, else 0.
+std::vector<uint8_t> layout_mask(const RasterOutput& raster);
 
 // An image resampled to size x size (box filter when size divides it, else bilinear), linear colour.
 Image resample_square(const Image& image, int size);
@@ -75,6 +79,10 @@ enum class TextureChannel { Luminance, Redness };
 // standard deviation, over the valid texels (0 elsewhere). A multiplicative skin tone and slow shading drop out.
 Plane texture_structure(const Image& linear, const std::vector<uint8_t>& valid, double sigma, double floor,
                         TextureChannel channel = TextureChannel::Luminance);
+
+// The same for any plane of values: smoothed a texel, minus its local mean, over its local deviation (with `floor`),
+// over the texels where `mask` is 1 (0 elsewhere).
+Plane plane_structure(const Plane& values, const Plane& mask, double sigma, double floor);
 
 // Displacement field (texels, x right, y down) with moving(u + d) ~ fixed(u), and a confidence in [0, 1] per texel:
 // lambda / (lambda + kappa), lambda the smaller eigenvalue of the windowed structure tensor of `fixed` (the reference:
