@@ -450,6 +450,7 @@ class Nicp {
     return to_mm(out);
   }
   Eigen::Index node_count() const { return m_; }
+  const std::vector<int>& outline() const { return outline_; }  // the template's outline vertices (outline_weight > 0)
   void scale_landmark_weights(double scale) { landmark_scale_ = scale; }
 
  private:
@@ -778,7 +779,12 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
     texture_rounds(face, scan, texture, options, surface, *nicp, out);
     stats.seconds_texture = seconds_since(t_texture);
   }
-
+  if (options.outline_weight > 0) {
+    std::vector<double> d;
+    for (const int v : nicp->outline())
+      d.push_back((closest_on_edges(out.V.row(v).transpose(), scan.V, surface.outline) - out.V.row(v).transpose()).norm());
+    stats.outline_median_mm = quantile(d, 0.5), stats.outline_max_mm = *std::max_element(d.begin(), d.end());
+  }
   return out;
 }
 

@@ -291,6 +291,10 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
     report["texture_landmarks"] = {{"note", "the scan has no diffuse map or no UVs: none found"}};
   }
   report["seconds"]["texture_landmarks"] = s.seconds_texture_landmarks;
+  if (s.outline_median_mm >= 0) {
+    report["outline"] = {{"weight", options.nicp.outline_weight},
+                         {"distance_to_scan_border_mm", {{"median", s.outline_median_mm}, {"max", s.outline_max_mm}}}};
+  }
   report["qa"] = {{"heat_map", "per-vertex " + std::string(err.has_truth ? "correspondence error" : "surface distance") +
                                    ", blue 0 to red " + std::to_string(options.heat_max_mm) + " mm"}};
   write_file_atomic(out.path() + "/report.json", report.dump(1) + "\n");

@@ -101,7 +101,7 @@ expect_failure 3 "--texture-reference" "$work/out_tl0" -- reg --scans "$work/s" 
 mkdir -p "$work/one" && cp -r "$work/s/subject_0000" "$work/one/"
 reg --scans "$work/one" -o "$work/out_tl" --texture-landmarks 1 --texture-reference "$work/r/subject_0001/diffuse.png" \
   --texture-landmark-res 128 --outline-weight 0.3 || fail "texture landmarks"
-$py -c "import json,sys; t=json.load(open(sys.argv[1]))['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 43, t" \
+$py -c "import json,sys; r=json.load(open(sys.argv[1])); t=r['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 43, t; assert r['outline']['distance_to_scan_border_mm']['median'] < 1, r['outline']" \
   "$work/out_tl/subject_0000/report.json" || fail "texture landmarks report"
 expect_failure 3 "--outline-weight" "$work/out_ow" -- reg --scans "$work/one" -o "$work/out_ow" --outline-weight -1
 echo "10 passed, 0 failed"
