@@ -112,7 +112,10 @@ Correspondences correspond(const Eigen::MatrixX3d& V, const Eigen::MatrixX3i& F,
 Eigen::MatrixX2i outer_border(const Eigen::MatrixX3i& F) {
   const Eigen::MatrixX2i edges = boundary_edges(F);
   std::unordered_map<int, std::vector<int>> next;
-  for (Eigen::Index e = 0; e < edges.rows(); ++e) next[edges(e, 0)].push_back(edges(e, 1)), next[edges(e, 1)].push_back(edges(e, 0));
+  for (Eigen::Index e = 0; e < edges.rows(); ++e) {
+    next[edges(e, 0)].push_back(edges(e, 1));
+    next[edges(e, 1)].push_back(edges(e, 0));
+  }
   std::unordered_map<int, int> loop;  // vertex -> loop id, by flood fill along the border
   std::vector<int> length;
   for (Eigen::Index e = 0; e < edges.rows(); ++e) {

@@ -106,8 +106,8 @@ TextureLandmarkFinder::TextureLandmarkFinder(const TemplateFace& face, const Ima
   const Image fixed = resample_square(reference, n);
   luminance_ = texture_structure(fixed, layout_, sigma_, o_.structure_floor, TextureChannel::Luminance);
   redness_ = texture_structure(fixed, layout_, sigma_, o_.structure_floor, TextureChannel::Redness);
-  curvature_ = curvature_structure(raster_, face.mesh.F, rings_, mean_curvature(face.mesh.V, face.mesh.F, rings_, kCurvatureSmoothing),
-                                   layout_, sigma_, o_.structure_floor);
+  const Eigen::VectorXd H = mean_curvature(face.mesh.V, face.mesh.F, rings_, kCurvatureSmoothing);
+  curvature_ = curvature_structure(raster_, face.mesh.F, rings_, H, layout_, sigma_, o_.structure_floor);
 }
 
 TextureLandmarks TextureLandmarkFinder::find(const Eigen::MatrixX3d& V, const Mesh& scan,
