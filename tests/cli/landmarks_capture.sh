@@ -43,7 +43,9 @@ print(f"  {cap['registered']} of {cap['photos']} photos, {cap['points_on_head']}
       f"virtual views' {np.nanmedian(d):.2f} mm")
 assert cap["photos"] == 16 and cap["registered"] >= 15, cap["registered"]
 assert cap["reprojection_px"] < 1 and cap["median_features"] > 300 and cap["points_on_head"] > 50
-assert np.median(px) < 4, px
+# The median over photos of the worst landmark's reprojection error: 2.2-2.3 px in most runs, 5.7 px in one full-suite
+# run (COLMAP's mapping differs run to run, even on one thread); cameras 20 mm off put it near 29 px, so 8 px.
+assert np.median(px) < 8, px
 # COLMAP's multi-threaded mapping differs run to run (below 2 mm in most runs, 2.19 mm in one full-suite run), so the bound is the
 # issue's 3 mm for capture landmarks (a misaligned model is tens of mm off).
 assert np.nanmedian(d) < 3, d
