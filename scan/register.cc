@@ -153,12 +153,17 @@ Eigen::Vector3d closest_on_edges(const Eigen::Vector3d& p, const Eigen::MatrixX3
 }
 
 // The scan as correspondences see it: closest points (AABB tree), face normals, boundary, the normal-angle limit, and
-// (only when the outline term is on) its outer border.
+// (only when the outline term is on) its outer border; a scan without one is refused then.
 struct ScanSurface {
   ScanSurface(const Mesh& scan, double max_normal_angle_deg, bool with_outline)
       : locator(scan.V, scan.F), normals(face_normals(scan.V, scan.F)), boundary(scan),
         min_cos(std::cos(max_normal_angle_deg * M_PI / 180)), V(scan.V),
-        outline(with_outline ? outer_border(scan.F) : Eigen::MatrixX2i()) {}
+        outline(with_outline ? outer_border(scan.F) : Eigen::MatrixX2i()) {
+    if (with_outline && outline.rows() == 0) {
+      throw InvalidInput("", "the scan has no open border, so --outline-weight has no outline to draw the template's to",
+                         "leave --outline-weight at 0 for closed scans");
+    }
+  }
   SurfaceLocator locator;
   Eigen::MatrixX3d normals;
   BoundaryTest boundary;
@@ -720,10 +725,6 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
   Registration out;
   RegistrationStats& stats = out.stats;
   const ScanSurface surface(scan, options.max_normal_angle_deg, options.outline_weight > 0);
-  if (options.outline_weight > 0 && surface.outline.rows() == 0) {
-    throw InvalidInput("", "the scan has no open border, so --outline-weight has no outline to draw the template's to",
-                       "leave --outline-weight at 0 for closed scans");
-  }
 
   // 1. Similarity: Umeyama on the landmarks, or the documented fallback (centroid + RMS radius, then similarity ICP).
   Eigen::MatrixX3d V0 = similarity_alignment(face, scan, landmarks, options, surface, stats);

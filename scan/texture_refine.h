@@ -39,8 +39,8 @@ struct TextureRefineOptions {
   double stiffness = 0.4;       // NICP stiffness during refinement (stiffer than the schedule's end: slides are smooth)
   double min_confidence = 0.5;  // vertices whose flow confidence is lower get no texture correspondence
   double max_move_mm = 5;       // larger moves are treated as mismatches
-  // Texture landmarks (texture_landmarks.h): rounds of finding the brows, eyes and lips in the texture and running
-  // NICP again from them with the hand-placed landmarks' weights (0: off), and the flow's UV size for it.
+  // Texture landmarks (texture_landmarks.h): rounds of finding the brows, eyes and lips in the texture and the nose in
+  // the shape, and running NICP again from them with the hand-placed landmarks' weights (0: off), and the flows' UV size.
   // Their flow's sizes, in texels at 512 (scaled with landmark_resolution): finer than the refinement's, since only
   // the features count.
   int landmark_rounds = 0;
