@@ -567,6 +567,17 @@ class Nicp {
   Eigen::MatrixXd X_;
 };
 
+// `from` under the similarity that best maps its `use` rows onto the same rows of `to` (Umeyama; all rows when
+// fewer than 100 are in use).
+Eigen::MatrixX3d similarity_onto(const Eigen::MatrixX3d& from, const Eigen::MatrixX3d& to, const std::vector<bool>& use) {
+  Eigen::Matrix3Xd a(3, from.rows()), b(3, from.rows());
+  Eigen::Index n = 0;
+  for (Eigen::Index i = 0; i < from.rows(); ++i)
+    if (use[size_t(i)]) a.col(n) = from.row(i).transpose(), b.col(n++) = to.row(i).transpose();
+  if (n < 100) a = from.transpose(), b = to.transpose(), n = from.rows();
+  return apply(Eigen::umeyama(a.leftCols(n), b.leftCols(n), true), from);
+}
+
 // Phase 1b (with a model, model_prior.h): the model's shape fitted to the scan from the similarity's placement.
 Eigen::MatrixX3d fit_model_prior(const MorphableModel& model, const Eigen::MatrixX3d& V0, const Landmarks* landmarks,
                                  const RegisterOptions& options, const ScanSurface& surface, RegistrationStats& stats) {
@@ -768,7 +779,9 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
     }
     found = std::move(next);
     again.landmark_ids = found.ids;
-    V0 = similarity_alignment(face, scan, &found.landmarks, again, surface, stats);
+    // The start: the template placed on the last registration's whole surface. The found points (brows to lips) hold
+    // the middle of the face only; their similarity put the outline mm off, which NICP's tangential prior then kept.
+    V0 = similarity_onto(face.mesh.V, out.V, out.accepted);
     nicp = std::make_unique<Nicp>(face, V0, &found.landmarks, again, surface, stats);
     nicp->run({});
     out.V = nicp->dense();
