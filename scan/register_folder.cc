@@ -281,6 +281,12 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
     report["texture_landmarks"] = {{"rounds", s.texture_landmarks_found.size()},
                                    {"found", s.texture_landmarks_found},
                                    {"median_move_mm", s.texture_landmarks_move_mm}};
+    nlohmann::json points = nlohmann::json::array();  // the last round used: iBUG index, then x y z in the scan's frame
+    for (const int k : reg.texture_landmarks.ids) {
+      const Eigen::RowVector3d p = reg.texture_landmarks.landmarks.points.row(k);
+      points.push_back({k, p.x(), p.y(), p.z()});
+    }
+    if (!points.empty()) report["texture_landmarks"]["points"] = points;
     if (truth.point) {  // the last round's landmarks against the truth's points at the template's landmark vertices
       std::vector<double> e;
       for (const int k : reg.texture_landmarks.ids)
