@@ -38,8 +38,8 @@ row "anchor: Amberg NICP per vertex" 0 --nodes 0 $amberg
 row "Amberg term on 2k nodes" 0 $amberg
 row "ours, 4k nodes" 0 --nodes 4000
 row "ours, 8k nodes" 0 --nodes 8000
-row "ours, stiffness x2" 0 --stiffness 8 4 2 0.8 0.4 0.2
-row "ours, stiffness /2" 0 --stiffness 2 1 0.5 0.2 0.1 0.05
+row "ours, stiffness x2" 0 --stiffness 8 4 2 0.8 0.1 0.02
+row "ours, stiffness /2" 0 --stiffness 2 1 0.5 0.2 0.025 0.005
 row "ours, 1 iteration/step" 0 --iterations 1
 for noise in 0.1 0.3 0.5; do row "ours (default)" $noise; done
 if [ -n "$chart" ]; then
