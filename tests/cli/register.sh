@@ -95,8 +95,8 @@ mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work
 grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
 # --texture-landmarks: needs a reference (one line, nothing written); with one (here another subject's transferred
 # diffuse) and the outline term the report says how many brow, eye, lip and nose points the texture and shape gave,
-# and lists them (accuracy: scan_test's Register.TextureLandmarksFindTheFeaturesASlideMoved, ...OutlineTermDraws...). A negative
-# outline weight: one line, nothing written.
+# and lists them (accuracy: scan_test's Register.TextureLandmarksFindTheFeaturesASlideMoved, ...RoundsUndo...,
+# ...OutlineTermDraws...). A negative outline weight: one line, nothing written.
 expect_failure 3 "--texture-reference" "$work/out_tl0" -- reg --scans "$work/s" -o "$work/out_tl0" --texture-landmarks 1
 mkdir -p "$work/one" && cp -r "$work/s/subject_0000" "$work/one/"
 reg --scans "$work/one" -o "$work/out_tl" --texture-landmarks 1 --texture-reference "$work/r/subject_0001/diffuse.png" \
