@@ -562,7 +562,7 @@ $landmark_summary
 <p><code>bareskin landmarks calibrate --scans scans --count 5 --views 16</code> learns the detector's convention on
 subjects 0-4; subjects 8 and 9, without their <code>landmarks.json</code>, are registered from 16-view detected,
 calibrated landmarks (<code>scan register --landmark-calibration</code>), then again with <code>--texture-landmarks 2
---texture-reference</code> the mean diffuse of the registered subjects 0-7 <code>--outline-weight 0.3</code>: the brows,
+--texture-reference</code> (the mean diffuse of the registered subjects 0-7) and <code>--outline-weight 0.3</code>: the brows,
 eyes and outer lip line are found in the scan's texture, the nose in its curvature, and the registration is run again
 from them, the template's outline drawn to the scan's open border (these synthetic scans are cut along the face
 outline; docs/pipeline.md, "Texture landmarks", "Outline term"). On six held-out noisy scans this takes the
