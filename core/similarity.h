@@ -11,4 +11,9 @@ struct Similarity {
   Eigen::Vector3d apply(const Eigen::Vector3d& x) const { return s * R * x + t; }
 };
 
+// The rows of V (points) under the 4x4 affine T, x' = A x + b: what Eigen::umeyama returns.
+inline Eigen::MatrixX3d transformed(const Eigen::Matrix4d& T, const Eigen::MatrixX3d& V) {
+  return ((V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+}
+
 }  // namespace bareskin

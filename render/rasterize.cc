@@ -159,6 +159,12 @@ RasterOutput rasterize_uv(const Mesh& mesh, int size) {
   return rasterize(in);
 }
 
+const RasterOutput& given_or_own_uv(const RasterOutput* given, const Mesh& mesh, int size, RasterOutput& own) {
+  if (!given) return own = rasterize_uv(mesh, size);
+  BS_CHECK(given->width == size && given->height == size, "the given UV raster is not of the UV size");
+  return *given;
+}
+
 std::vector<float> interpolate(const RasterOutput& r, const int32_t* triangles, const float* attribute, int channels) {
   std::vector<float> out(r.triangle.size() * size_t(channels), 0.f);
   parallel_for(0, int64_t(r.triangle.size()), [&](int64_t b, int64_t e) {

@@ -44,6 +44,10 @@ RasterOutput rasterize_mesh(const Mesh& mesh, const Camera& camera, bool cull_ba
 // barycentrics of that point (row 0 = v = 1). Uses the per-corner UVs (seams kept).
 RasterOutput rasterize_uv(const Mesh& mesh, int size);
 
+// For functions that take an optional UV raster (so that callers share one): `given` when not null (it must be size x
+// size), otherwise rasterize_uv(mesh, size) made into `own`.
+const RasterOutput& given_or_own_uv(const RasterOutput* given, const Mesh& mesh, int size, RasterOutput& own);
+
 // Interpolates a per-vertex attribute (#V x C, row-major floats) at every covered pixel: out is W x H x C, zero
 // where no triangle covers.
 std::vector<float> interpolate(const RasterOutput& raster, const int32_t* triangles, const float* attribute, int channels);

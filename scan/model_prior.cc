@@ -9,14 +9,11 @@
 
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/similarity.h"
 #include "core/stats.h"
 
 namespace bareskin {
 namespace {
-
-Eigen::MatrixX3d apply(const Eigen::Matrix4d& T, const Eigen::MatrixX3d& V) {
-  return ((V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
-}
 
 Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& p) {
   Eigen::Matrix3d m;
@@ -157,7 +154,7 @@ ModelPriorFit fit_model_to_scan(const MorphableModel& model, const Eigen::Matrix
   const std::vector<int> sample = spread_vertices(mean, model.topology.F, options.vertices);
   fit.vertices_used = int(sample.size());
   for (int round = 0; round < options.iterations; ++round) {
-    const Eigen::MatrixX3d X0 = apply(fit.similarity, shape(fit.alpha));
+    const Eigen::MatrixX3d X0 = transformed(fit.similarity, shape(fit.alpha));
     const double trim = options.trim_mm[std::min(size_t(round), options.trim_mm.size() - 1)];
     const ScanTargets tg = query(X0, sample, trim);
     const Eigen::Matrix3d sR = fit.similarity.topLeftCorner<3, 3>();
@@ -231,7 +228,7 @@ ModelPriorFit fit_model_to_scan(const MorphableModel& model, const Eigen::Matrix
     D.topRightCorner<3, 1>() = centre.transpose() - scale * R * centre.transpose() + tau;
     fit.similarity = D * fit.similarity;
   }
-  fit.V = apply(fit.similarity, shape(fit.alpha));
+  fit.V = transformed(fit.similarity, shape(fit.alpha));
   if (landmarks && !landmark_ids.empty()) {
     double s = 0;
     for (const int k : landmark_ids) s += (fit.V.row(model.landmark_vertices[size_t(k)]) - landmarks->row(k)).squaredNorm();

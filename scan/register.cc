@@ -34,10 +34,6 @@ Eigen::MatrixX3d landmark_points(const TemplateFace& face) {
   return P;
 }
 
-Eigen::MatrixX3d apply(const Eigen::Matrix4d& T, const Eigen::MatrixX3d& V) {
-  return ((V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
-}
-
 // Runs f, adds its wall time to `seconds`, returns its result.
 template <class F>
 auto timed(double& seconds, F&& f) {
@@ -198,8 +194,8 @@ Eigen::MatrixX3d similarity_alignment(const TemplateFace& face, const Mesh& scan
     const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), dst.transpose(), true);
     stats.used_landmarks = true;
     stats.similarity_scale = std::cbrt(T.topLeftCorner<3, 3>().determinant());
-    stats.landmark_rms_after_similarity_mm = rms(apply(T, src), dst);
-    return apply(T, face.mesh.V);
+    stats.landmark_rms_after_similarity_mm = rms(transformed(T, src), dst);
+    return transformed(T, face.mesh.V);
   }
   const Eigen::Index n = face.mesh.V.rows();
   const Eigen::RowVector3d ct = face.mesh.V.colwise().mean(), cs = scan.V.colwise().mean();
@@ -218,7 +214,7 @@ Eigen::MatrixX3d similarity_alignment(const TemplateFace& face, const Mesh& scan
       b.col(Eigen::Index(k)) = c.target.row(keep[k]).transpose();
     }
     const Eigen::Matrix4d T = Eigen::umeyama(a, b, true);
-    V0 = apply(T, V0);
+    V0 = transformed(T, V0);
     if ((T - Eigen::Matrix4d::Identity()).norm() < 1e-6) break;
   }
   return V0;
@@ -575,7 +571,7 @@ Eigen::MatrixX3d similarity_onto(const Eigen::MatrixX3d& from, const Eigen::Matr
   for (Eigen::Index i = 0; i < from.rows(); ++i)
     if (use[size_t(i)]) a.col(n) = from.row(i).transpose(), b.col(n++) = to.row(i).transpose();
   if (n < 100) a = from.transpose(), b = to.transpose(), n = from.rows();
-  return apply(Eigen::umeyama(a.leftCols(n), b.leftCols(n), true), from);
+  return transformed(Eigen::umeyama(a.leftCols(n), b.leftCols(n), true), from);
 }
 
 // Phase 1b (with a model, model_prior.h): the model's shape fitted to the scan from the similarity's placement.
@@ -712,12 +708,12 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
   }
   const Eigen::Matrix4d T = Eigen::umeyama(src.transpose(), dst.transpose(), true);
   const double scale = std::cbrt(T.topLeftCorner<3, 3>().determinant());
-  const double fit = rms(apply(T, src), dst) / scale;  // in template millimetres
+  const double fit = rms(transformed(T, src), dst) / scale;  // in template millimetres
   if (fit < 8) return;
   Eigen::MatrixX3d mirrored = dst;
   mirrored.col(0) *= -1;
   const Eigen::Matrix4d M = Eigen::umeyama(src.transpose(), mirrored.transpose(), true);
-  const double mirrored_fit = rms(apply(M, src), mirrored) / std::cbrt(M.topLeftCorner<3, 3>().determinant());
+  const double mirrored_fit = rms(transformed(M, src), mirrored) / std::cbrt(M.topLeftCorner<3, 3>().determinant());
   if (mirrored_fit < 0.5 * fit) {
     std::snprintf(what, sizeof what, "landmarks fit the template only when mirrored (RMS %.1f mm, mirrored %.1f mm)", fit,
                   mirrored_fit);

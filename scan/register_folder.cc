@@ -49,9 +49,10 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   out.nicp = options.nicp;
   if (options.no_landmarks) return out;
   if (fs::exists(scan_dir + "/landmarks.json")) {
-    out.landmarks = read_landmarks(scan_dir + "/landmarks.json");
-    check_scan_landmarks(face, *out.landmarks, scan_dir + "/landmarks.json");
-    out.nicp.landmark_sigma_mm = read_landmark_sigma(scan_dir + "/landmarks.json");
+    const std::string path = scan_dir + "/landmarks.json", text = read_file(path);
+    out.landmarks = parse_landmarks_json(text, path);
+    check_scan_landmarks(face, *out.landmarks, path);
+    out.nicp.landmark_sigma_mm = parse_landmark_sigma(text);
     return out;
   }
   if (!options.detect) return out;
@@ -347,8 +348,8 @@ void log_report(const nlohmann::json& r) {
 
 }  // namespace
 
-std::vector<double> read_landmark_sigma(const std::string& path) {
-  const nlohmann::json doc = nlohmann::json::parse(read_file(path), nullptr, false);
+std::vector<double> parse_landmark_sigma(const std::string& text) {
+  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
   if (doc.is_discarded() || !doc.is_object() || !doc.contains("detail") || !doc["detail"].is_array() ||
       doc["detail"].size() != 68) {
     return {};

@@ -49,10 +49,10 @@ struct RegisterFolderOptions {
   ScanLandmarkDetector detect;
 };
 
-// Per-point uncertainty (mm) from a landmark file `landmarks scan --views` wrote (its 68 "detail" entries' sigma_mm; 0
-// where one has none: unknown); empty for a plain landmark file. scan register reads it beside the points, so a saved
-// detection weighs its points as a detection in the same run does (the model fit, --sigma-weighted-landmarks).
-std::vector<double> read_landmark_sigma(const std::string& path);
+// Per-point uncertainty (mm) from the text of a landmark file `landmarks scan --views` wrote (its 68 "detail" entries'
+// sigma_mm; 0 where one has none: unknown); empty for a plain landmark file. scan register reads it beside the points,
+// so a saved detection weighs its points as a detection in the same run does (the model fit, --sigma-weighted-landmarks).
+std::vector<double> parse_landmark_sigma(const std::string& text);
 
 // Registers every scan folder of options.scans that has no report in options.output yet (in parallel; keep_going
 // collects failures), writes options.output/summary.json and returns options.output/<id> for every scan. Throws

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/similarity.h"
 #include "core/stats.h"
 #include "core/test_util.h"
 #include "scan/test_template.h"
@@ -56,8 +57,7 @@ TEST(Register, LandsOnTheTrueCorrespondences) {
   Eigen::Matrix3Xd src(3, 68);
   for (int k = 0; k < 68; ++k) src.col(k) = face.mesh.V.row(face.landmark_vertices[size_t(k)]).transpose();
   const Eigen::Matrix4d T = Eigen::umeyama(src, Eigen::Matrix3Xd(scan.landmarks.points.transpose()), true);
-  const Eigen::MatrixX3d similar =
-      (face.mesh.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose();
+  const Eigen::MatrixX3d similar = transformed(T, face.mesh.V);
   const double similarity_error =
       measure_registration(face, similar, scan.mesh, nullptr, &scan.truth_point, &scan.truth_face).correspondence_median;
   EXPECT_GT(similarity_error, 2 * e.correspondence_median);
@@ -347,18 +347,14 @@ TEST(Register, SigmaWeightedLandmarksLetUncertainPointsGiveWay) {
   EXPECT_LT(weighted.correspondence_p95, 0.85 * plain.correspondence_p95);      // 2.87 -> 1.77 mm
 
   // A saved `landmarks scan --views` file carries σ per point; a plain landmark file none.
-  const std::string dir = testing::temp_dir();
   std::string views = R"({"scheme": "ibug68", "units": "mm", "points": [], "detail": [)";
   for (int k = 0; k < 68; ++k) views += std::string(k ? "," : "") + (k == 3 ? R"({"method": "none"})" : R"({"sigma_mm": )" + std::to_string(0.5 + k) + "}");
-  write_file_atomic(dir + "/views.json", views + "]}");
-  const std::vector<double> sigma = read_landmark_sigma(dir + "/views.json");
+  const std::vector<double> sigma = parse_landmark_sigma(views + "]}");
   ASSERT_EQ(sigma.size(), 68u);
   EXPECT_DOUBLE_EQ(sigma[0], 0.5);
   EXPECT_DOUBLE_EQ(sigma[3], 0.0) << "no sigma_mm: unknown";
   EXPECT_DOUBLE_EQ(sigma[67], 67.5);
-  write_file_atomic(dir + "/plain.json", R"({"scheme": "ibug68", "units": "mm", "points": []})");
-  EXPECT_TRUE(read_landmark_sigma(dir + "/plain.json").empty());
-  std::filesystem::remove_all(dir);
+  EXPECT_TRUE(parse_landmark_sigma(R"({"scheme": "ibug68", "units": "mm", "points": []})").empty());
 }
 
 // The outline term: a scan cut along the face outline (as `scan synth` makes them) registered without the jaw line's

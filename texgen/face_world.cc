@@ -9,6 +9,7 @@
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "core/scan_folder.h"
+#include "core/similarity.h"
 #include "render/sh.h"
 
 namespace bareskin::texgen {
@@ -184,7 +185,7 @@ RegisteredSubjects read_registered_subjects(const std::string& folder, const Mor
       T = Eigen::umeyama(mesh.V.transpose(), model.topology.V.transpose(), false);
       s.frame = "rigid fit to the model's mean shape (not a training subject of the model)";
     }
-    s.shape = ((mesh.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+    s.shape = transformed(T, mesh.V);
     const Eigen::MatrixX3d centred = s.shape - model.topology.V;
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rows = centred;
     const Eigen::Map<const Eigen::VectorXd> flat(rows.data(), rows.size());

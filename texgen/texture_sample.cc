@@ -10,6 +10,7 @@
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "core/scan_folder.h"
+#include "core/similarity.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
 #include "render/shade.h"
@@ -62,7 +63,7 @@ Subject load_subject_mesh(const std::string& dir, const MorphableModel& model) {
   const Eigen::Matrix3Xd src = registered.V.transpose(), dst = model.topology.V.transpose();
   const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
   s.mesh = model.topology;
-  s.mesh.V = ((registered.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose()).eval();
+  s.mesh.V = transformed(T, registered.V);
   s.mesh.N.resize(0, 3);
   return s;
 }
@@ -151,9 +152,7 @@ ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, 
   shape.V = model.shape(fit.alpha, fit.beta);
   const Eigen::MatrixX3d N = vertex_normals(shape.V, shape.F);
   RasterOutput own_uv;
-  if (!uv_raster) own_uv = rasterize_uv(shape, size);
-  const RasterOutput& uv = uv_raster ? *uv_raster : own_uv;
-  BS_CHECK(uv.width == size && uv.height == size, "model_uv_maps: the given UV raster is not size²");
+  const RasterOutput& uv = given_or_own_uv(uv_raster, shape, size, own_uv);
   maps.normal = Image(size, size, 3, ColorSpace::Data);
   maps.position = Image(size, size, 3, ColorSpace::Data);
   parallel_for(0, int64_t(size) * size, [&](int64_t b, int64_t e) {
@@ -194,7 +193,7 @@ double uniform(std::mt19937_64& rng, double lo, double hi) {  // portable: not s
 // Mean distance between two vertex sets of the same topology after the rigid alignment of `a` onto `b`.
 double aligned_distance(const Eigen::MatrixX3d& a, const Eigen::MatrixX3d& b) {
   const Eigen::Matrix4d T = Eigen::umeyama(Eigen::Matrix3Xd(a.transpose()), Eigen::Matrix3Xd(b.transpose()), false);
-  const Eigen::MatrixX3d moved = ((a * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose());
+  const Eigen::MatrixX3d moved = transformed(T, a);
   return (moved - b).rowwise().norm().mean();
 }
 
@@ -368,7 +367,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
   std::vector<ViewFit> out;
   const Camera small = view_camera("front", options.fit_size, Eigen::Vector3d::Zero(), 1000);
   RasterOutput own_uv;
-  if (!uv_raster) own_uv = rasterize_uv(model.topology, options.input_res);
+  const RasterOutput& uv = given_or_own_uv(uv_raster, model.topology, options.input_res, own_uv);
   for (size_t i = 0; i < views.size(); ++i) {
     ViewFit& v = views[i].fit;
     v.fit = geometry[i];
@@ -383,7 +382,7 @@ std::vector<ViewFit> fit_views(const MorphableModel& model, const Subject& subje
     UnwarpOptions unwarp_options;
     unwarp_options.size = options.input_res;
     if (options.drop_background) unwarp_options.inside = &views[i].face;  // texels touching the background: unseen
-    unwarp_options.uv_raster = uv_raster ? uv_raster : &own_uv;
+    unwarp_options.uv_raster = &uv;
     v.unwrap = unwarp(views[i].unwrapped, posed, camera, unwarp_options);
     out.push_back(std::move(v));
   }

@@ -26,9 +26,7 @@ UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, 
   const RasterOutput view = rasterize_mesh(mesh, camera);
 
   RasterOutput own_uv;
-  if (!options.uv_raster) own_uv = rasterize_uv(mesh, options.size);
-  const RasterOutput& uv = options.uv_raster ? *options.uv_raster : own_uv;
-  BS_CHECK(uv.width == options.size && uv.height == options.size, "unwarp: the given UV raster is not of the UV size");
+  const RasterOutput& uv = given_or_own_uv(options.uv_raster, mesh, options.size, own_uv);
   const Eigen::MatrixX3d N = vertex_normals(mesh.V, mesh.F);
   const Eigen::Vector3d centre = -camera.R.transpose() * camera.t;           // pinhole: the camera's position
   const Eigen::Vector3d toward = camera.R.transpose() * Eigen::Vector3d::UnitZ();  // weak perspective: its direction
