@@ -105,9 +105,11 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
 }
 
 // OpenMesh skips OBJ lines it cannot parse (a "nan" coordinate, a face cut short) and carries on; check the text
-// first so the user hears about the real fault with its line number. Returns the number of face lines.
-size_t check_obj_text(const std::string& path, const std::string& bytes) {
+// first so the user hears about the real fault with its line number. Returns the number of face lines; `polygons`:
+// those with more than 3 corners.
+size_t check_obj_text(const std::string& path, const std::string& bytes, size_t& polygons) {
   size_t line = 1, faces = 0;
+  polygons = 0;
   const auto bad = [&](const std::string& what, const std::string& hint) {
     throw InvalidInput(path, "line " + std::to_string(line) + ": " + what, hint);
   };
@@ -142,6 +144,7 @@ size_t check_obj_text(const std::string& path, const std::string& bytes) {
     } else if (is("f")) {
       ++faces;
       if (n < 4) bad("face has " + std::to_string(n - 1) + " corners", "the file is truncated or corrupt");
+      polygons += n > 4;
       for (int i = 1; i < n; ++i) {
         const char first = *tokens[i].first, last = *(tokens[i].second - 1);
         if (last == '/' || !(std::isdigit(static_cast<unsigned char>(first)) || first == '-')) {
@@ -228,16 +231,16 @@ Mesh read_mesh(const std::string& path) {
   check_extension(path);
   const std::string bytes = read_file(path);  // IoError with a clear message when missing or unreadable
   if (lower_extension(path) == ".ply") check_ply_header(path, bytes);
-  const size_t obj_faces = lower_extension(path) == ".obj" ? check_obj_text(path, bytes) : 0;
+  size_t polygons = 0, triangulated_faces = 0;
+  const size_t obj_faces = lower_extension(path) == ".obj" ? check_obj_text(path, bytes, polygons) : 0;
   OmMesh om;
   om.request_vertex_texcoords2D();
   om.request_halfedge_texcoords2D();
   om.request_vertex_normals();
   OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                               OpenMesh::IO::Options::VertexNormal;
-  size_t polygons = 0, triangulated_faces = 0;
   const std::string triangulated =
-      obj_faces ? triangulate_obj_polygons(bytes, polygons, triangulated_faces) : std::string();
+      polygons > 0 ? triangulate_obj_polygons(bytes, polygons, triangulated_faces) : std::string();
   if (polygons > 0) {
     spdlog::debug("{}: {} polygon(s) with more than 3 corners split into triangles", path, polygons);
   }
