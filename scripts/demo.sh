@@ -566,7 +566,7 @@ calibrated landmarks (<code>scan register --landmark-calibration</code>), then a
 eyes and outer lip line are found in the scan's texture, the nose in its curvature, and the registration is run again
 from them, the template's outline drawn to the scan's open border (these synthetic scans are cut along the face
 outline; docs/pipeline.md, "Texture landmarks", "Outline term"). On six held-out noisy scans this takes the
-correspondence median from 2.66 to 0.81 mm (bench/BENCHMARKS.md); with the true landmarks NICP gets about 0.5 mm: the
+correspondence median from 2.66 to 0.82 mm (bench/BENCHMARKS.md); with the true landmarks NICP gets about 0.5 mm: the
 jaw line, which neither the skin nor the shape marks (the outline says where the face ends, not where along it a point
 belongs), is most of what is left.</p>
 $texture_landmarks
