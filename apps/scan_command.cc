@@ -98,7 +98,7 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
   app->add_option("--texture-landmarks", t.landmark_rounds,
                   "Rounds of finding the brows, eyes and lips in the scan's texture (flow to --texture-reference) and the "
                   "nose in its shape (curvature, flow to the template's), and registering again from them (for "
-                  "detected landmarks; docs/pipeline.md; 0: off)")
+                  "detected landmarks: 2, or 3 for a little more at about 2 s a round; docs/pipeline.md; 0: off)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-landmark-res", t.landmark_resolution, "UV size of the texture landmarks' flow (power of two)")
       ->capture_default_str()->group("Texture refinement");
