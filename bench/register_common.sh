@@ -1,5 +1,10 @@
 # shellcheck shell=bash
-# Sourced by bench/register_model.sh and bench/register_texture.sh: the per-scan registration and table they share.
+# Sourced by bench/register_model.sh, register_texture.sh, register_variants.sh and register_texture_landmarks.sh: the
+# detected-landmark schedule, the per-scan registration and the table they share.
+
+# The detected-landmark schedule (scan register's own for detected points: weight 10 -> 0 over the first steps).
+# shellcheck disable=SC2034  # used by the scripts that source this one
+detected_schedule="--landmark-weight 10 3.33333 1.11111 0 0 0"
 
 # register_into BIN TEMPLATE SCANS OUT [FLAGS...]: `scan register` SCANS into OUT, geometry only (--maps-res 0), niced,
 # with $REGISTER_FLAGS last. Scans OUT already holds a report.json for are skipped (scan register resumes), so a row is

@@ -13,12 +13,11 @@ shift 4
 mkdir -p "$out"
 # shellcheck source=bench/register_common.sh
 source "$(dirname "$0")/register_common.sh"
-detected_weights="--landmark-weight 10 3.33333 1.11111 0 0 0"
 for spec in "$@"; do
   kind=${spec%%=*} scans=${spec#*=}
   name=$(basename "$scans")
   flags=""
-  [ "$kind" = detected ] && flags=$detected_weights
+  [ "$kind" = detected ] && flags=$detected_schedule
   # shellcheck disable=SC2086  # flags and MODEL_FLAGS hold several flags
   register_into "$bin" "$template" "$scans" "$out/before_${kind}_$name" $flags
   # shellcheck disable=SC2086

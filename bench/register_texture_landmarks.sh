@@ -10,6 +10,8 @@
 # Cached under OUT like the scripts it calls; the table is the last thing printed. THREADS as in register_heldout.sh.
 set -euo pipefail
 bin=$1 template=$2 demo_scans=$3 out=$4
+# shellcheck source=bench/register_common.sh
+source "$(dirname "$0")/register_common.sh"
 here=$(cd "$(dirname "$0")" && pwd)
 MODEL30=0 bash "$here/register_heldout.sh" "$bin" "$template" "$demo_scans" "$out"
 [ -d "$out/reference_registered" ] || nice "$bin/bareskin" -q scan register --template "$template" \
@@ -52,7 +54,7 @@ for run in a b; do
     esac
     # shellcheck disable=SC2086  # flags hold several flags
     [ -d "$lone/$n$run" ] || "$bin/bareskin" -q --threads 2 scan register --template "$template" --scans "$lone/scan" \
-        -o "$lone/$n$run" --maps-res 0 --landmark-weight 10 3.33333 1.11111 0 0 0 $flags
+        -o "$lone/$n$run" --maps-res 0 $detected_schedule $flags
   done
 done
 /usr/bin/python3 - "$out" > "$out/rounds.csv" <<'PY'

@@ -16,7 +16,7 @@ while IFS='|' read -r name flags; do
   for spec in "$@"; do
     kind=${spec%%=*} scans=${spec#*=}
     schedule=""
-    [[ "$kind" = detected && "$flags" != *--landmark-weight* ]] && schedule="--landmark-weight 10 3.33333 1.11111 0 0 0"
+    [[ "$kind" = detected && "$flags" != *--landmark-weight* ]] && schedule=$detected_schedule
     # shellcheck disable=SC2086  # flags hold several flags
     register_into "$bin" "$template" "$scans" "$out/$name/${kind}_$(basename "$scans")" $schedule $flags </dev/null
   done

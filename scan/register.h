@@ -117,9 +117,9 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
 // out of the face), then ICP with a similarity (rotation, translation, scale); stats.used_landmarks says which ran.
 // With both texture images, options.texture.landmark_rounds rounds of texture landmarks follow NICP (each: the
 // brows, eyes and outer lip line found in the texture and the nose in the shape, then NICP again from the template
-// placed by the similarity onto the last registration, with those points alone at the default landmark weights and
-// no model; fewer than 10 found: the round is not used), and
-// with options.texture.iterations > 0 the texture refinement runs last. options.outline_weight > 0 needs a scan with an
+// placed by the similarity onto the last registration, with those points alone at the default landmark weights, the
+// outer lip line's side points held across the line only, and no model; fewer than 10 found: the round is not
+// used), and with options.texture.iterations > 0 the texture refinement runs last. options.outline_weight > 0 needs a scan with an
 // open border (InvalidInput otherwise). With a `model` (built on this template:
 // check_model_template), its shape is fitted after the similarity and NICP starts from it, with its landmark weights
 // times options.prior.nicp_landmark_scale (default 1).

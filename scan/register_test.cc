@@ -207,8 +207,8 @@ TEST(Register, TextureLandmarksFindTheFeaturesASlideMoved) {
 
 // The texture-landmark rounds end to end (register_scan): landmarks as a detector gives them (the jaw line 5 mm low,
 // the rest 1.5 mm off at random) leave the registration slid; two rounds find the brows, eyes, lips and nose in the
-// scan and register from them, with the outline drawn to the scan's border: 1.28 -> 0.40 mm median, p95 2.68 -> 1.12 at
-// this 6k template. (Each round starts from the template placed on the last registration's surface, not on the found
+// scan and register from them (the outer lip line's side points held across the line only), with the outline drawn to
+// the scan's border: 1.28 -> 0.42 mm median, p95 2.68 -> 1.12 at this 6k template. (Each round starts from the template placed on the last registration's surface, not on the found
 // points' similarity: 0.97 -> 0.86 mm on held-out 65k scans, bench/BENCHMARKS.md; at this size the two starts differ
 // by 0.01 mm.)
 TEST(Register, TextureLandmarkRoundsUndoTheDetectedLandmarksSlide) {
