@@ -1,7 +1,7 @@
 // bareskin uvtools: UV-space tools, one setup + run per subcommand. `bake`: a set of maps (up to 16K) resized to
 // smaller sizes in one streamed pass, seam-aware with a layout (uvtools/bake.h). `unwarp`: an image into the mesh's UV
 // through a camera, with visibility (uvtools/unwarp.h). `mask`: face-parsing labels or synthetic occluders into a UV
-// mask (uvtools/mask.h).
+// mask (uvtools/mask.h). `mean`: the mean of maps in one UV layout, in linear light (uvtools/mean.h).
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -18,6 +18,7 @@
 #include "morphable/model.h"
 #include "uvtools/bake.h"
 #include "uvtools/mask.h"
+#include "uvtools/mean.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::cli {
@@ -199,15 +200,51 @@ std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
   };
 }
 
+std::function<void()> setup_mean(CLI::App& uvtools, const Globals& globals) {
+  struct Options {
+    std::vector<std::string> maps;
+    std::string output;
+  };
+  auto opt = std::make_shared<Options>();
+  CLI::App* app = uvtools.add_subcommand("mean", "The mean of maps in one UV layout, in linear light (e.g. the texture "
+                                                 "reference of 'scan register --texture-landmarks')");
+  app->add_option("maps", opt->maps, "Maps of one size in one UV layout, e.g. registered/*/diffuse.png; black texels "
+                                     "(outside a map's transfer) do not count")
+      ->required();
+  app->add_option("-o,--output", opt->output, "The mean: .exr linear, .png/.tif sRGB; the first map's bit depth")->required();
+  return [opt, app, &globals] {
+    if (!app->parsed()) return;
+    for (const std::string& map : opt->maps) {
+      std::error_code ec;
+      if (map == opt->output || fs::equivalent(map, opt->output, ec)) {
+        throw InvalidInput(opt->output, "is also one of the maps to average", "write the mean to another file");
+      }
+    }
+    ProgressBar bar = globals.progress("uvtools mean");
+    MapMean mean = mean_of_maps(opt->maps, bar.callback());
+    bar.finish();
+    const bool exr = lower_extension(opt->output) == ".exr";
+    if (exr && mean.image.color_space == ColorSpace::sRGB) mean.image = to_linear(mean.image);
+    if (!exr && mean.image.color_space == ColorSpace::Linear) mean.image = to_srgb(mean.image);
+    // The first map's precision: 16-bit integers stay 16-bit, float inputs go to 16-bit PNG/TIFF or float EXR.
+    const PixelType in = probe_image(opt->maps[0]).type;
+    ImageWriteOptions w;
+    if (!exr) w.type = in == PixelType::UInt8 ? PixelType::UInt8 : PixelType::UInt16;
+    if (exr && in == PixelType::Float) w.type = PixelType::Float;
+    write_image(opt->output, mean.image, w);
+    spdlog::info("uvtools mean: {} maps, {:.1f}% of the texels covered -> {}", opt->maps.size(),
+                 100 * mean.covered_fraction, opt->output);
+  };
+}
+
 }  // namespace
 
 std::function<void()> setup_uvtools_command(CLI::App& app, const Globals& globals) {
   app.require_subcommand(1);
-  const std::function<void()> runs[] = {setup_bake(app, globals), setup_unwarp(app, globals), setup_mask(app, globals)};
-  return [bake = runs[0], unwarp = runs[1], mask = runs[2]] {
-    bake();  // each runs only when its subcommand was parsed
-    unwarp();
-    mask();
+  const std::function<void()> runs[] = {setup_bake(app, globals), setup_unwarp(app, globals), setup_mask(app, globals),
+                                        setup_mean(app, globals)};
+  return [runs] {
+    for (const auto& run : runs) run();  // each runs only when its subcommand was parsed
   };
 }
 

@@ -3,7 +3,7 @@
 # texture refinement (the NICP result, report.json's texture_refine.correspondence_error_before_mm) and after it, side
 # by side with the ratio, from the scans' true landmarks and from detected (calibrated multi-view) landmarks.
 # Usage: bench/register_texture.sh BIN TEMPLATE REFERENCE.png OUT CALIBRATION.json ROUNDS SCANS_DIR...
-#   REFERENCE.png: the template-UV reference (bench/register_texture_reference.py over OTHER scans' registered
+#   REFERENCE.png: the template-UV reference (`bareskin uvtools mean` over OTHER scans' registered
 #   diffuse.png); CALIBRATION.json: `landmarks calibrate` on other scans ("" skips the detected-landmark rows).
 # Extra `scan register` flags can be given in REGISTER_FLAGS. Rows are cached in OUT (delete it to rerun).
 set -euo pipefail

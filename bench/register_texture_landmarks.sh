@@ -16,7 +16,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 MODEL30=0 bash "$here/register_heldout.sh" "$bin" "$template" "$demo_scans" "$out"
 [ -d "$out/reference_registered" ] || nice "$bin/bareskin" -q scan register --template "$template" \
     --scans "$demo_scans" -o "$out/reference_registered" --maps-res 512
-[ -f "$out/reference512.png" ] || /usr/bin/python3 "$here/register_texture_reference.py" "$out/reference512.png" \
+[ -f "$out/reference512.png" ] || "$bin/bareskin" -q uvtools mean -o "$out/reference512.png" \
     "$out/reference_registered"/subject_*/diffuse.png
 ref=$(cd "$out" && pwd)/reference512.png
 features=$(echo $(seq 17 26) $(seq 36 59))

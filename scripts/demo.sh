@@ -356,8 +356,8 @@ for id in subject_0008 subject_0009; do
   d="$out/detected_scans/$id"
   [ -d "$d" ] || { mkdir -p "$d.tmp" && for f in "$out/scans/$id"/*; do [ "$(basename "$f")" = landmarks.json ] || cp -al "$f" "$d.tmp/"; done && mv "$d.tmp" "$d"; }
 done
-[ -f "$out/landmarks/reference.png" ] || /usr/bin/python3 "$(dirname "$0")/../bench/register_texture_reference.py" \
-    "$out/landmarks/reference.png" "$out"/registered/subject_000[0-7]/diffuse.png > /dev/null
+[ -f "$out/landmarks/reference.png" ] || "$bareskin" -q uvtools mean -o "$out/landmarks/reference.png" \
+    "$out"/registered/subject_000[0-7]/diffuse.png
 [ -f "$out/registered_detected/summary.json" ] || timed "register (detected)" "$bareskin" scan register -q \
     --template "$out/template" --scans "$out/detected_scans" -o "$out/registered_detected" --maps-res 0 \
     --landmark-calibration "$calib"

@@ -2,13 +2,18 @@
 // reproduces the texture where it is seen; a profile view sees less of the face and nothing facing away.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 
 #include "core/error.h"
+#include "core/image_io.h"
 #include "render/rasterize.h"
 #include "render/shade.h"
 #include "scan/test_template.h"
+#include "uvtools/mean.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin {
@@ -117,6 +122,46 @@ TEST(Unwarp, InsideMaskLeavesTexelsTouchingItsZerosUnseen) {
 TEST(Unwarp, RefusesAnImageOfAnotherSize) {
   const Mesh& mesh = testing::test_template().mesh;
   EXPECT_THROW(unwarp(Image(100, 100, 3), mesh, view_camera("front", 224, Eigen::Vector3d::Zero())), InvalidInput);
+}
+
+// The mean in linear light of 8-bit sRGB maps, black texels left out, against the same sums done here by hand.
+TEST(MapMean, AveragesCoveredTexelsInLinearLight) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("bareskin_uvtools_mean_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const float levels[3][4] = {{0.2f, 0.0f, 0.9f, 0.0f}, {0.6f, 0.5f, 0.1f, 0.0f}, {0.4f, 0.7f, 0.3f, 0.0f}};
+  std::vector<std::string> paths;
+  for (int m = 0; m < 3; ++m) {
+    Image map(2, 2, 3, ColorSpace::sRGB);
+    for (int i = 0; i < 4; ++i)
+      for (int c = 0; c < 3; ++c) map.pixels[size_t(3 * i + c)] = levels[m][i] * (1 - 0.2f * float(c));
+    paths.push_back((dir / ("map" + std::to_string(m) + ".png")).string());
+    write_image(paths.back(), map);
+  }
+  const MapMean mean = mean_of_maps(paths);
+  ASSERT_EQ(mean.image.color_space, ColorSpace::sRGB);
+  EXPECT_DOUBLE_EQ(mean.covered_fraction, 0.75);  // texel 3 is black in every map
+  for (int i = 0; i < 4; ++i)
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0;
+      int n = 0;
+      for (int m = 0; m < 3; ++m) {
+        const float encoded = std::round(levels[m][i] * (1 - 0.2f * float(c)) * 255) / 255;  // what the PNG holds
+        if (encoded > 0) sum += srgb_to_linear(encoded), ++n;
+      }
+      const double want = n ? linear_to_srgb(float(sum / n)) : 0.0;
+      EXPECT_NEAR(mean.image.pixels[size_t(3 * i + c)], want, 1e-5) << "texel " << i << " channel " << c;
+    }
+  // A map of another size is refused, naming it.
+  const std::string other = (dir / "other.png").string();
+  write_image(other, Image(4, 4, 3, ColorSpace::sRGB, 0.5f));
+  try {
+    mean_of_maps({paths[0], other});
+    ADD_FAILURE() << "a map of another size was averaged";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("other.png"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

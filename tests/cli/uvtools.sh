@@ -2,7 +2,8 @@
 # uvtools bake through the command line: truth maps in the template UV (`scan synth --truth-res`) resized to two sizes,
 # checked by the numpy + oiiotool oracle (tests/python/bake_oracle.py) in PNG and EXR (tiled half with mip levels);
 # --toksvig raises roughness where normals vary; bad input (mixed sizes, non-square, a size that does not divide, a
-# zero normal, a truncated EXR, a size that is not a number) gets one line, exit 3, and no output folder.
+# zero normal, a truncated EXR, a size that is not a number) gets one line, exit 3, and no output folder; `uvtools
+# mean` against numpy, and a map of another size refused.
 source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 1 --vertices 8000 --res 0 --truth-res 256 -o "$work/s" || fail "synth"
@@ -107,4 +108,24 @@ mkdir -p "$work/b_cut"
 head -c 2000 "$maps/diffuse.png" > "$work/b_cut/diffuse.png"
 expect_failure 3 "b_cut/diffuse.png" "$work/out_cut" -- "$bin" uvtools bake "$work/b_cut" --sizes 64 -o "$work/out_cut"
 expect_failure 4 "nothere: is not a folder" "$work/out_nothere" -- "$bin" uvtools bake "$work/nothere" -o "$work/out_nothere"
-echo "16 passed, 0 failed"
+
+# mean: a map and a darker copy with a black corner, averaged in linear light with the black texels left out (numpy).
+oiiotool "$maps/diffuse.png" --mulc 0.5 --fill:color=0,0,0 64x64+0+0 -o "$work/dark.png"
+"$bin" uvtools mean -q "$maps/diffuse.png" "$work/dark.png" -o "$work/mean.png" || fail "mean"
+$py - "$here/../python" "$maps/diffuse.png" "$work/dark.png" "$work/mean.png" <<'PY' || fail "mean oracle"
+import sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from bake_oracle import read
+lin = lambda c: np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+srgb = lambda c: np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0) ** (1 / 2.4) - 0.055)
+a, b = (lin(read(p)[..., :3]) for p in sys.argv[2:4])
+ca, cb = ((m.sum(2, keepdims=True) > 1e-4).astype(float) for m in (a, b))
+want = srgb((a * ca + b * cb) / np.maximum(ca + cb, 1))
+err = 65535 * np.abs(read(sys.argv[4]) - want).max()
+assert err <= 0.51, f"mean off by {err:.2f} / 65535"
+print(f"ok   mean: max |ours - numpy| {err:.2f} / 65535 (16-bit in, 16-bit out)")
+PY
+expect_failure 3 "128/diffuse.png: is 128x128" "$work/mean_bad.png" -- \
+  "$bin" uvtools mean -q "$maps/diffuse.png" "$work/png/128/diffuse.png" -o "$work/mean_bad.png"
+echo "18 passed, 0 failed"
