@@ -48,7 +48,7 @@ TEST(Register, LandsOnTheTrueCorrespondences) {
   const RegistrationErrors e = errors(r, scan);
   EXPECT_TRUE(r.stats.used_landmarks);
   EXPECT_LT(e.distance_median, 0.05) << "mm";
-  // Regression bounds at the 6k test template (issue 4's targets, 0.5 / 1.5 mm at 65k, are tracked in bench/).
+  // Regression bounds at the 6k test template (the targets at 65k, 0.5 / 1.5 mm median / p95, are tracked in bench/).
   EXPECT_LT(e.correspondence_median, 0.9) << "mm";
   EXPECT_LT(e.correspondence_p95, 2.5) << "mm";
   EXPECT_LT(e.landmark_mean, 1.5) << "mm";
