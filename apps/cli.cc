@@ -3,6 +3,7 @@
 #include <malloc.h>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -134,7 +135,7 @@ int run(int argc, char** argv) {
   app.allow_config_extras(CLI::config_extras_mode::error);  // a misspelt key is refused, not ignored (subcommands inherit)
   app.add_flag("-v,--verbose", globals.verbose, "More log output")->group("Global");
   app.add_flag("-q,--quiet", globals.quiet_flag, "Only warnings and errors; no progress bars")->group("Global");
-  app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::NonNegativeNumber)->group("Global");
+  app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 4096))->group("Global");
   for (const Command& c : commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.summary)->group(c.group);
     sub->footer("Global flags (before or after the command): -v, -q, --threads N, --config FILE.json; "
@@ -143,6 +144,18 @@ int run(int argc, char** argv) {
       globals.apply();
       run_command();
     });
+  }
+  // CLI11's range checks let NaN through (every comparison with it is false): no flag takes NaN or an infinity.
+  for (size_t i = 1; i < args.size(); ++i) {
+    std::string value = args[i];
+    const size_t eq = value.find('=');
+    if (value.rfind("--", 0) == 0 && eq != std::string::npos) value = value.substr(eq + 1);
+    std::transform(value.begin(), value.end(), value.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (!value.empty() && (value[0] == '+' || value[0] == '-')) value.erase(0, 1);
+    if (value == "nan" || value == "inf" || value == "infinity") {
+      std::cerr << "bareskin: '" << args[i] << "' is not a finite number; flags take finite values (see --help)\n";
+      return kUsageError;
+    }
   }
   if (args.size() > 1 && args[1][0] != '-') {
     const std::string first = args[1];
@@ -180,6 +193,10 @@ int run(int argc, char** argv) {
   } catch (const InternalError& e) {
     std::cerr << "internal error: " << e.what() << " (please report this)\n";
     return kInternalError;
+  } catch (const std::filesystem::filesystem_error& e) {  // e.g. an output folder asked for where a file is
+    std::cerr << "error: " << e.path1().string() << ": " << e.code().message()
+              << "; check that the path's folders exist, are folders and are writable\n";
+    return kIoError;
   } catch (const std::bad_alloc&) {
     std::cerr << "error: out of memory; try a smaller size or fewer --threads\n";
     return kIoError;

@@ -57,7 +57,8 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
   app.add_option("--run", o->run, "The 'bareskin train bareskin' run folder (G; names F and the model)")->required();
   app.add_option("--teacher", o->teacher, "The teacher F's run (default: the one the run was trained with)");
   app.add_option("--model", o->model, "The morphable model (default: the one the run was trained with)");
-  app.add_option("--uv-size", o->uv_size, "Side of the UV map the bare skin is unwrapped into")->capture_default_str();
+  app.add_option("--uv-size", o->uv_size, "Side of the UV map the bare skin is unwrapped into")->capture_default_str()
+      ->check(CLI::Range(16, 16384));
   app.add_option("--detector-size", o->detector_size, "Face detector input (multiple of 32)")->capture_default_str();
   add_device_option(app, o->device);
   app.add_flag("--aligned", o->aligned, "The inputs are aligned 256² faces (texgen faces' makeup.png): no detection");

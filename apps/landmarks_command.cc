@@ -100,7 +100,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   d->add_option("--min-score", opt->detect.min_score, "Drop detections scoring below")->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
   d->add_option("--max-faces", opt->detect.max_faces, "Keep at most this many faces (0: all)")->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 100000));
   add_device_option(*d, opt->device);
 
   struct ScanOptions {
@@ -159,7 +159,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
                                                 "(scan folders with landmarks.json) for `landmarks scan --calibration`");
   c->add_option("--scans", ca->scans, "Folder of scan folders (mesh, diffuse map, landmarks.json)")->required();
   c->add_option("-o,--output", ca->output, "Calibration JSON")->required();
-  c->add_option("--count", ca->count, "Use the first N scans (0: all)")->capture_default_str()->check(CLI::NonNegativeNumber);
+  c->add_option("--count", ca->count, "Use the first N scans (0: all)")->capture_default_str()->check(CLI::Range(0, 1000000));
   c->add_option("--views", ca->multiview.views, "Virtual cameras (as landmarks scan)")->capture_default_str()
       ->check(CLI::Range(2, 100));
   c->add_option("--view-size", ca->multiview.size, "Render size per view")->capture_default_str()->check(CLI::Range(128, 4096));
@@ -176,7 +176,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   p->add_option("scan", cp->scan, "Scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file")->required();
   p->add_option("--texture", cp->texture, "Diffuse map, when the scan is a mesh file (else: grey)");
   p->add_option("-o,--output", cp->output, "Folder for photo_NN.png and cameras.json (the true cameras)")->required();
-  p->add_option("--photos", cp->capture.photos, "Cameras (3 rows from 12 on)")->capture_default_str();
+  p->add_option("--photos", cp->capture.photos, "Cameras, at least 2 (in 3 rows from 12 on)")->capture_default_str();
   p->add_option("--size", cp->capture.size, "Photo size, px")->capture_default_str();
   p->add_option("--field", cp->capture.field_mm, "Width seen at the face, mm")->capture_default_str();
   p->add_option("--max-yaw", cp->capture.max_yaw_deg, "Rows span yaw in [-max, max] degrees")->capture_default_str();
@@ -191,11 +191,14 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     if (p->parsed()) {
       cp->capture.backdrop = !cp->no_backdrop;
       cp->capture.check();
+      check_output_apart(cp->output, {cp->scan, cp->texture});
       const TexturedScan scan = read_textured_scan(cp->scan, cp->texture);
       write_synthetic_capture(scan.mesh, scan.diffuse ? &*scan.diffuse : nullptr, cp->output, cp->capture);
       return;
     }
     if (c->parsed()) {
+      check_output_file(ca->output);
+      check_output_apart(ca->output, {ca->scans});
       const detect::FaceApi net(ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
       write_file_atomic(ca->output,
                         landmark_calibration_json(detect::calibrate_on_scans(net, ca->scans, ca->count, ca->multiview)));
@@ -203,6 +206,10 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       return;
     }
     if (s->parsed()) {
+      check_output_file(sc->output);
+      if (!sc->uncalibrated.empty() && sc->calibration.empty())
+        throw InvalidInput("--uncalibrated", "needs --calibration (the points before it)", "pass --calibration FILE");
+      if (!sc->uncalibrated.empty()) check_output_file(sc->uncalibrated);
       if (sc->weights.empty()) sc->weights = detect::default_face_api_folder();
       const TexturedScan scan = read_textured_scan(sc->scan, sc->texture);
       const Mesh& mesh = scan.mesh;

@@ -310,9 +310,9 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
   app.add_option("--appearance-components", opt->photo.appearance_components, "Appearance components fitted (delta)")
       ->capture_default_str()->group("Photometric");
   app.add_option("--colour-noise", opt->photo.noise, "Per-pixel colour noise (linear), weighing data against the priors")
-      ->capture_default_str()->group("Photometric");
+      ->capture_default_str()->check(CLI::Range(1e-6, 10.0))->group("Photometric");
   app.add_option("--lighting-sd", opt->photo.lighting_sd, "Prior spread of the SH coefficients around white ambient")
-      ->capture_default_str()->group("Photometric");
+      ->capture_default_str()->check(CLI::Range(1e-6, 100.0))->group("Photometric");
   app.add_option("--skin-mask", opt->skin_mask, "Image of the photo's size, white where the photometric term may look "
                  "(e.g. a face parser's skin class); default: every pixel the face covers")
       ->check(CLI::ExistingFile)->group("Photometric");
@@ -321,12 +321,23 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
                  "Accuracy per iteration and time: a CSV, and beside it <stem>_landmarks.svg and <stem>_photometric.svg");
   return [opt, &globals] {
     opt->fit.check();
+    check_output_file(opt->output);
+    check_output_apart(opt->output, {opt->image, opt->model, opt->landmarks, opt->skin_mask});
+    if (!opt->trace.empty()) {
+      check_output_file(opt->trace);
+      check_output_apart(opt->trace, {opt->image, opt->model, opt->landmarks, opt->skin_mask, opt->output});
+    }
     const ImageFileInfo info = probe_image(opt->image);
     if (info.width != info.height) throw InvalidInput(opt->image, "is not square", "give the square crop");
     const Landmarks lm = read_landmarks(opt->landmarks);
     if (lm.points.rows() != 68 || lm.points.cols() != 2) {
       throw InvalidInput(opt->landmarks, "needs 68 2D landmarks, has " + std::to_string(lm.points.rows()) + " of " +
                                              std::to_string(lm.points.cols()) + "D", "give the 68 iBUG points in pixels");
+    }
+    const double w = info.width;
+    if (!((lm.points.array() >= -w).all() && (lm.points.array() <= 2 * w).all())) {
+      throw InvalidInput(opt->landmarks, "has points far outside the " + std::to_string(info.width) + " px image",
+                         "give the 68 iBUG points in the image's pixels");
     }
     const MorphableModel model = read_model(opt->model);
     const Camera camera = command_camera(model.topology, true, opt->view, "pinhole", info.width);

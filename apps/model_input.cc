@@ -56,7 +56,8 @@ Camera command_camera(const Mesh& mesh, bool fixed, const std::string& view, con
 
 Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, const std::string& coeffs_path) {
   if (mesh_path.empty() == model_path.empty()) {
-    throw InvalidInput("", "give a mesh, or --model with --coeffs", "see --help");
+    throw InvalidInput("", mesh_path.empty() ? "give a mesh, or --model with --coeffs" : "give a mesh or --model, not both",
+                       "see --help");
   }
   return mesh_path.empty() ? model_instance(model_path, coeffs_path).mesh : read_mesh(mesh_path);
 }

@@ -85,7 +85,8 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
   app.add_option("--model", o->model, "The morphable model (default: the one the run was trained with)");
   app.add_flag("--refine", o->refine, "Continue with mm-fit's fitters from the net's answer (landmarks, then appearance "
                                       "and light)");
-  app.add_option("--refine-iterations", o->refine_iterations, "Landmark-fit iterations of --refine")->capture_default_str();
+  app.add_option("--refine-iterations", o->refine_iterations, "Landmark-fit iterations of --refine")->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   app.add_flag("--keep-going", o->keep_going, "With a folder: report a photo that fails and go on (exit 3 at the end)");
   app.add_option("--flag-landmark-px", o->confidence.landmark_px, "Flag answers whose landmarks are further than this "
                                                                   "from the detector's (px, 256² frame)")->capture_default_str();

@@ -8,6 +8,7 @@
 #include "apps/detector.h"
 #include "apps/device_flag.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/parallel.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
@@ -33,18 +34,26 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   app.add_option("--upscale", opt->upscale, "SRGAN runs (bareskin train upscale), one per map; maps without one are "
                                             "upscaled bicubically")
       ->expected(0, -1);
-  app.add_option("--bareskin", opt->bareskin, "BareSkinNet run (bareskin train bareskin): G before reconstruction");
+  app.add_option("--bareskin", opt->bareskin, "BareSkinNet run (bareskin train bareskin): G before reconstruction "
+                                              "(this or --no-bareskin is required)");
   app.add_option("--teacher", opt->teacher, "Reconstruction net F (bareskin train recon run): the 3DMM coefficients "
                                             "from G's image; without it mm-fit's landmark and photometric fits");
   app.add_option("--sr-maps", opt->sr_maps,
                  "Maps SRGAN upscales where an --upscale run is given for them (comma-separated; the others "
                  "bicubically: SRGAN gained nothing over bicubic on the smooth normal map, docs/texture.md)")
       ->capture_default_str();
-  app.add_flag("--no-bareskin", opt->no_bareskin, "Skip G: the photo itself is reconstructed and unwrapped");
+  app.add_flag("--no-bareskin", opt->no_bareskin, "Skip G: the photo itself is reconstructed and unwrapped (this or "
+                                                  "--bareskin is required)");
   app.add_flag("--no-upscale", opt->no_upscale, "Maps at the texture net's size only");
   app.add_option("--input-res", opt->avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
-      ->capture_default_str();
-  app.add_option("--preview-size", opt->avatar.preview_size, "Relit previews' size")->capture_default_str();
+      ->capture_default_str()->check(CLI::Validator(
+          [](std::string& text) {
+            const int v = std::atoi(text.c_str());
+            return v == 0 || (v >= 64 && v <= 8192) ? std::string() : std::string("must be 0 or lie in [64, 8192]");
+          },
+          "0 or 64..8192"));
+  app.add_option("--preview-size", opt->avatar.preview_size, "Relit previews' size")->capture_default_str()
+      ->check(CLI::Range(16, 4096));
   add_device_option(app, opt->device);
   app.add_option("--landmarks", opt->landmarks,
                  "The photo's 68 landmarks (a landmark file, px): used instead of the detector (e.g. for aligned shards)");
@@ -58,6 +67,10 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     keep_freed_memory();
     if (opt->no_bareskin == !opt->bareskin.empty())
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
+    std::vector<std::string> inputs = {opt->photo,   opt->model,     opt->texture, opt->bareskin,
+                                       opt->teacher, opt->landmarks, opt->weights};
+    inputs.insert(inputs.end(), opt->upscale.begin(), opt->upscale.end());
+    check_output_apart(opt->output, inputs);
     opt->avatar.sr_maps = texture::parse_map_list(opt->sr_maps, "--sr-maps");
     const auto t0 = std::chrono::steady_clock::now();
     nlohmann::json load;  // wall seconds per part of the loading
@@ -78,6 +91,9 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
       const Landmarks given = read_landmarks(opt->landmarks);
       if (given.points.rows() != 68 || given.points.cols() != 2)
         throw InvalidInput(opt->landmarks, "does not hold 68 2D landmarks", "give an iBUG-68 file in pixels");
+      const double size = std::max(photo.width, photo.height);
+      if (!((given.points.array() >= -size).all() && (given.points.array() <= 2 * size).all()))
+        throw InvalidInput(opt->landmarks, "has points far outside the photo", "give the photo's iBUG-68 points in pixels");
       const detect::Landmarks68 points = given.points;
       detector = [points](const Image&) { return std::vector<detect::Landmarks68>{points}; };
     } else {

@@ -71,7 +71,8 @@ std::function<void()> setup_texgen_faces(CLI::App& texgen, const Globals& global
   app->add_option("--layer-size", opt->layer_size, "Size of the stored makeup layer (layer.png, finish.png); divides "
                                                    "--map-size")
       ->capture_default_str();
-  app->add_option("--backgrounds", opt->backgrounds, "Folder of background photos (missing: procedural only)")
+  app->add_option("--backgrounds", opt->backgrounds, "Folder of background photos (default: scikit-image's sample photos, "
+                                                   "Debian's python3-skimage; missing or \"\": procedural only)")
       ->capture_default_str();
   app->footer("Example:\n  bareskin texgen faces --registered out/registered --model out/model/model.safetensors "
               "--count 1000 --seed 1 -o out/faces\ndocs/datasets.md describes the world and the sample format.");

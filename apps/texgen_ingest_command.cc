@@ -5,6 +5,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/image_io.h"
 #include "texgen/contact_sheet.h"
 #include "texgen/ingest.h"
@@ -32,6 +33,7 @@ std::function<void()> setup_texgen_ingest_pairs(CLI::App& texgen, const Globals&
     if (!app->parsed()) return;
     opt->generator = std::string("bareskin texgen ingest-pairs ") + BARESKIN_VERSION;
     opt->check();
+    check_output_apart(opt->output, {opt->before_dir, opt->after_dir});
     const detect::PhotoDetector detector = photo_detector(globals);
     if (!detector)
       throw InvalidInput("texgen ingest-pairs", "this build has no face detector (no LibTorch)",

@@ -56,8 +56,10 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--teacher", o->teacher, "The teacher F: a 'bareskin train recon' run folder (needed by stage 2)");
   app->add_option("--model", o->model, "The morphable model F was trained with (model.safetensors; needed by stage 2)");
   app->add_option("-o,--output", o->output, "Run folder (stage1/ and stage2/ inside)")->capture_default_str();
-  app->add_option("--steps1", o->steps1, "Stage-1 iterations (the paper: 10000)")->capture_default_str();
-  app->add_option("--steps2", o->steps2, "Stage-2 iterations (the paper: 30000; 0: stage 1 only)")->capture_default_str();
+  app->add_option("--steps1", o->steps1, "Stage-1 iterations (the paper: 10000)")->capture_default_str()
+      ->check(CLI::Range(1, 1000000000));
+  app->add_option("--steps2", o->steps2, "Stage-2 iterations (the paper: 30000; 0: stage 1 only)")
+      ->capture_default_str()->check(CLI::Range(0, 1000000000));
   app->add_option("--batch", o->batch, "Batch size (the paper: 4)")->capture_default_str();
   app->add_option("--size", o->task.size, "Training resolution (a power of two; the samples are area-resized)")->capture_default_str();
   app->add_option("--target", o->task.target, "G's supervision: before (the paper) or bare (the albedo truth)")

@@ -8,6 +8,7 @@
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "training/checkpoint.h"
 #include "training/nets/zoo.h"
 
@@ -92,7 +93,9 @@ std::function<void()> setup_train_command(CLI::App& app, const Globals& globals)
     } else if (texture()) {
     } else if (recon()) {
     } else if (app.got_subcommand("export")) {
-      train::export_module(train::run_checkpoint(opt->checkpoint), opt->module, opt->output);
+      const std::string checkpoint = train::run_checkpoint(opt->checkpoint);
+      check_output_apart(opt->output, {opt->checkpoint, checkpoint});
+      train::export_module(checkpoint, opt->module, opt->output);
       if (!globals.quiet()) std::cerr << "wrote " << opt->output << "\n";
     } else if (opt->list) {
       list_models();

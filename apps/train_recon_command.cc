@@ -59,7 +59,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   app->add_option("--arch", o->arch, "resnet50 (the teacher F) or resnet18 (the student E)")
       ->check(CLI::IsMember({"resnet50", "resnet18", "resnet34"}))->capture_default_str();
   app->add_option("--width", o->width, "Channels of conv1/layer1 (64: torchvision; 8-16: tiny nets for tests, CPU demo)")
-      ->capture_default_str();
+      ->capture_default_str()->check(CLI::Range(1, 1024));
   app->add_option("--gamma", o->gamma, "Regress the light γ: on, off, auto (on for resnet50, off otherwise)")
       ->check(CLI::IsMember({"on", "off", "auto"}))->capture_default_str();
   app->add_option("--supervision", o->supervision, "truth (the samples' coefficients), self (Deep3DFaceRecon's terms: "
@@ -70,7 +70,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   app->add_option("--image-size", o->image_size, "Train at this square size (the samples are area-resampled; 0: "
                                                  "theirs, 256²; 128 is 4× cheaper on the CPU)")->capture_default_str();
   app->add_option("--loss", o->loss, "Loss weights over the defaults, JSON (docs/training.md), e.g. '{\"identity\": 0}'");
-  app->add_option("--steps", o->steps, "Iterations")->capture_default_str();
+  app->add_option("--steps", o->steps, "Iterations")->capture_default_str()->check(CLI::Range(1, 1000000000));
   app->add_option("--batch", o->batch, "Batch size")->capture_default_str();
   app->add_option("--lr", o->lr, "Adam's learning rate (Deep3DFaceRecon: 1e-4)")->capture_default_str();
   app->add_option("--decay-every", o->decay_every, "Steps between ×0.2 decays (0: half the steps, as "

@@ -35,7 +35,7 @@ void add_common(CLI::App* app, Common& c) {
   app->add_option("--model", c.model,
                   "The morphable model the dataset was made with: its CRC-32 is recorded, and 'bareskin run' refuses "
                   "another model with this run");
-  app->add_option("--steps", c.run.steps, "Training steps")->capture_default_str();
+  app->add_option("--steps", c.run.steps, "Training steps")->capture_default_str()->check(CLI::Range(1, 1000000000));
   app->add_option("--batch", c.run.batch, "Batch size")->capture_default_str();
   app->add_option("--seed", c.run.seed, "Seed (weights, data order, occlusion draws)")->capture_default_str();
   app->add_option("--log-every", c.run.log_every, "Loss logging interval")->capture_default_str();

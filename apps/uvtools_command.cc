@@ -60,6 +60,7 @@ std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
   bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
   return [opt, bake, &globals] {
     if (!bake->parsed()) return;
+    check_output_apart(opt->output, {opt->input, opt->layout});
     opt->resize.sizes = parse_sizes(opt->sizes);
     opt->resize.check();
     if (!std::filesystem::is_directory(opt->input)) {
@@ -93,6 +94,12 @@ std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
   };
 }
 
+// unwarp's confidence map: <stem>_confidence<ext> beside the UV map.
+std::string confidence_path(const std::string& output) {
+  const fs::path p(output);
+  return (p.parent_path() / (p.stem().string() + "_confidence" + p.extension().string())).string();
+}
+
 std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
   struct Options {
     std::string image, mesh, model, coeffs, output, view = "front", camera = "pinhole";
@@ -108,15 +115,19 @@ std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
   app->add_option("-o,--output", un->output, "UV map, RGB (.exr linear, .png/.tif sRGB 16-bit); the confidence "
                                              "(cos of the view angle, 0 = unseen) goes beside it as <name>_confidence")
       ->required();
-  app->add_option("--view", un->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+  app->add_option("--view", un->view, "Camera as 'render --view': front, left or right")->capture_default_str()
       ->check(CLI::IsMember({"front", "left", "right"}));
   app->add_option("--camera", un->camera, "pinhole or weak, as 'render --camera'")->capture_default_str()
       ->check(CLI::IsMember({"pinhole", "weak"}));
   app->add_option("--size", un->unwarp.size, "UV map size")->capture_default_str();
   app->add_option("--depth-tolerance", un->unwarp.depth_tolerance, "mm between a texel and the depth buffer")
+      ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
   return [un, app] {
     if (!app->parsed()) return;
+    const std::vector<std::string> inputs = {un->image, un->mesh, un->model, un->coeffs};
+    check_output_apart(un->output, inputs);
+    check_output_apart(confidence_path(un->output), inputs);
     const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
     const Image image = read_image(un->image);
     if (image.width != image.height) {
@@ -128,10 +139,8 @@ std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
     const bool exr = out_path.extension() == ".exr";
     ImageWriteOptions w;
     if (!exr) w.type = PixelType::UInt16;
-    const std::string confidence_path =
-        (out_path.parent_path() / (out_path.stem().string() + "_confidence" + out_path.extension().string())).string();
     write_image(un->output, exr ? r.colour : to_srgb(r.colour), w);
-    write_image(confidence_path, r.confidence, w);
+    write_image(confidence_path(un->output), r.confidence, w);
     spdlog::info("uvtools unwarp: {} of {} texels of the UV layout seen ({:.1f}%) -> {}", r.seen, r.in_layout,
                  100.0 * double(r.seen) / double(std::max<int64_t>(r.in_layout, 1)), un->output);
   };
@@ -151,7 +160,7 @@ std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
   app->add_option("--model", mk->model, "Or a morphable model (mm-build) ...");
   app->add_option("--coeffs", mk->coeffs, "... at these coefficients (JSON: alpha, beta, rotation, translation)");
   app->add_option("-o,--output", mk->output, "UV mask (8-bit PNG: 255 = face seen and uncovered)")->required();
-  app->add_option("--view", mk->view, "Camera as 'render --camera': front, left or right")->capture_default_str()
+  app->add_option("--view", mk->view, "Camera as 'render --view': front, left or right")->capture_default_str()
       ->check(CLI::IsMember({"front", "left", "right"}));
   app->add_option("--camera", mk->camera, "pinhole or weak")->capture_default_str()
       ->check(CLI::IsMember({"pinhole", "weak"}));
@@ -163,10 +172,13 @@ std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
       ->group("Synthetic");
   app->add_option("--seed", mk->seed, "Random seed of the occluders' shapes")->capture_default_str()->group("Synthetic");
   app->add_option("--image-size", mk->image_size, "Size of the synthetic label image")->capture_default_str()
-      ->group("Synthetic");
+      ->check(CLI::Range(16, 8192))->group("Synthetic");
   app->add_option("--labels-out", mk->labels_out, "Also write the synthetic label image here (PNG)")->group("Synthetic");
   return [mk, app] {
     if (!app->parsed()) return;
+    const std::vector<std::string> inputs = {mk->labels, mk->mesh, mk->model, mk->coeffs, mk->landmarks};
+    check_output_apart(mk->output, inputs);
+    if (!mk->labels_out.empty()) check_output_apart(mk->labels_out, inputs);
     if (mk->labels.empty() == mk->synthetic.empty()) {
       throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
     }
@@ -214,12 +226,7 @@ std::function<void()> setup_mean(CLI::App& uvtools, const Globals& globals) {
   app->add_option("-o,--output", opt->output, "The mean: .exr linear, .png/.tif sRGB; the first map's bit depth")->required();
   return [opt, app, &globals] {
     if (!app->parsed()) return;
-    for (const std::string& map : opt->maps) {
-      std::error_code ec;
-      if (map == opt->output || fs::equivalent(map, opt->output, ec)) {
-        throw InvalidInput(opt->output, "is also one of the maps to average", "write the mean to another file");
-      }
-    }
+    check_output_apart(opt->output, opt->maps);
     ProgressBar bar = globals.progress("uvtools mean");
     MapMean mean = mean_of_maps(opt->maps, bar.callback());
     bar.finish();

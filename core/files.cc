@@ -33,17 +33,24 @@ void remove_stale_temporaries(const fs::path& dir, const std::string& prefix) {
 
 }  // namespace
 
-AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
-  const fs::path path(target_);
+void check_output_file(const std::string& target) {
+  const fs::path path(target);
   fs::path dir = path.parent_path();
   if (dir.empty()) dir = ".";
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
-    throw IoError(target_, "output directory '" + dir.string() + "' does not exist", "create it or choose another output");
+    throw IoError(target, "output directory '" + dir.string() + "' does not exist", "create it or choose another output");
   }
   if (access(dir.c_str(), W_OK) != 0) {
-    throw IoError(target_, "output directory '" + dir.string() + "' is not writable", "check its permissions");
+    throw IoError(target, "output directory '" + dir.string() + "' is not writable", "check its permissions");
   }
+  if (fs::is_directory(path, ec)) throw IoError(target, "is a folder", "give a file name for the output");
+}
+
+AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
+  check_output_file(target_);
+  const fs::path path(target_);
+  const fs::path dir = path.parent_path().empty() ? fs::path(".") : path.parent_path();
   remove_stale_temporaries(dir, "." + path.stem().string() + ".tmp");
   std::random_device rd;
   temp_ = (dir / ("." + path.stem().string() + ".tmp" + std::to_string(getpid()) + "-" + std::to_string(rd() % 100000) +
@@ -80,12 +87,22 @@ AtomicDirectory::AtomicDirectory(std::string target) : target_(std::move(target)
   if (access(parent.c_str(), W_OK) != 0) {
     throw IoError(target_, "parent directory '" + parent.string() + "' is not writable", "check its permissions");
   }
+  std::error_code ec;
+  if (fs::exists(path, ec) && !fs::is_directory(path, ec)) {
+    throw IoError(target_, "exists and is a file, not a folder", "choose a folder name for the output");
+  }
+  if (fs::is_directory(path, ec) && !fs::is_empty(path, ec) && !fs::exists(path / kOutputMarker, ec)) {
+    throw IoError(target_, "is a folder of other files (not an earlier bareskin output), which the output would replace",
+                  "remove it or choose another output folder");
+  }
   remove_stale_temporaries(parent, "." + path.filename().string() + ".partial");
   std::random_device rd;
   temp_ = (parent / ("." + path.filename().string() + ".partial" + std::to_string(getpid()) + "-" +
                      std::to_string(rd() % 100000)))
               .string();
   make_directories(temp_);
+  write_file_atomic((fs::path(temp_) / kOutputMarker).string(),
+                    "written by bareskin; the next run with this output may replace this folder\n");
 }
 
 AtomicDirectory::~AtomicDirectory() {
@@ -108,6 +125,23 @@ void AtomicDirectory::commit() {
   }
   if (had_old) fs::remove_all(old, ec);
   committed_ = true;
+}
+
+void check_output_apart(const std::string& output, const std::vector<std::string>& inputs) {
+  const auto resolved = [](const std::string& path) {
+    std::error_code ec;
+    fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec).lexically_normal();
+    return p.filename().empty() ? p.parent_path() : p;
+  };
+  const fs::path out = resolved(output);
+  for (const std::string& input : inputs) {
+    if (input.empty()) continue;
+    const fs::path in = resolved(input);
+    if (std::mismatch(out.begin(), out.end(), in.begin(), in.end()).first != out.end()) continue;
+    throw InvalidInput(output,
+                       (in == out ? "is also an input (" : "would replace a folder that holds an input (") + input + ")",
+                       "choose another output");
+  }
 }
 
 void write_file_atomic(const std::string& path, const std::string& bytes) {

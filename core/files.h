@@ -2,6 +2,7 @@
 // or nothing, never a partial one), whole-file reads, directories, extensions.
 #pragma once
 #include <string>
+#include <vector>
 
 namespace bareskin {
 
@@ -25,7 +26,10 @@ class AtomicFile {
 };
 
 // A whole output directory made atomically: files are written into a hidden sibling directory, and commit() renames
-// it over the target (replacing an older one). Without commit() the partial directory is removed.
+// it over the target (replacing an older one). Without commit() the partial directory is removed. Only a folder that
+// bareskin wrote (it holds the marker file kOutputMarker) or an empty one is replaced: the constructor refuses a file
+// or a folder of other files (IoError), which the rename would otherwise delete.
+inline constexpr const char* kOutputMarker = ".bareskin-output";
 class AtomicDirectory {
  public:
   explicit AtomicDirectory(std::string target);
@@ -39,6 +43,14 @@ class AtomicDirectory {
   std::string target_, temp_;
   bool committed_ = false;
 };
+
+// Checks, before any work, that an output file can be made: its folder exists and is writable and the path is not a
+// folder (IoError otherwise; AtomicFile checks the same).
+void check_output_file(const std::string& path);
+
+// Refuses (InvalidInput naming `output`) an output path that is one of `inputs`, or that holds one of them (an output
+// folder replaces what was there). Empty inputs (flags not given) are skipped.
+void check_output_apart(const std::string& output, const std::vector<std::string>& inputs);
 
 // Writes `bytes` to `path` atomically.
 void write_file_atomic(const std::string& path, const std::string& bytes);

@@ -56,6 +56,7 @@ TEST(AtomicDirectory, AllOrNothing) {
   }
   EXPECT_EQ(read_file(target + "/a.txt"), "second");
   EXPECT_EQ(testing::count_files(root), 1u);
+  EXPECT_TRUE(std::filesystem::exists(target + "/" + kOutputMarker));
   // A writer killed with -9 leaves its temporary behind; the next writer removes it (pid 999999999 is not alive).
   std::filesystem::create_directories(root + "/.out.partial999999999-1");
   testing::write_text(root + "/.a.tmp999999999-2.txt", "stale");
@@ -63,6 +64,32 @@ TEST(AtomicDirectory, AllOrNothing) {
   AtomicFile file(root + "/a.txt");
   EXPECT_FALSE(std::filesystem::exists(root + "/.out.partial999999999-1"));
   EXPECT_FALSE(std::filesystem::exists(root + "/.a.tmp999999999-2.txt"));
+}
+
+// An output folder replaces only an earlier output or an empty folder: a folder of the user's files, or a file, is
+// refused before anything is written, and an output that is or holds an input is refused.
+TEST(AtomicDirectory, NeverReplacesWhatItDidNotWrite) {
+  const std::string root = testing::temp_dir();
+  std::filesystem::create_directories(root + "/mine/maps");
+  testing::write_text(root + "/mine/maps/diffuse.png", "not really a png");
+  testing::write_text(root + "/file.png", "x");
+  EXPECT_THROW(AtomicDirectory(root + "/mine"), IoError);
+  EXPECT_THROW(AtomicDirectory(root + "/file.png"), IoError);
+  EXPECT_EQ(read_file(root + "/mine/maps/diffuse.png"), "not really a png");
+  EXPECT_EQ(testing::count_files(root), 2u);  // no temporary left
+  std::filesystem::create_directories(root + "/empty");
+  AtomicDirectory(root + "/empty").commit();
+  AtomicDirectory(root + "/empty/").commit();  // its own output: replaced
+  EXPECT_TRUE(std::filesystem::exists(root + "/empty/" + kOutputMarker));
+
+  const std::string input = root + "/mine/maps/diffuse.png";
+  EXPECT_THROW(check_output_apart(root + "/mine", {input}), InvalidInput);
+  EXPECT_THROW(check_output_apart(root + "/mine/maps/", {input}), InvalidInput);
+  EXPECT_THROW(check_output_apart(root + "/mine/../mine/maps/diffuse.png", {input}), InvalidInput);
+  EXPECT_NO_THROW(check_output_apart(root + "/mine/maps/mean.png", {input}));
+  EXPECT_NO_THROW(check_output_apart(root + "/min", {input}));
+  EXPECT_NO_THROW(check_output_apart(root + "/mine", {root + "/missing.png", ""}));
+  EXPECT_THROW(check_output_apart(root + "/fit.json", {root + "/./fit.json"}), InvalidInput);  // neither exists yet
 }
 
 }  // namespace

@@ -101,6 +101,7 @@ class SilencedStderr {
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError(path, "no such file", "check the path");
+  if (std::filesystem::is_directory(path, ec)) throw IoError(path, "is a folder, not an image", "give an image file");
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
     const std::string why = one_line(OIIO::geterror());

@@ -252,8 +252,9 @@ std::vector<Eigen::Matrix<double, 68, 2>> FaceApi::landmarks(const torch::Tensor
 
 std::vector<Face> FaceApi::detect(const torch::Tensor& image, const DetectOptions& options) const {
   BS_CHECK(image.dim() == 3 && image.size(2) == 3, "FaceApi::detect takes an [H, W, 3] image");
-  if (options.input_size < 32 || options.input_size % 32 != 0)
-    throw InvalidInput("--input-size", std::to_string(options.input_size) + " is not a positive multiple of 32",
+  if (options.input_size < 32 || options.input_size > 4096 || options.input_size % 32 != 0)
+    throw InvalidInput("the detector's input size (--input-size, --detector-size)",
+                       std::to_string(options.input_size) + " is not a multiple of 32 in [32, 4096]",
                        "use e.g. 416 (default), 320 or 608");
   const int s = options.input_size;
   const int64_t h = image.size(0), w = image.size(1);

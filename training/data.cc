@@ -310,7 +310,7 @@ ShardLoader::ShardLoader(LoaderOptions options) : options_(std::move(options)) {
   if (options_.world < 1 || options_.rank < 0 || options_.rank >= options_.world)
     throw InvalidInput("rank " + std::to_string(options_.rank), "is outside world size " + std::to_string(options_.world),
                        "check RANK and WORLD_SIZE");
-  if (options_.batch_size < 1) throw InvalidInput("--batch-size", "must be at least 1", "give a positive batch size");
+  if (options_.batch_size < 1) throw InvalidInput("--batch", "must be at least 1", "give a positive batch size");
   const shards::Manifest manifest = shards::open_dataset(options_.dataset);
   for (size_t i = 0; i < manifest.shards.size(); ++i) {
     if (int(i % options_.world) != options_.rank) continue;

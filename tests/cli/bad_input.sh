@@ -52,6 +52,18 @@ printf '{"render": {"sise": 64}}' > misspelt_config.json  # an unknown key was i
 expect 2 "misspelt_config.json: 'render.sise' is not a flag" "out.png" -- "$bin" --config misspelt_config.json render good.obj -o out.png
 expect 3 "cut.json: is not a JSON object" "out.png" -- "$bin" --config cut.json render good.obj -o out.png
 
+# An output never replaces an input or a folder bareskin did not write (a folder output would replace all inside it),
+# and no flag takes NaN (CLI11's range checks let it through).
+cp good.png good_before.png
+mkdir -p mine dir.png && echo keep > mine/notes.txt
+expect 3 "good.png: is also an input (good.png)" "" -- "$bin" uvtools unwarp good.png --mesh good.obj -o good.png
+expect 3 "would replace a folder that holds an input" "" -- "$bin" uvtools mean mine/../good.png -o .
+expect 4 "dir.png: is a folder" "" -- "$bin" render good.obj -o dir.png
+expect 2 "'nan' is not a finite number" "out.png" -- "$bin" render good.obj -o out.png --size nan
+expect 2 "'--size=-inf' is not a finite number" "out.png" -- "$bin" render good.obj -o out.png --size=-inf
+cmp -s good.png good_before.png && [ "$(cat mine/notes.txt)" = keep ] && passed=$((passed + 1)) \
+  || { echo "FAIL: an input or the user's folder changed"; failures=$((failures + 1)); }
+
 # --device, one parser for every command that runs networks (those built: they need the Torch side): anything but cpu,
 # cuda or cuda:N is refused naming the flag and the forms, and a CUDA device this machine lacks (cuda:99 anywhere) in
 # one line, both before any input is read or the output (the last word) written; the inputs named here do not exist.
