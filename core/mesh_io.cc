@@ -228,8 +228,10 @@ std::string triangulate_obj_polygons(const std::string& bytes, size_t& polygons,
 }  // namespace
 
 Mesh read_mesh(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError(path, "no such file or folder", "check the path");
+  std::error_code ec;  // a path without an extension that is not there was meant as a file or a folder
+  if (lower_extension(path).empty() && !std::filesystem::exists(path, ec)) {
+    throw IoError(path, "no such file or folder", "check the path");
+  }
   check_extension(path);
   const std::string bytes = read_file(path);  // IoError with a clear message when missing or unreadable
   if (lower_extension(path) == ".ply") check_ply_header(path, bytes);
