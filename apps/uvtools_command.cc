@@ -226,6 +226,7 @@ std::function<void()> setup_mean(CLI::App& uvtools, const Globals& globals) {
   app->add_option("-o,--output", opt->output, "The mean: .exr linear, .png/.tif sRGB; the first map's bit depth")->required();
   return [opt, app, &globals] {
     if (!app->parsed()) return;
+    check_output_file(opt->output);
     check_output_apart(opt->output, opt->maps);
     ProgressBar bar = globals.progress("uvtools mean");
     MapMean mean = mean_of_maps(opt->maps, bar.callback());
