@@ -124,7 +124,9 @@ nlohmann::json evaluate_recon(const EvalOptions& o, const ProgressCallback& prog
   const int64_t S = net.image_size;
   const Camera cam = recon::canonical_camera(int(S));
   const recon::CoefficientLayout layout = face_model.layout(true);
-  fs::create_directories(o.output + "/img");
+  AtomicDirectory folder(o.output);  // the evaluation's folder appears whole or not at all
+  const std::string out = folder.path();
+  fs::create_directories(out + "/img");
 
   struct Face {
     std::string key;
@@ -341,10 +343,10 @@ nlohmann::json evaluate_recon(const EvalOptions& o, const ProgressCallback& prog
                                             "expression strength (RMS β over all components, σ)");
   summary["by_yaw"] = yaw_rows;
   summary["by_expression"] = exp_rows;
-  write_file_atomic(o.output + "/speed_accuracy.svg", svg_line_chart(speed));
-  write_file_atomic(o.output + "/failure_yaw.svg", svg_line_chart(yaw_chart));
-  write_file_atomic(o.output + "/failure_expression.svg", svg_line_chart(exp_chart));
-  write_file_atomic(o.output + "/speed.csv", speed_csv);
+  write_file_atomic(out + "/speed_accuracy.svg", svg_line_chart(speed));
+  write_file_atomic(out + "/failure_yaw.svg", svg_line_chart(yaw_chart));
+  write_file_atomic(out + "/failure_expression.svg", svg_line_chart(exp_chart));
+  write_file_atomic(out + "/speed.csv", speed_csv);
   std::string csv = "key,yaw_deg,expression,shape_mm,shape_aligned_mm,landmark_px,skin_psnr_db,gamma_rmse,alpha_sigma,"
                     "beta_sigma,delta_sigma,rotation_deg,identity_cosine,net_ms,detected,residual_px,confidence,flagged\n";
   for (const Face& f : faces) {
@@ -353,9 +355,10 @@ nlohmann::json evaluate_recon(const EvalOptions& o, const ProgressCallback& prog
            fmt(f.delta) + "," + fmt(f.rotation) + "," + fmt(f.identity) + "," + fmt(f.net_ms, 1) + "," +
            (f.detected ? "1" : "0") + "," + fmt(f.residual) + "," + fmt(f.confidence, 4) + "," + (f.flagged ? "1" : "0") + "\n";
   }
-  write_file_atomic(o.output + "/faces.csv", csv);
-  if (!strips.empty()) write_image(o.output + "/img/heat_maps.png", to_image(torch::cat(strips, 1)));
-  write_file_atomic(o.output + "/metrics.json", summary.dump(2) + "\n");
+  write_file_atomic(out + "/faces.csv", csv);
+  if (!strips.empty()) write_image(out + "/img/heat_maps.png", to_image(torch::cat(strips, 1)));
+  write_file_atomic(out + "/metrics.json", summary.dump(2) + "\n");
+  folder.commit();
   return summary;
 }
 
