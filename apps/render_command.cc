@@ -218,7 +218,10 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
                                                         "albedo passes (the model's, or --landmarks' vertex ids)")
       ->group("Camera");
   return [opt, sh_option] {
-    if (opt->mesh.empty() == opt->model.empty()) throw InvalidInput("", "give a mesh, or --model with --coeffs", "see --help");
+    if (opt->mesh.empty() == opt->model.empty()) {
+      throw InvalidInput("", opt->mesh.empty() ? "give a mesh, or --model with --coeffs" : "give a mesh or --model, not both",
+                         "see --help");
+    }
     ModelInstance instance;
     if (!opt->model.empty()) instance = model_instance(opt->model, opt->coeffs);
     Mesh mesh = opt->model.empty() ? read_mesh(opt->mesh) : instance.mesh;

@@ -43,9 +43,10 @@ Coefficients read_coefficients(const std::string& path) {
   if (doc.is_discarded() || !doc.is_object()) {
     throw InvalidInput(path, "is not a JSON object", "give the coefficient file mm-fit writes");
   }
-  if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* key) { return doc.contains(key); })) {
+  // {} is the mean face at the default pose; keys but none of ours is another file (e.g. landmarks).
+  if (!doc.empty() && std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return doc.contains(k); })) {
     throw InvalidInput(path, "holds no coefficients (alpha, beta, delta, gamma, rotation or translation)",
-                       "give the coefficient file mm-fit or recon writes");
+                       "give the coefficient file mm-fit or recon writes ({} for the mean face)");
   }
   Coefficients c;
   c.alpha = vector(numbers(doc, "alpha", 0, path));

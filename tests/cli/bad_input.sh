@@ -57,7 +57,7 @@ expect 3 "cut.json: is not a JSON object" "out.png" -- "$bin" --config cut.json 
 cp good.png good_before.png
 mkdir -p mine dir.png && echo keep > mine/notes.txt
 expect 3 "good.png: is also an input (good.png)" "" -- "$bin" uvtools unwarp good.png --mesh good.obj -o good.png
-expect 3 "would replace a folder that holds an input" "" -- "$bin" uvtools mean mine/../good.png -o .
+expect 3 "would replace a folder that holds an input (mine)" "" -- "$bin" uvtools bake mine -o .
 expect 4 "dir.png: is a folder" "" -- "$bin" render good.obj -o dir.png
 expect 2 "'nan' is not a finite number" "out.png" -- "$bin" render good.obj -o out.png --size nan
 expect 2 "'--size=-inf' is not a finite number" "out.png" -- "$bin" render good.obj -o out.png --size=-inf

@@ -51,7 +51,7 @@ echo '{"alpha": [2, -1], "beta": [1], "delta": [1], "rotation": [0, 0.3, 0]}' > 
 "$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/fit.json" --camera pinhole --passes colour,mask \
   --size 64 -o "$work/model_{pass}.png" || fail "render model"
 oiiotool --stats "$work/model_mask.png" | grep -q "Stats Max: 255 (of 255)" || fail "render model: empty mask"
-expect_failure 3 "give a mesh, or --model" "$work/x.png" -- \
+expect_failure 3 "give a mesh or --model, not both" "$work/x.png" -- \
   "$bin" render -q "$work/m/obj/mean.obj" --model "$work/m/model.safetensors" --coeffs "$work/fit.json" -o "$work/x.png"
 # mm-fit: landmarks of a render at known coefficients give the coefficients back.
 echo '{"alpha": [1.2, -0.8, 0.5], "delta": [0.8], "rotation": [0.05, 0.25, -0.03], "translation": [5, -8, 20]}' \
@@ -144,6 +144,12 @@ print(f"ok   mm-fit --skin-mask: delta {skin['delta'][0]:.3f} with the glove mas
 PY
 expect_failure 3 "skin_small.png: is 64x64" "$work/bad_mask.json" -- "$bin" mm-fit -q "$work/occluded.png" \
   --model "$work/m/model.safetensors" --landmarks "$work/lm.json" --skin-mask "$work/skin_small.png" -o "$work/bad_mask.json"
+echo '{"points": [[1, 2]]}' > "$work/notc.json"  # a landmark file; {} (the mean face) is fine, as the demo uses it
+expect_failure 3 "notc.json: holds no coefficients" "$work/x.exr" -- \
+  "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/notc.json" -o "$work/x.exr"
+echo '{}' > "$work/mean_face.json"
+"$bin" render -q --model "$work/m/model.safetensors" --coeffs "$work/mean_face.json" --size 32 -o "$work/mean_face.png" \
+  || fail "render at {}"
 echo '{"alpha": [1, "x"]}' > "$work/badc.json"
 expect_failure 3 "alpha holds a value" "$work/x.exr" -- \
   "$bin" uvtools unwarp -q "$work/mean.png" --model "$work/m/model.safetensors" --coeffs "$work/badc.json" -o "$work/x.exr"
