@@ -57,7 +57,8 @@ void CaptureOptions::check() const {
   if (photos < 2 || photos > 500) throw InvalidInput("--photos", "must lie in [2, 500]", "pass e.g. 24");
   if (size < 64 || size > 8192) throw InvalidInput("--size", "must lie in [64, 8192] px", "pass e.g. 1536");
   if (supersample < 1 || supersample > 4) throw InvalidInput("--supersample", "must lie in [1, 4]", "pass 1 or 2");
-  if (!(distance > 0 && field_mm > 0)) throw InvalidInput("--distance", "distance and field must be positive", "");
+  if (!(field_mm > 0 && field_mm < 10000)) throw InvalidInput("--field", "must lie in (0, 10000) mm", "pass e.g. 320");
+  if (!(distance > 0)) throw InvalidInput("capture", "the camera distance must be positive", "");
   if (!(max_yaw_deg >= 0 && max_yaw_deg <= 90 && max_pitch_deg >= 0 && max_pitch_deg <= 60))
     throw InvalidInput("--max-yaw", "yaw must lie in [0, 90] and pitch in [0, 60] degrees", "");
   if (!(noise >= 0 && noise <= 0.2)) throw InvalidInput("--noise", "must lie in [0, 0.2]", "");
