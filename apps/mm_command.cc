@@ -329,16 +329,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
     }
     const ImageFileInfo info = probe_image(opt->image);
     if (info.width != info.height) throw InvalidInput(opt->image, "is not square", "give the square crop");
-    const Landmarks lm = read_landmarks(opt->landmarks);
-    if (lm.points.rows() != 68 || lm.points.cols() != 2) {
-      throw InvalidInput(opt->landmarks, "needs 68 2D landmarks, has " + std::to_string(lm.points.rows()) + " of " +
-                                             std::to_string(lm.points.cols()) + "D", "give the 68 iBUG points in pixels");
-    }
-    const double w = info.width;
-    if (!((lm.points.array() >= -w).all() && (lm.points.array() <= 2 * w).all())) {
-      throw InvalidInput(opt->landmarks, "has points far outside the " + std::to_string(info.width) + " px image",
-                         "give the 68 iBUG points in the image's pixels");
-    }
+    const Landmarks lm = read_image_landmarks(opt->landmarks, info.width, info.height);
     const MorphableModel model = read_model(opt->model);
     const Camera camera = command_camera(model.topology, true, opt->view, "pinhole", info.width);
     const auto t0 = std::chrono::steady_clock::now();

@@ -88,13 +88,7 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     const Image photo = read_image(opt->photo);
     texture::FaceFinder detector;
     if (!opt->landmarks.empty()) {
-      const Landmarks given = read_landmarks(opt->landmarks);
-      if (given.points.rows() != 68 || given.points.cols() != 2)
-        throw InvalidInput(opt->landmarks, "does not hold 68 2D landmarks", "give an iBUG-68 file in pixels");
-      const double size = std::max(photo.width, photo.height);
-      if (!((given.points.array() >= -size).all() && (given.points.array() <= 2 * size).all()))
-        throw InvalidInput(opt->landmarks, "has points far outside the photo", "give the photo's iBUG-68 points in pixels");
-      const detect::Landmarks68 points = given.points;
+      const detect::Landmarks68 points = read_image_landmarks(opt->landmarks, photo.width, photo.height).points;
       detector = [points](const Image&) { return std::vector<detect::Landmarks68>{points}; };
     } else {
       auto face_api = std::make_shared<detect::FaceApi>(opt->weights.empty() ? detect::default_face_api_folder()

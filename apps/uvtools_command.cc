@@ -229,17 +229,9 @@ std::function<void()> setup_mean(CLI::App& uvtools, const Globals& globals) {
     check_output_file(opt->output);
     check_output_apart(opt->output, opt->maps);
     ProgressBar bar = globals.progress("uvtools mean");
-    MapMean mean = mean_of_maps(opt->maps, bar.callback());
+    const MapMean mean = mean_of_maps(opt->maps, bar.callback());
     bar.finish();
-    const bool exr = lower_extension(opt->output) == ".exr";
-    if (exr && mean.image.color_space == ColorSpace::sRGB) mean.image = to_linear(mean.image);
-    if (!exr && mean.image.color_space == ColorSpace::Linear) mean.image = to_srgb(mean.image);
-    // The first map's precision: 16-bit integers stay 16-bit, float inputs go to 16-bit PNG/TIFF or float EXR.
-    const PixelType in = probe_image(opt->maps[0]).type;
-    ImageWriteOptions w;
-    if (!exr) w.type = in == PixelType::UInt8 ? PixelType::UInt8 : PixelType::UInt16;
-    if (exr && in == PixelType::Float) w.type = PixelType::Float;
-    write_image(opt->output, mean.image, w);
+    write_map_mean(opt->output, mean);
     spdlog::info("uvtools mean: {} maps, {:.1f}% of the texels covered -> {}", opt->maps.size(),
                  100 * mean.covered_fraction, opt->output);
   };

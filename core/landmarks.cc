@@ -1,5 +1,6 @@
 #include "core/landmarks.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -89,6 +90,20 @@ Landmarks read_landmarks(const std::string& path) {
   if (ext == ".json") return parse_landmarks_json(text, path);
   if (ext == ".pts") return parse_landmarks_pts(text, path);
   throw InvalidInput(path, "unknown landmark format '" + ext + "'", "use .json or .pts");
+}
+
+Landmarks read_image_landmarks(const std::string& path, int width, int height) {
+  Landmarks lm = read_landmarks(path);
+  if (lm.points.rows() != kIbug68Count || lm.points.cols() != 2) {
+    throw InvalidInput(path, "needs 68 2D landmarks, has " + std::to_string(lm.points.rows()) + " of " +
+                                 std::to_string(lm.points.cols()) + "D", "give the 68 iBUG points in pixels");
+  }
+  const double size = std::max(width, height);
+  if (!((lm.points.array() >= -size).all() && (lm.points.array() <= 2 * size).all())) {
+    throw InvalidInput(path, "has points far outside the " + std::to_string(width) + "x" + std::to_string(height) +
+                                 " image", "give the 68 iBUG points in the image's pixels");
+  }
+  return lm;
 }
 
 void write_landmarks(const std::string& path, const Landmarks& lm) {

@@ -21,6 +21,9 @@ Landmarks parse_landmarks_pts(const std::string& text, const std::string& source
 
 // Dispatches on the extension (.json, .pts).
 Landmarks read_landmarks(const std::string& path);
+// A photo's 68 landmarks in its pixels: read_landmarks, then InvalidInput unless they are 68 2D points within a
+// border of one image size around the width x height image (farther ones are another image's or not pixels).
+Landmarks read_image_landmarks(const std::string& path, int width, int height);
 void write_landmarks(const std::string& path, const Landmarks& landmarks);
 
 }  // namespace bareskin

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/image_io.h"
 
 namespace bareskin {
@@ -13,12 +14,14 @@ MapMean mean_of_maps(const std::vector<std::string>& paths, const ProgressCallba
   std::vector<double> sum;
   std::vector<int> count;
   Image first;
+  MapMean out;
   for (size_t m = 0; m < paths.size(); ++m) {
     Image map = read_image(paths[m]);
     if (map.channels < 3) {
       throw InvalidInput(paths[m], "has " + std::to_string(map.channels) + " channel(s), not RGB", "give colour maps");
     }
     if (m == 0) {
+      out.stored = probe_image(paths[m]).type;
       first = Image(map.width, map.height, 3, map.color_space);
       sum.assign(size_t(map.width) * size_t(map.height) * 3, 0.0);
       count.assign(size_t(map.width) * size_t(map.height), 0);
@@ -37,7 +40,6 @@ MapMean mean_of_maps(const std::vector<std::string>& paths, const ProgressCallba
     }
     report(progress, int64_t(m + 1), int64_t(paths.size()), "maps");
   }
-  MapMean out;
   Image mean(first.width, first.height, 3, first.color_space == ColorSpace::Data ? ColorSpace::Data : ColorSpace::Linear);
   int64_t covered = 0;
   for (size_t i = 0; i < count.size(); ++i) {
@@ -48,6 +50,17 @@ MapMean mean_of_maps(const std::vector<std::string>& paths, const ProgressCallba
   out.image = first.color_space == ColorSpace::sRGB ? to_srgb(mean) : mean;
   out.covered_fraction = double(covered) / double(std::max<size_t>(count.size(), 1));
   return out;
+}
+
+void write_map_mean(const std::string& path, const MapMean& mean) {
+  const bool exr = lower_extension(path) == ".exr";
+  Image image = mean.image;
+  if (exr && image.color_space == ColorSpace::sRGB) image = to_linear(image);
+  if (!exr && image.color_space == ColorSpace::Linear) image = to_srgb(image);
+  ImageWriteOptions w;
+  if (!exr) w.type = mean.stored == PixelType::UInt8 ? PixelType::UInt8 : PixelType::UInt16;
+  if (exr && mean.stored == PixelType::Float) w.type = PixelType::Float;
+  write_image(path, image, w);
 }
 
 }  // namespace bareskin
