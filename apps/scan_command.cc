@@ -98,9 +98,15 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
   app->add_option("--texture-landmarks", t.landmark_rounds,
                   "Rounds of finding the brows, eyes and lips in the scan's texture (flow to --texture-reference) and the "
                   "nose in its shape (curvature, flow to the template's), and registering again from them (for "
-                  "detected landmarks: 2, or 3 for a little more at about 2 s a round; docs/pipeline.md; 0: off)")
+                  "detected landmarks: 3, about 2 s a round; docs/pipeline.md; 0: off)")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-landmark-res", t.landmark_resolution, "UV size of the texture landmarks' flow (power of two)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--shape-points", t.shape_points,
+                  "In each texture-landmark round, about this many template vertices spread over the face placed by the "
+                  "nose's curvature flow and held like weak landmarks: they hold the chin and cheeks (0: off)")
+      ->capture_default_str()->group("Texture refinement");
+  app->add_option("--shape-point-weight", t.shape_point_weight, "Each shape point's weight against a landmark's")
       ->capture_default_str()->group("Texture refinement");
   app->add_option("--texture-reference", f.texture_reference,
                   "Reference diffuse in the template UV (e.g. the mean of a first pass's diffuse maps; "

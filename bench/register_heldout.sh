@@ -9,13 +9,16 @@
 #                          (with per-point sigma_mm); nosigma_n01, nosigma_n03: the same points without "detail"
 #   model30/model.safetensors  30 `scan synth` subjects (--seed 101 --holes --res 0) registered from their true
 #                          landmarks, then mm-build --appearance-components 0
-# Every step is skipped when its output exists. THREADS (default 2) is passed to bareskin. MODEL30=0 skips the model
-# (30 synthetic subjects at 100k vertices plus their registrations: most of the time on a loaded 2-core machine).
+# Every step is skipped when its output exists. THREADS (default 2) is passed to bareskin. SEEDS (default "31 32"): the
+# two sets' scan synth seeds (bench/register_shape_points.sh makes a second held-out set with "51 52"). MODEL30=0
+# skips the model (30 synthetic subjects at 100k vertices plus their registrations: most of the time on a loaded
+# 2-core machine).
 set -euo pipefail
 bin=$1 template=$2 demo_scans=$3 out=$4
 bs() { nice "$bin/bareskin" -q --threads "${THREADS:-2}" "$@"; }
 mkdir -p "$out"
-for spec in n01:0.1:31 n03:0.3:32; do
+seeds=(${SEEDS:-31 32})  # the noise-0.1 and the noise-0.3 set's seeds
+for spec in "n01:0.1:${seeds[0]}" "n03:0.3:${seeds[1]}"; do
   IFS=: read -r name noise seed <<<"$spec"
   [ -d "$out/scans_$name" ] || bs scan synth --template "$template" -o "$out/scans_$name" --count 3 --seed "$seed" \
       --noise "$noise" --holes --res 1024

@@ -462,6 +462,12 @@ class Nicp {
   Eigen::Index node_count() const { return m_; }
   const std::vector<int>& outline() const { return outline_; }  // the template's outline vertices (outline_weight > 0)
   void scale_landmark_weights(double scale) { landmark_scale_ = scale; }
+  // More points held like landmarks (with the landmarks' schedule), each `weight` times a landmark's.
+  void add_landmark_points(const std::vector<int>& vertex, const std::vector<Eigen::Vector3d>& point, double weight) {
+    landmarks_.vertex.insert(landmarks_.vertex.end(), vertex.begin(), vertex.end());
+    landmarks_.point.insert(landmarks_.point.end(), point.begin(), point.end());
+    landmarks_.weight.insert(landmarks_.weight.end(), vertex.size(), weight);
+  }
   // Landmarks known only across a line (`lines`: iBUG index, unit direction): their targets slide along the line to
   // the point nearest the registration's landmark at each iteration, so only the offset across the line is held.
   void set_landmark_lines(const std::vector<std::pair<int, Eigen::Vector3d>>& lines) {
@@ -798,6 +804,7 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
     if (!finder) finder = std::make_unique<TextureLandmarkFinder>(face, *texture.reference, options.texture);
     TextureLandmarks next = finder->find(out.V, scan, surface.locator, *texture.scan_diffuse);
     stats.texture_landmarks_found.push_back(int(next.ids.size()));
+    stats.shape_points_found.push_back(int(next.shape_vertex.size()));
     stats.texture_landmarks_move_mm.push_back(next.median_move_mm);
     if (next.ids.size() < 10) {  // too few features in this texture: keep the registration
       stats.seconds_texture_landmarks += seconds_since(t_round);
@@ -810,6 +817,7 @@ Registration register_scan(const TemplateFace& face, const Mesh& scan, const Lan
     V0 = similarity_onto(face.mesh.V, out.V, out.accepted);
     nicp = std::make_unique<Nicp>(face, V0, &found.landmarks, again, surface, stats);
     nicp->set_landmark_lines(lip_side_lines(found));
+    nicp->add_landmark_points(found.shape_vertex, found.shape_point, options.texture.shape_point_weight);
     nicp->run({});
     out.V = nicp->dense();
     project_onto_scan(out, face.mesh.F, surface, again);

@@ -87,6 +87,7 @@ struct RegistrationStats {
   // Texture landmarks, per round: how many were found, their median move (mm).
   std::vector<int> texture_landmarks_found;
   std::vector<double> texture_landmarks_move_mm;
+  std::vector<int> shape_points_found;  // and how many shape points
   double seconds_texture_landmarks = 0;
   // Outline term (outline_weight > 0): the template outline's median and largest distance to the scan's border (mm).
   double outline_median_mm = -1, outline_max_mm = -1;

@@ -294,6 +294,14 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
         e.push_back((reg.texture_landmarks.landmarks.points.row(k) - truth.point->row(face.landmark_vertices[size_t(k)])).norm());
       if (!e.empty()) report["texture_landmarks"]["error_mm"] = {{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
     }
+    const TextureLandmarks& t = reg.texture_landmarks;
+    report["texture_landmarks"]["shape_points"] = {{"found", s.shape_points_found}};
+    if (truth.point && !t.shape_vertex.empty()) {  // the last round's shape points against the truth there
+      std::vector<double> e;
+      for (size_t j = 0; j < t.shape_vertex.size(); ++j)
+        e.push_back((t.shape_point[j].transpose() - truth.point->row(t.shape_vertex[j])).norm());
+      report["texture_landmarks"]["shape_points"]["error_mm"] = {{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
+    }
   } else if (options.nicp.texture.landmark_rounds > 0) {
     report["texture_landmarks"] = {{"note", "the scan has no diffuse map or no UVs: none found"}};
   }

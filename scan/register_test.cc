@@ -177,8 +177,9 @@ TEST(Register, TextureRefinementUndoesATangentialSlide) {
 // Texture landmarks (texture_landmarks.h) on the same slide: the brows, eyes and lips found in the scan's texture are
 // where the truth has them, not where the slid registration put them: the found ones' median error against the truth
 // is under a third of the slide's (1.99 -> 0.44 mm at this 6k template); the nose points found in the curvature at
-// least 1.5x closer (1.97 -> 1.10 mm: the curvature is smoothed over the 6k template's coarse triangles). Measured on
-// held-out 65k scans from detected landmarks: bench/BENCHMARKS.md, "Texture landmarks".
+// least 1.5x closer (1.97 -> 1.10 mm: the curvature is smoothed over the 6k template's coarse triangles), and so are
+// the shape points spread over the face that the same flow places (347 found, 1.99 -> 1.01 mm). Measured on held-out
+// 65k scans from detected landmarks: bench/BENCHMARKS.md, "Texture landmarks" and "Shape points".
 TEST(Register, TextureLandmarksFindTheFeaturesASlideMoved) {
   const TemplateFace& face = test_template();
   const SlideCase c = slide_case(512);
@@ -203,14 +204,25 @@ TEST(Register, TextureLandmarksFindTheFeaturesASlideMoved) {
   EXPECT_LT(quantile(after, 0.5), quantile(before, 0.5) / 3);
   ASSERT_GE(nose_before.size(), 5u) << "of the 9 nose points, found in the surface's curvature";
   EXPECT_LT(quantile(nose_after, 0.5), quantile(nose_before, 0.5) / 1.5);
+  std::vector<double> shape_before, shape_after;
+  for (size_t j = 0; j < found.shape_vertex.size(); ++j) {
+    const Eigen::RowVector3d truth = c.scan.truth_point.row(found.shape_vertex[j]);
+    shape_before.push_back((c.slid.row(found.shape_vertex[j]) - truth).norm());
+    shape_after.push_back((found.shape_point[j].transpose() - truth).norm());
+  }
+  std::printf("shape points (curvature): %zu found, median error %.3f -> %.3f mm\n", shape_before.size(),
+              shape_before.empty() ? 0.0 : quantile(shape_before, 0.5), shape_after.empty() ? 0.0 : quantile(shape_after, 0.5));
+  ASSERT_GE(shape_before.size(), 200u) << "of the shape points spread over the face, found in the same curvature";
+  EXPECT_LT(quantile(shape_after, 0.5), quantile(shape_before, 0.5) / 1.5);
 }
 
 // The texture-landmark rounds end to end (register_scan): landmarks as a detector gives them (the jaw line 5 mm low,
 // the rest 1.5 mm off at random) leave the registration slid; two rounds find the brows, eyes, lips and nose in the
 // scan and register from them (the outer lip line's side points held across the line only), with the outline drawn to
-// the scan's border: 1.28 -> 0.42 mm median, p95 2.68 -> 1.12 at this 6k template. (Each round starts from the template placed on the last registration's surface, not on the found
-// points' similarity: 0.97 -> 0.86 mm on held-out 65k scans, bench/BENCHMARKS.md; at this size the two starts differ
-// by 0.01 mm.)
+// the scan's border, and the shape points (spread over the face, placed by the curvature flow) holding the rest: 1.28 ->
+// 0.34 mm median, p95 2.68 -> 0.79 at this 6k template; 0.42 / 1.12 without the shape points. (Each round starts from
+// the template placed on the last registration's surface, not on the found points' similarity: 0.97 -> 0.86 mm on
+// held-out 65k scans, bench/BENCHMARKS.md; at this size the two starts differ by 0.01 mm.)
 TEST(Register, TextureLandmarkRoundsUndoTheDetectedLandmarksSlide) {
   const TemplateFace& face = test_template();
   const SlideCase c = slide_case(512);
@@ -225,11 +237,17 @@ TEST(Register, TextureLandmarkRoundsUndoTheDetectedLandmarksSlide) {
   const Registration plain = register_scan(face, c.scan.mesh, &detected, options);
   options.texture.landmark_rounds = 2;
   const Registration rounds = register_scan(face, c.scan.mesh, &detected, options, {}, {&c.diffuse, &c.reference});
-  const RegistrationErrors before = errors(plain, c.scan), after = errors(rounds, c.scan);
+  options.texture.shape_points = 0;
+  const Registration no_shape = register_scan(face, c.scan.mesh, &detected, options, {}, {&c.diffuse, &c.reference});
+  const RegistrationErrors before = errors(plain, c.scan), after = errors(rounds, c.scan),
+                           landmarks_only = errors(no_shape, c.scan);
+  std::printf("without shape points: median %.3f mm, p95 %.3f mm\n", landmarks_only.correspondence_median,
+              landmarks_only.correspondence_p95);
   std::printf("correspondence median %.3f -> %.3f mm, p95 %.3f -> %.3f mm; found %d, %d\n", before.correspondence_median,
               after.correspondence_median, before.correspondence_p95, after.correspondence_p95,
               rounds.stats.texture_landmarks_found.at(0), rounds.stats.texture_landmarks_found.at(1));
   EXPECT_LT(after.correspondence_median, 0.7 * before.correspondence_median);
+  EXPECT_LT(after.correspondence_median, 0.95 * landmarks_only.correspondence_median) << "the shape points help";
   EXPECT_LT(after.distance_median, 0.05) << "mm: still on the scan";
 }
 

@@ -6,6 +6,7 @@
 #include "core/mesh.h"
 #include "core/stats.h"
 #include "render/rasterize.h"
+#include "scan/model_prior.h"
 
 namespace bareskin {
 
@@ -108,6 +109,13 @@ TextureLandmarkFinder::TextureLandmarkFinder(const TemplateFace& face, const Ima
   redness_ = texture_structure(fixed, layout_, sigma_, o_.structure_floor, TextureChannel::Redness);
   const Eigen::VectorXd H = mean_curvature(face.mesh.V, face.mesh.F, rings_, kCurvatureSmoothing);
   curvature_ = curvature_structure(raster_, face.mesh.F, rings_, H, layout_, sigma_, o_.structure_floor);
+  // Shape points' candidates: spread evenly, off the border and its ring (the curvature is not defined there).
+  const int shape_points = options.shape_points;  // (spread_vertices takes 0 as "all")
+  for (const int v : shape_points > 0 ? spread_vertices(face.mesh.V, face.mesh.F, shape_points) : std::vector<int>{}) {
+    bool near_border = rings_.border[size_t(v)] != 0;
+    for (const int j : rings_.neighbours[size_t(v)]) near_border |= rings_.border[size_t(j)] != 0;
+    if (!near_border) shape_vertices_.push_back(v);
+  }
 }
 
 TextureLandmarks TextureLandmarkFinder::find(const Eigen::MatrixX3d& V, const Mesh& scan,
@@ -121,8 +129,7 @@ TextureLandmarks TextureLandmarkFinder::find(const Eigen::MatrixX3d& V, const Me
   for (int i = 0; i < 68; ++i) out.landmarks.points.row(i) = V.row(face_.landmark_vertices[size_t(i)]);
   std::vector<double> moves;
   // Landmarks `marked` by the flow's features go where it takes their template vertex.
-  auto take = [&](const Plane& moving, const Plane& fixed, const auto& marked) {
-    const UvFlow flow = uv_flow(moving, fixed, valid, o_);
+  auto take = [&](const UvFlow& flow, const auto& marked) {
     for (int i = 0; i < 68; ++i) {
       FlowTarget t;
       if (!marked(i) ||
@@ -135,16 +142,24 @@ TextureLandmarks TextureLandmarkFinder::find(const Eigen::MatrixX3d& V, const Me
     }
   };
   for (const TextureChannel channel : {TextureChannel::Luminance, TextureChannel::Redness}) {
-    take(texture_structure(moved, valid, sigma_, o_.structure_floor, channel),
-         channel == TextureChannel::Luminance ? luminance_ : redness_, [&](int i) {
-           TextureChannel c;
-           return feature_channel(i, c) && c == channel;
-         });
+    const Plane moving = texture_structure(moved, valid, sigma_, o_.structure_floor, channel);
+    take(uv_flow(moving, channel == TextureChannel::Luminance ? luminance_ : redness_, valid, o_), [&](int i) {
+      TextureChannel c;
+      return feature_channel(i, c) && c == channel;
+    });
   }
-  // The nose is not drawn in the skin but in the shape: the registration's curvature against the template's own.
-  take(curvature_structure(raster_, mesh.F, rings_, mean_curvature(V, mesh.F, rings_, kCurvatureSmoothing), valid,
-                           sigma_, o_.structure_floor),
-       curvature_, shape_feature);
+  // The nose is not drawn in the skin but in the shape: the registration's curvature against the template's own. The
+  // shape points come from the same flow.
+  const Plane shape = curvature_structure(raster_, mesh.F, rings_, mean_curvature(V, mesh.F, rings_, kCurvatureSmoothing),
+                                          valid, sigma_, o_.structure_floor);
+  const UvFlow shape_flow = uv_flow(shape, curvature_, valid, o_);
+  take(shape_flow, shape_feature);
+  for (const int v : shape_vertices_) {
+    FlowTarget t;
+    if (!flow_target(mesh, V, raster_, shape_flow, scan_locator, uv_rows_, v, o_, t)) continue;
+    out.shape_vertex.push_back(v);
+    out.shape_point.push_back(t.point);
+  }
   std::sort(out.ids.begin(), out.ids.end());
   if (!moves.empty()) out.median_move_mm = quantile(moves, 0.5);
   return out;

@@ -8,6 +8,8 @@
 // differs from the skin's on darker faces. The nose (27-35) is not marked in the skin but in the shape: the same flow
 // between the registration's mean curvature (after a little smoothing) and the template's own finds it. The inner lip
 // line (60-67, on the mouth's opening) and the jaw line (0-16, on the face's outline) are neither: not found here.
+// The same curvature flow also places shape points: template vertices spread over the whole face, so that the lower
+// face and the cheeks, which no landmark marks, follow the scan's shape (the chin, the folds around the mouth).
 #pragma once
 #include <Eigen/Core>
 #include <vector>
@@ -25,6 +27,10 @@ struct TextureLandmarks {
   Landmarks landmarks;        // 68 points: the found ones moved, the others where the registration has them
   std::vector<int> ids;       // the landmarks found (ascending)
   double median_move_mm = 0;  // how far the found ones moved from the registration's landmarks
+  // Shape points: template vertices (options.shape_points spread over the face, off the border) and where the
+  // curvature flow puts them on the registration's surface; those whose flow is unsure are left out.
+  std::vector<int> shape_vertex;
+  std::vector<Eigen::Vector3d> shape_point;
 };
 
 // Finds them round after round for one template and reference: what does not depend on the registration (the
@@ -52,6 +58,7 @@ class TextureLandmarkFinder {
   std::vector<uint8_t> layout_;  // texels the template's UV layout covers
   std::vector<int> uv_rows_;
   Rings rings_;
+  std::vector<int> shape_vertices_;  // the shape points' candidates
   Plane luminance_, redness_, curvature_;  // the reference's (the first two) and the template's structure
 };
 

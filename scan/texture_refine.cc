@@ -166,6 +166,10 @@ void TextureRefineOptions::check() const {
     throw InvalidInput("", "--texture-res must be a power of two in [64, 2048]", "use 256");
   }
   if (landmark_rounds < 0 || landmark_rounds > 5) throw InvalidInput("", "--texture-landmarks must lie in [0, 5] rounds", "");
+  if (shape_points < 0 || shape_points > 100000) throw InvalidInput("", "--shape-points must lie in [0, 100000]", "");
+  if (!(shape_point_weight >= 0 && shape_point_weight <= 100)) {
+    throw InvalidInput("", "--shape-point-weight must lie in [0, 100]", "0.01 is the measured best");
+  }
   if (landmark_resolution < 128 || landmark_resolution > 2048 || (landmark_resolution & (landmark_resolution - 1)) != 0) {
     throw InvalidInput("", "--texture-landmark-res must be a power of two in [128, 2048]", "use 512");
   }

@@ -95,13 +95,15 @@ mkdir -p "$work/nolm" && cp -r "$work/s/subject_0001" "$work/nolm/" && rm "$work
 grep -q FALLBACK "$work/out_nolm/subject_0001/report.json" || fail "fallback not flagged"
 # --texture-landmarks: needs a reference (one line, nothing written); with one (here another subject's transferred
 # diffuse) and the outline term the report says how many brow, eye, lip and nose points the texture and shape gave,
-# and lists them (accuracy: scan_test's Register.TextureLandmarksFindTheFeaturesASlideMoved, ...RoundsUndo...,
-# ...OutlineTermDraws...). A negative outline weight: one line, nothing written.
+# and lists them, and how many shape points the curvature placed (accuracy: scan_test's
+# Register.TextureLandmarksFindTheFeaturesASlideMoved, ...RoundsUndo..., ...OutlineTermDraws...). A negative outline
+# weight or shape-point count: one line, nothing written.
 expect_failure 3 "--texture-reference" "$work/out_tl0" -- reg --scans "$work/s" -o "$work/out_tl0" --texture-landmarks 1
 mkdir -p "$work/one" && cp -r "$work/s/subject_0000" "$work/one/"
 reg --scans "$work/one" -o "$work/out_tl" --texture-landmarks 1 --texture-reference "$work/r/subject_0001/diffuse.png" \
   --texture-landmark-res 128 --outline-weight 0.3 || fail "texture landmarks"
-$py -c "import json,sys; r=json.load(open(sys.argv[1])); t=r['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 43, t; p=t.get('points', []); assert len(p) == (t['found'][0] if t['found'][0] >= 10 else 0) and all(len(q) == 4 and 17 <= q[0] <= 59 for q in p), p; assert r['outline']['distance_to_scan_border_mm']['median'] < 1, r['outline']" \
+$py -c "import json,sys; r=json.load(open(sys.argv[1])); t=r['texture_landmarks']; assert t['rounds'] == 1 and 0 <= t['found'][0] <= 43, t; p=t.get('points', []); assert len(p) == (t['found'][0] if t['found'][0] >= 10 else 0) and all(len(q) == 4 and 17 <= q[0] <= 59 for q in p), p; assert r['outline']['distance_to_scan_border_mm']['median'] < 1, r['outline']; s=t['shape_points']; assert len(s['found']) == 1 and s['found'][0] > 0 and s['error_mm']['median'] < 2, s" \
   "$work/out_tl/subject_0000/report.json" || fail "texture landmarks report"
 expect_failure 3 "--outline-weight" "$work/out_ow" -- reg --scans "$work/one" -o "$work/out_ow" --outline-weight -1
-echo "10 passed, 0 failed"
+expect_failure 3 "--shape-points" "$work/out_sp" -- reg --scans "$work/one" -o "$work/out_sp" --shape-points -5
+echo "11 passed, 0 failed"
