@@ -363,13 +363,13 @@ done
     --landmark-calibration "$calib"
 [ -f "$out/registered_texture/summary.json" ] || timed "register (texture landmarks)" "$bareskin" scan register -q \
     --template "$out/template" --scans "$out/detected_scans" -o "$out/registered_texture" --maps-res 0 \
-    --landmark-calibration "$calib" --texture-landmarks 2 --texture-reference "$out/landmarks/reference.png" \
+    --landmark-calibration "$calib" --texture-landmarks 3 --texture-reference "$out/landmarks/reference.png" \
     --outline-weight 0.3
 texture_landmarks=$(/usr/bin/python3 - "$out" <<'PY6'
 import json, sys
 out = sys.argv[1]
 rows = ["<table><tr><th>scan</th><th>detected landmarks vs truth, median 17-67 (mm)</th>"
-        "<th>NICP from them: correspondence median / p95 (mm)</th><th>+ texture landmarks (2 rounds) and the outline term: median / p95</th>"
+        "<th>NICP from them: correspondence median / p95 (mm)</th><th>+ texture landmarks (3 rounds, with shape points) and the outline term: median / p95</th>"
         "<th>found points vs truth (mm)</th><th>heat maps (blue 0, red 2 mm): detected / texture landmarks</th></tr>"]
 for sid in ("subject_0008", "subject_0009"):
     a = json.load(open(f"{out}/registered_detected/{sid}/report.json"))
@@ -377,7 +377,8 @@ for sid in ("subject_0008", "subject_0009"):
     ca, cb, t = a["correspondence_error_mm"], b["correspondence_error_mm"], b["texture_landmarks"]
     rows.append(f"<tr><td>{sid}</td><td>{a['landmarks_detected']['error_vs_truth_mm']['median_17_67']:.2f}</td>"
                 f"<td>{ca['median']:.2f} / {ca['p95']:.2f}</td><td>{cb['median']:.2f} / {cb['p95']:.2f}</td>"
-                f"<td>{t['found'][-1]} found, {t['error_mm']['median']:.2f}</td>"
+                f"<td>{t['found'][-1]} found, {t['error_mm']['median']:.2f}; {t['shape_points']['found'][-1]} shape points, "
+                f"{t['shape_points']['error_mm']['median']:.2f}</td>"
                 f"<td><img src=\"registered_detected/{sid}/qa_front.png\" style=\"width:130px;border:0\">"
                 f"<img src=\"registered_texture/{sid}/qa_front.png\" style=\"width:130px;border:0\"></td></tr>")
 print("\n".join(rows + ["</table>"]))
@@ -561,14 +562,14 @@ $landmark_summary
 <h3>Registration from detected landmarks, and texture landmarks</h3>
 <p><code>bareskin landmarks calibrate --scans scans --count 5 --views 16</code> learns the detector's convention on
 subjects 0-4; subjects 8 and 9, without their <code>landmarks.json</code>, are registered from 16-view detected,
-calibrated landmarks (<code>scan register --landmark-calibration</code>), then again with <code>--texture-landmarks 2
+calibrated landmarks (<code>scan register --landmark-calibration</code>), then again with <code>--texture-landmarks 3
 --texture-reference</code> (the mean diffuse of the registered subjects 0-7) and <code>--outline-weight 0.3</code>: the brows,
 eyes and outer lip line are found in the scan's texture, the nose in its curvature, and the registration is run again
-from them, the template's outline drawn to the scan's open border (these synthetic scans are cut along the face
-outline; docs/pipeline.md, "Texture landmarks", "Outline term"). On six held-out noisy scans this takes the
-correspondence median from 2.66 to 0.82 mm (bench/BENCHMARKS.md); with the true landmarks NICP gets about 0.5 mm: the
-jaw line, which neither the skin nor the shape marks (the outline says where the face ends, not where along it a point
-belongs), is most of what is left.</p>
+from them, with 2000 shape points (template vertices spread over the face, placed by the same curvature flow) holding
+the chin and cheeks and the template's outline drawn to the scan's open border (these synthetic scans are cut along the
+face outline; docs/pipeline.md, "Texture landmarks", "Outline term"). On six held-out noisy scans this takes the
+correspondence median from 2.66 to 0.51 mm (0.74 without the shape points; bench/BENCHMARKS.md, "Shape points"); with
+the true landmarks NICP gets about 0.5 mm.</p>
 $texture_landmarks
 
 <h2>9. Training foundation: the network zoo</h2>
