@@ -45,12 +45,12 @@ struct TextureRefineOptions {
   // the features count.
   int landmark_rounds = 0;
   int landmark_resolution = 512;
+  double landmark_structure_sigma = 8, landmark_window = 3, landmark_smoothing = 6;
   // Shape points: in each round, about this many template vertices spread evenly over the face are placed by the same
   // curvature flow as the nose and held like landmarks, each with shape_point_weight times a landmark's weight. They
   // hold the lower face and cheeks, which no landmark marks (0: off; bench/BENCHMARKS.md, "Shape points").
   int shape_points = 2000;
   double shape_point_weight = 0.01;
-  double landmark_structure_sigma = 8, landmark_window = 3, landmark_smoothing = 6;
   void check() const;           // InvalidInput when out of range
 };
 
