@@ -17,7 +17,7 @@ set -euo pipefail
 bin=$1 template=$2 demo_scans=$3 out=$4
 bs() { nice "$bin/bareskin" -q --threads "${THREADS:-2}" "$@"; }
 mkdir -p "$out"
-seeds=(${SEEDS:-31 32})  # the noise-0.1 and the noise-0.3 set's seeds
+read -r -a seeds <<<"${SEEDS:-31 32}"  # the noise-0.1 and the noise-0.3 set's seeds
 for spec in "n01:0.1:${seeds[0]}" "n03:0.3:${seeds[1]}"; do
   IFS=: read -r name noise seed <<<"$spec"
   [ -d "$out/scans_$name" ] || bs scan synth --template "$template" -o "$out/scans_$name" --count 3 --seed "$seed" \

@@ -10,15 +10,14 @@
 # Cached under OUT like the scripts it calls; the tables are printed last. THREADS as in register_heldout.sh.
 set -euo pipefail
 bin=$1 template=$2 demo_scans=$3 out=$4
+# shellcheck source=bench/register_common.sh
+source "$(dirname "$0")/register_common.sh"
 here=$(cd "$(dirname "$0")" && pwd)
 MODEL30=0 bash "$here/register_heldout.sh" "$bin" "$template" "$demo_scans" "$out"
 mkdir -p "$out/check" && ln -sf ../calib16.json "$out/check/calib16.json"
 SEEDS="51 52" MODEL30=0 bash "$here/register_heldout.sh" "$bin" "$template" "$demo_scans" "$out/check"
-[ -d "$out/reference_registered" ] || nice "$bin/bareskin" -q scan register --template "$template" \
-    --scans "$demo_scans" -o "$out/reference_registered" --maps-res 512
-[ -f "$out/reference512.png" ] || "$bin/bareskin" -q uvtools mean -o "$out/reference512.png" \
-    "$out/reference_registered"/subject_*/diffuse.png
-rounds() { echo "--texture-reference $(cd "$out" && pwd)/reference512.png --texture-landmarks $1 --outline-weight 0.3"; }
+ref=$(texture_reference "$bin" "$template" "$demo_scans" "$out")
+rounds() { echo "--texture-reference $ref --texture-landmarks $1 --outline-weight 0.3"; }
 cat > "$out/shape_points.variants" <<VARIANTS
 detected_alone|
 rounds_2_without|$(rounds 2) --shape-points 0

@@ -14,11 +14,7 @@ bin=$1 template=$2 demo_scans=$3 out=$4
 source "$(dirname "$0")/register_common.sh"
 here=$(cd "$(dirname "$0")" && pwd)
 MODEL30=0 bash "$here/register_heldout.sh" "$bin" "$template" "$demo_scans" "$out"
-[ -d "$out/reference_registered" ] || nice "$bin/bareskin" -q scan register --template "$template" \
-    --scans "$demo_scans" -o "$out/reference_registered" --maps-res 512
-[ -f "$out/reference512.png" ] || "$bin/bareskin" -q uvtools mean -o "$out/reference512.png" \
-    "$out/reference_registered"/subject_*/diffuse.png
-ref=$(cd "$out" && pwd)/reference512.png
+ref=$(texture_reference "$bin" "$template" "$demo_scans" "$out")
 features=$(echo $(seq 17 26) $(seq 36 59))
 cat > "$out/texture_landmarks.variants" <<VARIANTS
 detected_alone|

@@ -282,26 +282,24 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
     report["texture_landmarks"] = {{"rounds", s.texture_landmarks_found.size()},
                                    {"found", s.texture_landmarks_found},
                                    {"median_move_mm", s.texture_landmarks_move_mm}};
-    nlohmann::json points = nlohmann::json::array();  // the last round used: iBUG index, then x y z in the scan's frame
-    for (const int k : reg.texture_landmarks.ids) {
-      const Eigen::RowVector3d p = reg.texture_landmarks.landmarks.points.row(k);
-      points.push_back({k, p.x(), p.y(), p.z()});
-    }
+    const TextureLandmarks& t = reg.texture_landmarks;  // the last round used
+    nlohmann::json points = nlohmann::json::array();  // iBUG index, then x y z in the scan's frame
+    for (const int k : t.ids) points.push_back({k, t.landmarks.points(k, 0), t.landmarks.points(k, 1), t.landmarks.points(k, 2)});
     if (!points.empty()) report["texture_landmarks"]["points"] = points;
-    if (truth.point) {  // the last round's landmarks against the truth's points at the template's landmark vertices
-      std::vector<double> e;
-      for (const int k : reg.texture_landmarks.ids)
-        e.push_back((reg.texture_landmarks.landmarks.points.row(k) - truth.point->row(face.landmark_vertices[size_t(k)])).norm());
-      if (!e.empty()) report["texture_landmarks"]["error_mm"] = {{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
-    }
-    const TextureLandmarks& t = reg.texture_landmarks;
     report["texture_landmarks"]["shape_points"] = {{"found", s.shape_points_found}};
-    if (truth.point && !t.shape_vertex.empty()) {  // the last round's shape points against the truth there
-      std::vector<double> e;
+    // With truth: the found landmarks and shape points against the truth's points at their template vertices.
+    const auto error_mm = [&](const std::vector<double>& e) {
+      return nlohmann::json{{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
+    };
+    std::vector<double> landmark_error, shape_error;
+    if (truth.point) {
+      for (const int k : t.ids)
+        landmark_error.push_back((t.landmarks.points.row(k) - truth.point->row(face.landmark_vertices[size_t(k)])).norm());
       for (size_t j = 0; j < t.shape_vertex.size(); ++j)
-        e.push_back((t.shape_point[j].transpose() - truth.point->row(t.shape_vertex[j])).norm());
-      report["texture_landmarks"]["shape_points"]["error_mm"] = {{"median", quantile(e, 0.5)}, {"p90", quantile(e, 0.9)}};
+        shape_error.push_back((t.shape_point[j].transpose() - truth.point->row(t.shape_vertex[j])).norm());
     }
+    if (!landmark_error.empty()) report["texture_landmarks"]["error_mm"] = error_mm(landmark_error);
+    if (!shape_error.empty()) report["texture_landmarks"]["shape_points"]["error_mm"] = error_mm(shape_error);
   } else if (options.nicp.texture.landmark_rounds > 0) {
     report["texture_landmarks"] = {{"note", "the scan has no diffuse map or no UVs: none found"}};
   }
