@@ -1,5 +1,5 @@
 // bareskin demakeup: photo(s) → detect → align → G → F → bare-skin image, coefficients, unlit 3DMM render, bare
-// skin in the template UV (training/bareskinnet.h's demakeup). docs/cli.md.
+// skin in the template UV (bareskinnet/bareskinnet.h's demakeup). docs/cli.md.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -14,7 +14,7 @@
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/png.h"
-#include "training/bareskinnet.h"
+#include "bareskinnet/bareskinnet.h"
 #include "training/device.h"
 
 namespace bareskin::cli {

@@ -1,4 +1,4 @@
-// bareskin evaluate: the paper's Table 1 protocol on held-out faces (texture_infer/avatar.h; docs/texture.md).
+// bareskin evaluate: the paper's Table 1 protocol on held-out faces (avatar/avatar.h; docs/texture.md).
 #include <iostream>
 #include <memory>
 
@@ -7,7 +7,7 @@
 #include "apps/device_flag.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "texture_infer/avatar.h"
+#include "avatar/avatar.h"
 #include "training/device.h"
 
 namespace bareskin::cli {

@@ -1,4 +1,4 @@
-// bareskin recon: a photo → face-api's 68 landmarks → training/recon_photo.h (Deep3DFaceRecon's 5-point alignment, the
+// bareskin recon: a photo → face-api's 68 landmarks → recon/recon_photo.h (Deep3DFaceRecon's 5-point alignment, the
 // net F or E of a `bareskin train recon` run, --refine: mm-fit's fitters from the net's answer) → coefficient file,
 // posed mesh (OBJ), overlay picture, landmarks, and a confidence. This file parses flags and writes files. docs/cli.md.
 #include <algorithm>
@@ -9,7 +9,7 @@
 #include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "training/device.h"
-#include "training/recon_eval.h"
+#include "recon/recon_eval.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -19,8 +19,8 @@
 #include "morphable/coefficients.h"
 #include "morphable/model.h"
 #include "training/checkpoint.h"
-#include "training/recon.h"
-#include "training/recon_photo.h"
+#include "recon/recon.h"
+#include "recon/recon_photo.h"
 
 namespace bareskin::cli {
 namespace {

@@ -1,4 +1,4 @@
-// bareskin run: a face photo -> a relightable avatar folder (texture_infer/avatar.h; docs/texture.md).
+// bareskin run: a face photo -> a relightable avatar folder (avatar/avatar.h; docs/texture.md).
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -13,7 +13,7 @@
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "detect/face_api.h"
-#include "texture_infer/avatar.h"
+#include "avatar/avatar.h"
 #include "training/device.h"
 
 namespace bareskin::cli {

@@ -1,4 +1,4 @@
-// bareskin train bareskin: BareSkinNet's two stages (training/bareskinnet.h) on `texgen faces` samples, with the
+// bareskin train bareskin: BareSkinNet's two stages (bareskinnet/bareskinnet.h) on `texgen faces` samples, with the
 // teacher F of `bareskin train recon`. docs/training.md, "BareSkinNet"; docs/cli.md.
 #include <fmt/format.h>
 
@@ -13,9 +13,9 @@
 #include "core/files.h"
 #include "detect/face_recognition.h"
 #include "detect/face_api.h"
-#include "training/bareskinnet.h"
+#include "bareskinnet/bareskinnet.h"
 #include "training/device.h"
-#include "training/face_model.h"
+#include "recon/face_model.h"
 
 namespace bareskin::cli {
 namespace fs = std::filesystem;

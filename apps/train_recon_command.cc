@@ -1,6 +1,6 @@
 // bareskin train recon: the teacher F (ResNet-50 with light) or the student E (ResNet-18) on face samples of
 // `texgen faces`, supervised by the samples' coefficients, by Deep3DFaceRecon's self-supervised terms, or both
-// (training/recon.h). docs/training.md, "Face reconstruction (F / E)"; docs/cli.md.
+// (recon/recon.h). docs/training.md, "Face reconstruction (F / E)"; docs/cli.md.
 #include <filesystem>
 #include <iostream>
 
@@ -9,9 +9,9 @@
 #include "apps/detector.h"
 #include "core/error.h"
 #include "detect/face_api.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 #include "training/device.h"
-#include "training/recon.h"
+#include "recon/recon.h"
 
 namespace bareskin::cli {
 namespace {

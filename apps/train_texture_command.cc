@@ -1,12 +1,13 @@
 // bareskin train texture / upscale: pix2pixHD from the UV inputs to the four maps, and SRGAN ×4 per map type
-// (texture_infer/tasks.h; docs/texture.md).
+// (texture/pix2pixhd.h; docs/texture.md).
 #include <memory>
 
 #include "apps/cli.h"
 #include "apps/device_flag.h"
 #include "core/error.h"
-#include "texgen/shards.h"
-#include "texture_infer/tasks.h"
+#include "core/shards.h"
+#include "texture/pix2pixhd.h"
+#include "upscale/srgan.h"
 #include "training/device.h"
 
 namespace bareskin::cli {

@@ -23,7 +23,8 @@ function(bareskin_test name)
   # Where tests find the setup assets and the fixture template (environment variables of the same name override).
   target_compile_definitions(${name} PRIVATE BARESKIN_TEST_ASSETS="${PROJECT_SOURCE_DIR}/assets"
                                              BARESKIN_TEST_TEMPLATE="${CMAKE_BINARY_DIR}/test_template")
-  set(properties LABELS "${ARG_LABELS}")
+  # A hang fails with the test's name instead of running into CI's limit (each test takes seconds to a minute).
+  set(properties LABELS "${ARG_LABELS}" TIMEOUT 300)
   if(ARG_FIXTURES)
     list(APPEND properties FIXTURES_REQUIRED "${ARG_FIXTURES}")
   endif()

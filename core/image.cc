@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace bareskin {
 
@@ -69,6 +70,39 @@ Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {
            fy * ((1 - fx) * img.at(x0, y1, ch) + fx * img.at(x1, y1, ch));
   }
   return c;
+}
+
+Image resize_square(const Image& image, int size) {
+  if (image.width == size && image.height == size) return image;
+  Image out(size, size, image.channels, image.color_space);
+  const int C = image.channels;
+  if (image.width == image.height && image.width > size && image.width % size == 0) {
+    const int f = image.width / size;
+    parallel_for(0, size, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y)
+        for (int x = 0; x < size; ++x)
+          for (int c = 0; c < C; ++c) {
+            double s = 0;
+            for (int dy = 0; dy < f; ++dy)
+              for (int dx = 0; dx < f; ++dx) s += image.at(x * f + dx, int(y) * f + dy, c);
+            out.at(x, int(y), c) = float(s / (f * f));
+          }
+    });
+    return out;
+  }
+  parallel_for(0, size, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double sx = std::clamp((x + 0.5) * image.width / size - 0.5, 0.0, image.width - 1.0);
+        const double sy = std::clamp((y + 0.5) * image.height / size - 0.5, 0.0, image.height - 1.0);
+        const int x0 = int(sx), y0 = int(sy), x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
+        const double fx = sx - x0, fy = sy - y0;
+        for (int c = 0; c < C; ++c)
+          out.at(x, int(y), c) = float((1 - fy) * ((1 - fx) * image.at(x0, y0, c) + fx * image.at(x1, y0, c)) +
+                                       fy * ((1 - fx) * image.at(x0, y1, c) + fx * image.at(x1, y1, c)));
+      }
+  });
+  return out;
 }
 
 }  // namespace bareskin

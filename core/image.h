@@ -45,4 +45,7 @@ float linear_to_srgb(float linear);
 Image to_linear(const Image& image);
 Image to_srgb(const Image& image);
 
+// Area-correct resize of a square image to size² (box filter when shrinking by an integer factor, bilinear otherwise).
+Image resize_square(const Image& image, int size);
+
 }  // namespace bareskin

@@ -1,13 +1,20 @@
 #include "morphable/coefficients.h"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <vector>
 
 #include "core/error.h"
 #include "core/files.h"
-#include "morphable/fit.h"
 
 namespace bareskin {
+
+Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& a) {
+  return (Eigen::AngleAxisd(a.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(a.y(), Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX())).toRotationMatrix();
+}
+
 namespace {
 
 const char* const kKeys[] = {"alpha", "beta", "delta", "rotation", "translation", "gamma"};

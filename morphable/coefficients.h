@@ -25,6 +25,9 @@ struct Coefficients {
   nlohmann::json extra = nlohmann::json::object();
 };
 
+// Pose applied to model points: R(rotation) p + translation, R = Rz(rz) Ry(ry) Rx(rx).
+Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& angles);
+
 // InvalidInput naming the file when it is not a JSON object or an entry is not a list of finite numbers of the
 // right length (rotation, translation 3; gamma 27); IoError when it cannot be read.
 Coefficients read_coefficients(const std::string& path);

@@ -27,11 +27,6 @@ void LandmarkFitOptions::check() const {
   if (iterations < 1 || iterations > 1000) throw InvalidInput("", "--iterations must lie in [1, 1000]", "");
 }
 
-Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& a) {
-  return (Eigen::AngleAxisd(a.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(a.y(), Eigen::Vector3d::UnitY()) *
-          Eigen::AngleAxisd(a.x(), Eigen::Vector3d::UnitX())).toRotationMatrix();
-}
-
 Coefficients to_coefficients(const LandmarkFit& fit) {
   Coefficients c;
   c.alpha = fit.alpha;

@@ -43,8 +43,6 @@ struct LandmarkFit {
   std::vector<FitTraceStep> trace;  // rms_px after each iteration
 };
 
-// Pose applied to model points: R(rotation) p + translation, R = Rz(rz) Ry(ry) Rx(rx).
-Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& angles);
 
 // The fit's shape and pose as a coefficient file's entries (α, β, rotation, translation; no δ, no γ).
 Coefficients to_coefficients(const LandmarkFit& fit);

@@ -1,5 +1,5 @@
 // Levenberg–Marquardt over a dense residual vector with forward-difference Jacobians: the landmark fits' solver
-// (morphable/fit.cc's single view, texgen/multiview_fit.cc's joint fit of several views).
+// (morphable/fit.cc's single view, fitting/multiview_fit.cc's joint fit of several views).
 #pragma once
 #include <Eigen/Cholesky>
 #include <Eigen/Core>

@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 #include "core/png.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::texgen {
 namespace fs = std::filesystem;

@@ -19,7 +19,7 @@
 #include "core/progress.h"
 #include "detect/align.h"
 #include "texgen/face_world.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::texgen {
 

@@ -11,7 +11,7 @@
 #include "core/log.h"
 #include "core/png.h"
 #include "texgen/polygon.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::texgen {
 namespace fs = std::filesystem;

@@ -12,7 +12,7 @@
 #include "core/png.h"
 #include "core/test_util.h"
 #include "template/template_face.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::texgen {
 namespace {

@@ -21,10 +21,10 @@
 #include "core/scan_folder.h"
 #include "render/rasterize.h"
 #include "texgen/member_quantize.h"
-#include "texgen/multiview_fit.h"
+#include "fitting/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
-#include "texgen/shards.h"
-#include "texgen/view_calibration.h"
+#include "core/shards.h"
+#include "fitting/view_calibration.h"
 #include "uvtools/bake.h"
 
 namespace bareskin::texgen {

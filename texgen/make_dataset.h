@@ -1,5 +1,5 @@
 // `texgen make-dataset`: the texture-inference training data (paper §5) from a folder of registered subjects and the
-// morphable model, as shards (texgen/shards.h). Per subject and light, one sample (texture_sample.h) whose inputs are
+// morphable model, as shards (core/shards.h). Per subject and light, one sample (texture_sample.h) whose inputs are
 // the views' merged unwrap, its confidence and the fitted 3DMM's appearance, normal and position maps, and whose
 // targets are the subject's four maps baked (uvtools/bake.h) at the target and high resolutions; occlusion masks
 // (occlusion_masks.h) go to their own shard set.
@@ -40,7 +40,7 @@ struct TextureDatasetOptions {
     Eigen::Matrix<double, 68, 3> reference, offset;
   };
   std::optional<LandmarkCalibration> landmark_calibration;
-  // After a complete run: the detector's per-view bias learned from this folder's reports (texgen/view_calibration.h),
+  // After a complete run: the detector's per-view bias learned from this folder's reports (fitting/view_calibration.h),
   // written to this file for later runs' sample.view_calibration; empty: not written.
   std::string write_view_calibration;
   int target_res = 1024, hr_res = 4096;  // targets; hr 0 = none; each must divide the registered maps' size

@@ -21,12 +21,12 @@
 #include "render/shade.h"
 #include "template/template_face.h"
 #include "texgen/member_quantize.h"
-#include "texgen/multiview_fit.h"
-#include "texgen/silhouette_fit.h"
+#include "fitting/multiview_fit.h"
+#include "fitting/silhouette_fit.h"
 #include "render/rasterize.h"
 #include "texgen/texture_sample.h"
-#include "texgen/view_alignment.h"
-#include "texgen/view_calibration.h"
+#include "fitting/view_alignment.h"
+#include "fitting/view_calibration.h"
 
 namespace bareskin::texgen {
 namespace {

@@ -15,7 +15,7 @@
 #include "render/rasterize.h"
 #include "render/shade.h"
 #include "render/sh.h"
-#include "texgen/multiview_fit.h"
+#include "fitting/multiview_fit.h"
 
 namespace bareskin::texgen {
 
@@ -111,39 +111,6 @@ MergedUnwrap merge_by_confidence(const std::vector<const UnwarpResult*>& views, 
     }
   }, 4096);
   return m;
-}
-
-Image resize_square(const Image& image, int size) {
-  if (image.width == size && image.height == size) return image;
-  Image out(size, size, image.channels, image.color_space);
-  const int C = image.channels;
-  if (image.width == image.height && image.width > size && image.width % size == 0) {
-    const int f = image.width / size;
-    parallel_for(0, size, [&](int64_t y0, int64_t y1) {
-      for (int64_t y = y0; y < y1; ++y)
-        for (int x = 0; x < size; ++x)
-          for (int c = 0; c < C; ++c) {
-            double s = 0;
-            for (int dy = 0; dy < f; ++dy)
-              for (int dx = 0; dx < f; ++dx) s += image.at(x * f + dx, int(y) * f + dy, c);
-            out.at(x, int(y), c) = float(s / (f * f));
-          }
-    });
-    return out;
-  }
-  parallel_for(0, size, [&](int64_t y0, int64_t y1) {
-    for (int64_t y = y0; y < y1; ++y)
-      for (int x = 0; x < size; ++x) {
-        const double sx = std::clamp((x + 0.5) * image.width / size - 0.5, 0.0, image.width - 1.0);
-        const double sy = std::clamp((y + 0.5) * image.height / size - 0.5, 0.0, image.height - 1.0);
-        const int x0 = int(sx), y0 = int(sy), x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
-        const double fx = sx - x0, fy = sy - y0;
-        for (int c = 0; c < C; ++c)
-          out.at(x, int(y), c) = float((1 - fy) * ((1 - fx) * image.at(x0, y0, c) + fx * image.at(x1, y0, c)) +
-                                       fy * ((1 - fx) * image.at(x0, y1, c) + fx * image.at(x1, y1, c)));
-      }
-  });
-  return out;
 }
 
 ModelUvMaps model_uv_maps(const MorphableModel& model, const Coefficients& fit, int size, const RasterOutput* uv_raster) {

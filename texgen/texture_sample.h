@@ -18,9 +18,9 @@
 #include "morphable/fit.h"
 #include "morphable/model.h"
 #include "render/camera.h"
-#include "texgen/silhouette_fit.h"
-#include "texgen/view_alignment.h"
-#include "texgen/view_calibration.h"
+#include "fitting/silhouette_fit.h"
+#include "fitting/view_alignment.h"
+#include "fitting/view_calibration.h"
 #include "uvtools/unwarp.h"
 
 namespace bareskin::texgen {
@@ -46,24 +46,24 @@ struct TextureSampleOptions {
   // Texels whose sample in the render touches the background (outside the face the render shows; a fitted outline
   // wider than the face samples black there) count as unseen (UnwarpOptions::inside: sampled in the unwrap's own pass).
   bool drop_background = true;
-  // The landmark fit over the views (texgen/multiview_fit.h): "shared-shape" (one shape and expression for all
+  // The landmark fit over the views (fitting/multiview_fit.h): "shared-shape" (one shape and expression for all
   // views, a pose per view), "rigid" (one shape and one head pose, the views' known rotations between them) or
   // "per-view" (an independent fit per view).
   std::string landmark_fit_mode = "shared-shape";
   // The detector's landmark convention in the model frame (landmark_offsets of a `landmarks calibrate` file), added
   // to the model's landmark vertices in the landmark fits; empty: none.
   std::optional<Eigen::Matrix<double, 68, 3>> landmark_offsets;
-  // The detector's per-view 2D bias (texgen/view_calibration.h: learned on training subjects with the same
+  // The detector's per-view 2D bias (fitting/view_calibration.h: learned on training subjects with the same
   // landmark_offsets), subtracted from each view's detected landmarks before the fits; empty: none.
   std::optional<ViewCalibration> view_calibration;
   std::string view_calibration_source;  // its file, for error messages
   // Reweighted refits of the landmark fit (fit_landmarks_multiview_robust): landmarks far from where the shared shape
   // puts them lose weight (multi-view modes, and per-view with a calibration).
   int landmark_robust_rounds = 2;
-  // Rounds of the silhouette term on the shared-shape fit (texgen/silhouette_fit.h): each view's fitted outline onto
+  // Rounds of the silhouette term on the shared-shape fit (fitting/silhouette_fit.h): each view's fitted outline onto
   // the render's outline of the face on black; 0: off.
   SilhouetteFitOptions silhouette;
-  // Photometric consistency between the views' unwraps (texgen/view_alignment.h): the shared shape and the side
+  // Photometric consistency between the views' unwraps (fitting/view_alignment.h): the shared shape and the side
   // views' poses moved so that the views' unwraps agree, the landmarks holding them (weight 10); rounds 1 (the
   // default): one pass at 64² and 128² (+0.34 dB and −0.57 mm over the demo's 10 held-out subjects, about +1 CPU-s
   // per subject; bench/BENCHMARKS.md); 0: off. Per-view landmark fits keep their own shapes (poses only).
@@ -156,8 +156,5 @@ Landmarks68 true_landmarks(const MorphableModel& model, const Subject& subject, 
 // PSNR (dB) of `a` against `b` over the texels where `mask` > 0, on sRGB-encoded values in [0, 1] (what the network
 // sees); both linear RGB of the same size. +inf when identical, NaN when the mask is empty.
 double masked_psnr_srgb(const Image& a, const Image& b, const Image& mask);
-
-// Area-correct resize of a square image to size² (box filter when shrinking by an integer factor, bilinear otherwise).
-Image resize_square(const Image& image, int size);
 
 }  // namespace bareskin::texgen

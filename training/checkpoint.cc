@@ -9,9 +9,11 @@
 #include "core/error.h"
 #include "core/safetensors.h"
 #include "training/tensor_io.h"
-#include "training/trainer.h"
 
 namespace bareskin::train {
+
+std::string checkpoint_path(const std::string& run_dir) { return run_dir + "/checkpoint.safetensors"; }
+
 namespace {
 
 constexpr const char* kMetadata = "bareskin.checkpoint";

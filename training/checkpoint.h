@@ -13,10 +13,12 @@
 #include <vector>
 
 #include "training/data.h"
+#include "training/optimizer.h"
 
 namespace bareskin::train {
 
-struct OptimizerSpec;
+// The checkpoint file of a run folder.
+std::string checkpoint_path(const std::string& run_dir);
 
 struct Checkpoint {
   int64_t step = 0;

@@ -14,7 +14,7 @@
 #include "core/error.h"
 #include "core/ibug68.h"
 #include "core/png.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::data {
 namespace {

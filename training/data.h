@@ -1,4 +1,4 @@
-// Training data: batches decoded from dataset shards (texgen/shards.h) with a shuffle buffer, background decode
+// Training data: batches decoded from dataset shards (core/shards.h) with a shuffle buffer, background decode
 // threads, augmentation, and a cursor that a checkpoint stores so a resumed run sees the same batches as an
 // uninterrupted one. The order is a pure function of (seed, epoch, rank): shards are dealt to ranks by index
 // (shard i goes to rank i % world), each rank shuffles its own shards, then samples through a seeded buffer.

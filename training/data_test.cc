@@ -10,7 +10,7 @@
 #include "core/error.h"
 #include "core/png.h"
 #include "core/test_util.h"
-#include "texgen/shards.h"
+#include "core/shards.h"
 
 namespace bareskin::data {
 namespace {

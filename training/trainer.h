@@ -13,37 +13,12 @@
 #include <string>
 #include <vector>
 
+#include "training/checkpoint.h"
 #include "training/data.h"
 #include "training/distributed.h"
+#include "training/optimizer.h"
 
 namespace bareskin::train {
-
-// Learning-rate factor over the steps: constant; "linear" (constant until decay_start, then linearly to 0 at
-// `steps`, as pix2pixHD); "step" (x gamma every step_every steps, as Deep3DFaceRecon's x0.2).
-struct Schedule {
-  std::string kind = "constant";
-  int64_t decay_start = 0;
-  int64_t step_every = 0;
-  double gamma = 0.2;
-  double factor(int64_t step, int64_t steps) const;
-};
-void to_json(nlohmann::json& j, const Schedule& s);
-void from_json(const nlohmann::json& j, Schedule& s);
-
-struct ParamGroup {
-  std::string name;
-  std::vector<torch::Tensor> params;
-  double lr = 1e-4;
-};
-
-// One optimizer: Adam or AdamW over named parameter groups with their own rates.
-struct OptimizerSpec {
-  std::string name;  // "G", "D", "E"
-  std::string kind = "adam";
-  std::vector<ParamGroup> groups;
-  double beta1 = 0.9, beta2 = 0.999, eps = 1e-8, weight_decay = 0;
-  Schedule schedule;
-};
 
 using Losses = std::map<std::string, torch::Tensor>;  // named scalar terms, already weighted; their sum is minimised
 
@@ -105,8 +80,5 @@ class Trainer {
 
 // Seeds LibTorch's generators (call before the task builds its modules, so initial weights follow the seed).
 void seed_everything(uint64_t seed);
-
-// The checkpoint file of a run folder.
-std::string checkpoint_path(const std::string& run_dir);
 
 }  // namespace bareskin::train

@@ -1,0 +1,543 @@
+#include "bareskinnet/bareskinnet.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "training/checkpoint.h"
+#include "core/safetensors.h"
+#include "training/lpips.h"
+#include "recon/recon.h"
+#include "training/tensor_io.h"
+#include "render/torch/ops.h"
+#include "training/nets/patchgan.h"
+#include "training/nets/unet.h"
+#include "training/nets/zoo.h"
+#include "training/ssim.h"
+
+namespace bareskin::bsn {
+namespace F = torch::nn::functional;
+
+void to_json(nlohmann::json& j, const Options& o) {
+  j = {{"stage", o.stage},       {"target", o.target},   {"residual", o.residual},   {"size", o.size},       {"g", o.g},
+       {"d", o.d},               {"gan", o.gan},         {"lpips_trunk", o.lpips_trunk},
+       {"w1", o.w1},             {"w2", o.w2},           {"w3", o.w3},           {"w_coeff", o.w_coeff},
+       {"w_land", o.w_land},     {"w_diff", o.w_diff},   {"w_light", o.w_light}, {"w_reg", o.w_reg},
+       {"recon", o.recon},       {"tune_f", o.tune_f},   {"lr_g", o.lr_g},       {"lr_d", o.lr_d},
+       {"lr_e", o.lr_e},         {"lr_f", o.lr_f},       {"beta1", o.beta1},     {"beta2", o.beta2},
+       {"ema", o.ema}};
+  // Written only when set, so that the configurations of runs made before the options existed still match on resume.
+  if (o.lr_decay != 1) j["lr_decay"] = o.lr_decay;
+  if (o.w_level != 0) j["w_level"] = o.w_level;
+}
+
+void from_json(const nlohmann::json& j, Options& o) {
+  Options d;
+  o.stage = j.value("stage", d.stage);
+  o.target = j.value("target", d.target);
+  o.residual = j.value("residual", false);  // runs written before the option had the paper's G
+  o.size = j.value("size", d.size);
+  o.g = j.value("g", d.g);
+  o.d = j.value("d", d.d);
+  o.gan = j.value("gan", d.gan);
+  o.lpips_trunk = j.value("lpips_trunk", d.lpips_trunk);
+  o.w1 = j.value("w1", d.w1);
+  o.w2 = j.value("w2", d.w2);
+  o.w3 = j.value("w3", d.w3);
+  o.w_coeff = j.value("w_coeff", d.w_coeff);
+  o.w_land = j.value("w_land", d.w_land);
+  o.w_diff = j.value("w_diff", d.w_diff);
+  o.w_light = j.value("w_light", d.w_light);
+  o.w_reg = j.value("w_reg", d.w_reg);
+  o.recon = j.value("recon", d.recon);
+  o.tune_f = j.value("tune_f", d.tune_f);
+  o.lr_g = j.value("lr_g", d.lr_g);
+  o.lr_d = j.value("lr_d", d.lr_d);
+  o.lr_e = j.value("lr_e", d.lr_e);
+  o.lr_f = j.value("lr_f", d.lr_f);
+  o.beta1 = j.value("beta1", d.beta1);
+  o.beta2 = j.value("beta2", d.beta2);
+  o.ema = j.value("ema", d.ema);
+  o.lr_decay = j.value("lr_decay", d.lr_decay);
+  o.w_level = j.value("w_level", d.w_level);
+  o.face_api = j.value("face_api", d.face_api);
+  if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
+  if (o.target != "before" && o.target != "bare")
+    throw InvalidInput("target '" + o.target + "'", "is not a target", "use before (the paper) or bare");
+  if (o.recon != "E" && o.recon != "F")
+    throw InvalidInput("recon '" + o.recon + "'", "is not a reconstruction network", "use E (the paper) or F");
+  if (o.size < 32 || (o.size & (o.size - 1)) != 0)
+    throw InvalidInput("size " + std::to_string(o.size), "is not a power of two ≥ 32", "use 64, 128 or 256");
+  if (!(o.ema >= 0 && o.ema < 1))
+    throw InvalidInput("ema " + std::to_string(o.ema), "is not a decay in [0, 1)", "use e.g. 0.99, or 0 for no average");
+  if (!(o.lr_decay >= 0 && o.lr_decay <= 1))
+    throw InvalidInput("lr_decay " + std::to_string(o.lr_decay), "is not a fraction of the steps in [0, 1]",
+                       "use e.g. 0.5 (decay over the second half of each stage), or 1 for a constant rate");
+  for (auto [key, w] : {std::pair<const char*, double>{"w1", o.w1}, {"w2", o.w2}, {"w3", o.w3}, {"w_coeff", o.w_coeff},
+                        {"w_land", o.w_land}, {"w_diff", o.w_diff}, {"w_light", o.w_light}, {"w_reg", o.w_reg},
+                        {"w_level", o.w_level}})
+    if (!(w >= 0 && std::isfinite(w)))
+      throw InvalidInput(std::string("loss weight ") + key, "is negative or not finite", "give a weight ≥ 0");
+  losses::parse_gan_kind(o.gan, "gan");
+}
+
+void ablation_preset(const std::string& row, Options& o) {
+  if (row == "b") {
+    o.w3 = 0;
+  } else if (row == "c") {
+  } else if (row == "d" || row == "e") {
+    o.recon = "F";
+    o.tune_f = row == "e";
+  } else if (row == "f") {
+    o.recon = "E";
+    o.w_light = 0;
+  } else if (row == "g") {
+    o.recon = "E";
+  } else {
+    throw InvalidInput("ablation row '" + row + "'", "is not a row of the paper's Fig. 7", "use b, c, d, e, f or g");
+  }
+}
+
+bool ablation_has_stage2(const std::string& row) { return row != "b" && row != "c"; }
+
+double ema_decay(double decay, int64_t n) { return std::min(decay, double(1 + n) / double(10 + n)); }
+
+void ema_update(torch::nn::Module& average, torch::nn::Module& model, double d) {
+  torch::NoGradGuard no_grad;
+  auto blend = [d](torch::Tensor& a, const torch::Tensor& m) {
+    if (a.is_floating_point())
+      a.mul_(d).add_(m.detach(), 1 - d);
+    else
+      a.copy_(m);
+  };
+  auto ap = average.named_parameters(), mp = model.named_parameters();
+  auto ab = average.named_buffers(), mb = model.named_buffers();
+  BS_CHECK(ap.size() == mp.size() && ab.size() == mb.size(), "ema_update: the modules differ in layout");
+  for (auto& item : ap) blend(item.value(), mp[item.key()]);
+  for (auto& item : ab) blend(item.value(), mb[item.key()]);
+}
+
+torch::Tensor srgb_to_linear(const torch::Tensor& x) {
+  auto c = x.clamp(0, 1);
+  return torch::where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055).clamp_min(1e-6).pow(2.4));
+}
+
+torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask) {
+  return losses::masked_l1(unlit, g_out_linear, mask);
+}
+
+torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_linear, const torch::Tensor& mask) {
+  return losses::masked_l1(lit, before_linear, mask);
+}
+
+torch::Tensor landmark_loss(const torch::Tensor& projected, const torch::Tensor& target, double scale) {
+  return ((projected - target) * scale).pow(2).sum(-1).mean();
+}
+
+torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teacher) {
+  return (student - teacher).pow(2).mean();
+}
+
+torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout) {
+  const int64_t n = layout.rotation_offset();
+  return coeff.narrow(1, 0, n).pow(2).sum(1).mean();
+}
+
+torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+  auto m = mask.expand_as(a);
+  return (((a - b) * m).sum({2, 3}) / m.sum({2, 3}).clamp_min(1)).abs().mean();
+}
+
+torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+  auto m = mask.expand_as(a);
+  auto mse = ((a - b).pow(2) * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
+  return 10 * torch::log10(1.0 / mse.clamp_min(1e-12));
+}
+
+torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+  losses::SsimOptions o;
+  auto map = losses::ssim_map(a, b, o).mean(1, true);  // [B, 1, H − w + 1, W − w + 1]
+  const int64_t r = o.window / 2;
+  auto m = mask.narrow(2, r, map.size(2)).narrow(3, r, map.size(3));
+  return (map * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
+}
+
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual) {
+  auto y = G.forward(images * 2 - 1);
+  return residual ? images + y : (y + 1) * 0.5;
+}
+
+void zero_last_layer(nets::UNetImpl& G) {
+  // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: index 3 is the last layer.
+  torch::NoGradGuard no_grad;
+  int zeroed = 0;
+  for (auto& p : G.named_parameters())
+    if (p.key().rfind("model.model.3.", 0) == 0) {
+      p.value().zero_();
+      ++zeroed;
+    }
+  BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
+}
+
+nlohmann::json generator_options(const nlohmann::json& g, int64_t size) {
+  nlohmann::json o = nets::find_model("unet256").defaults;
+  o["num_downs"] = std::max(5, int(std::lround(std::log2(double(size)))));
+  o.update(g);
+  return o;
+}
+
+struct BareSkinTask::Nets {
+  std::shared_ptr<GeneratorEmaImpl> G_ema;  // Options::ema > 0
+  std::shared_ptr<nets::UNetImpl> G;
+  std::shared_ptr<nets::PatchGANImpl> D;
+  losses::Lpips lpips{nullptr};
+  losses::GanKind gan = losses::GanKind::Vanilla;
+};
+
+BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, FaceRenderer renderer,
+                           CoeffLayout layout)
+    : options_(std::move(options)),
+      teacher_(std::move(teacher)),
+      student_(std::move(student)),
+      renderer_(std::move(renderer)),
+      layout_(layout),
+      nets_(std::make_shared<Nets>()) {
+  nets_->G = std::dynamic_pointer_cast<nets::UNetImpl>(
+      nets::find_model("unet256").make(generator_options(options_.g, options_.size)));
+  nlohmann::json d = nets::find_model("patchgan").defaults;
+  d.update(options_.d);
+  nets_->D = std::dynamic_pointer_cast<nets::PatchGANImpl>(nets::find_model("patchgan").make(d));
+  BS_CHECK(nets_->G && nets_->D, "the zoo's unet256 / patchgan have unexpected types");
+  if (options_.residual) zero_last_layer(*nets_->G);
+  if (options_.ema > 0) {
+    // The average's net is made with the random stream put back afterwards, so that everything drawn later (the
+    // LPIPS trunk, dropout) is the same with and without --ema-g: the average never changes how G trains.
+    at::Generator rng = at::detail::getDefaultCPUGenerator();
+    const at::Tensor rng_state = rng.get_state();
+    nets_->G_ema = std::make_shared<GeneratorEmaImpl>(std::dynamic_pointer_cast<nets::UNetImpl>(
+        nets::find_model("unet256").make(generator_options(options_.g, options_.size))));
+    rng.set_state(rng_state);
+    reset_ema();
+  }
+  nets_->gan = losses::parse_gan_kind(options_.gan, "gan");
+  if (options_.w3 > 0) nets_->lpips = losses::Lpips(options_.lpips_trunk, options_.face_api);
+  if (options_.stage == 2) {
+    if (!teacher_.module || !renderer_)
+      throw InvalidInput("stage 2", "needs the teacher F and the 3DMM renderer", "give --teacher RUN and --model");
+    if (options_.recon == "E" && !student_.module)
+      throw InvalidInput("stage 2", "with recon E needs the student E", "build E or use recon F");
+    for (auto& p : teacher_.module->parameters()) p.set_requires_grad(options_.recon == "F" && options_.tune_f);
+  }
+}
+
+std::shared_ptr<torch::nn::Module> BareSkinTask::generator() const { return nets_->G; }
+
+std::shared_ptr<torch::nn::Module> BareSkinTask::generator_ema() const {
+  return nets_->G_ema ? nets_->G_ema->G : nullptr;
+}
+
+int64_t BareSkinTask::ema_updates() const { return nets_->G_ema ? nets_->G_ema->updates.item<int64_t>() : 0; }
+
+void BareSkinTask::reset_ema() {
+  if (!nets_->G_ema) return;
+  nets_->G_ema->to(nets_->G->parameters().front().device());
+  ema_update(*nets_->G_ema->G, *nets_->G, 0);
+  torch::NoGradGuard no_grad;
+  nets_->G_ema->updates.zero_();
+}
+
+std::map<std::string, std::shared_ptr<torch::nn::Module>> BareSkinTask::modules() {
+  std::map<std::string, std::shared_ptr<torch::nn::Module>> m{{"G", nets_->G}, {"D", nets_->D}};
+  if (nets_->G_ema) m["G_ema"] = nets_->G_ema;
+  if (options_.stage == 2) {
+    m["F"] = teacher_.module;
+    if (options_.recon == "E") m["E"] = student_.module;
+  }
+  return m;
+}
+
+std::vector<train::OptimizerSpec> BareSkinTask::optimizers() {
+  train::OptimizerSpec d{"D", "adam", {{"D", nets_->D->parameters(), options_.lr_d}}};
+  train::OptimizerSpec g{"G", "adam", {{"G", nets_->G->parameters(), options_.lr_g}}};
+  if (options_.stage == 2 && options_.recon == "E") g.groups.push_back({"E", student_.module->parameters(), options_.lr_e});
+  if (options_.stage == 2 && options_.recon == "F" && options_.tune_f)
+    g.groups.push_back({"F", teacher_.module->parameters(), options_.lr_f});
+  for (auto* s : {&d, &g}) {
+    s->beta1 = options_.beta1;
+    s->beta2 = options_.beta2;
+    if (options_.lr_decay < 1) {
+      s->schedule.kind = "linear";
+      s->schedule.decay_start = std::llround(options_.lr_decay * double(stage_steps_));
+    }
+  }
+  return {d, g};
+}
+
+torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& name) const {
+  const torch::Tensor& t = batch.at(name);
+  const int64_t s = options_.size;
+  if (name == "landmarks") {
+    const double scale = double(s) / double(batch.at("makeup").size(-1));
+    return t * scale;
+  }
+  if (t.size(-1) == s && t.size(-2) == s) return t;
+  return F::interpolate(t, F::InterpolateFuncOptions().size(std::vector<int64_t>{s, s}).mode(torch::kArea));
+}
+
+torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
+  return generator_forward(*nets_->G, images, options_.residual);
+}
+
+torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
+  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.residual);
+}
+
+torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
+  if (options_.target != "bare") return member(batch, options_.target);
+  // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
+  // not occluded) G is asked to keep its input, so the background does not dominate the L1.
+  auto face = member(batch, "face");
+  return face * member(batch, "bare") + (1 - face) * member(batch, "makeup");
+}
+
+train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
+  if (teacher_.module) teacher_.module->eval();  // frozen batch statistics (also when tuned: batch 4 is too small)
+  auto makeup = member(batch, "makeup");
+  auto target = this->target(batch);
+  auto D = [&](const torch::Tensor& out) { return nets_->D->forward(torch::cat({makeup * 2 - 1, out * 2 - 1}, 1)); };
+  if (phase == 0 && nets_->G_ema) {  // G as the previous step left it joins the average
+    torch::NoGradGuard no_grad;
+    auto& n = nets_->G_ema->updates;
+    ema_update(*nets_->G_ema->G, *nets_->G, ema_decay(options_.ema, n.item<int64_t>()));
+    n.add_(1);
+  }
+  if (phase == 0) {  // D: real pairs vs G's output
+    cached_output_ = generate(makeup);
+    auto fake = cached_output_.detach();
+    auto real = losses::gan_loss(D(target), true, nets_->gan, true);
+    auto faked = losses::gan_loss(D(fake), false, nets_->gan, true);
+    return {{"gan", options_.w2 * 0.5 * (real + faked)}};
+  }
+  torch::Tensor out = cached_output_.defined() ? cached_output_ : generate(makeup);
+  cached_output_ = torch::Tensor();
+  train::Losses l;
+  for (auto& p : nets_->D->parameters()) p.set_requires_grad(false);
+  l["l1"] = options_.w1 * losses::l1(out, target);
+  l["gan"] = options_.w2 * losses::gan_loss(D(out), true, nets_->gan, false);
+  for (auto& p : nets_->D->parameters()) p.set_requires_grad(true);
+  if (options_.w3 > 0) l["lpips"] = options_.w3 * nets_->lpips->forward(out, target).mean();
+  if (options_.w_level > 0) l["level"] = options_.w_level * level_loss(out, target, member(batch, "face"));
+  if (options_.stage == 1) return l;
+
+  auto before = member(batch, "before");
+  torch::Tensor reference;
+  {
+    torch::NoGradGuard no_grad;
+    reference = teacher_.forward(before);
+  }
+  const int64_t k = layout_.size();  // without γ
+  auto c_teacher = reference.narrow(1, 0, k), gamma = reference.narrow(1, k, 27);
+  auto c_hat = (options_.recon == "E" ? student_.forward(out) : teacher_.forward(out)).narrow(1, 0, k);
+  FaceRender r = renderer_(c_hat, gamma, options_.size);
+  auto region = r.mask * member(batch, "face");
+  l["diff"] = options_.w_diff * diff_loss(r.unlit, srgb_to_linear(out), region);
+  if (options_.w_light > 0) l["light"] = options_.w_light * light_loss(r.lit, srgb_to_linear(before), region);
+  l["land"] = options_.w_land * landmark_loss(r.landmarks, member(batch, "landmarks"), 256.0 / double(options_.size));
+  if (options_.recon == "E") l["coeff"] = options_.w_coeff * coeff_loss(c_hat, c_teacher);
+  l["reg"] = options_.w_reg * reg_loss(c_hat, layout_);
+  return l;
+}
+
+std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
+  auto out = generate_eval(member(batch, "makeup"));
+  auto skin = member(batch, "skin");
+  std::map<std::string, double> m;
+  for (const char* truth : {"bare", "before"}) {
+    if (!batch.tensors.count(truth)) continue;
+    auto t = member(batch, truth);
+    m[std::string("psnr_") + truth] = masked_psnr(out, t, skin).mean().item<double>();
+    m[std::string("ssim_") + truth] = masked_ssim(out, t, skin).mean().item<double>();
+  }
+  return m;
+}
+
+std::vector<std::vector<torch::Tensor>> BareSkinTask::samples(const data::Batch& batch) {
+  auto makeup = member(batch, "makeup");
+  auto out = generate_eval(makeup);
+  std::vector<std::vector<torch::Tensor>> rows;
+  for (int64_t i = 0; i < std::min<int64_t>(batch.size(), 4); ++i) {
+    std::vector<torch::Tensor> row{makeup[i], out[i], target(batch)[i]};
+    if (options_.target != "bare" && batch.tensors.count("bare")) row.push_back(member(batch, "bare")[i]);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+
+FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model) {
+  return [model](const torch::Tensor& coeff, const torch::Tensor& gamma, int64_t size) {
+    recon::FaceRender r = model->render(coeff, recon::canonical_camera(int(size)), gamma);
+    return FaceRender{r.colour, r.albedo, r.mask, r.landmarks};
+  };
+}
+
+void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint) {
+  auto modules = task.modules();
+  train::load_module_weights(stage1_checkpoint, "G", *modules.at("G"));
+  train::load_module_weights(stage1_checkpoint, "D", *modules.at("D"));
+  task.reset_ema();
+}
+
+namespace {
+
+// The first object in a run's configuration that holds `key` (the recon run's net options sit somewhere inside).
+const nlohmann::json* find_object_with(const nlohmann::json& j, const std::string& key) {
+  if (!j.is_object()) return nullptr;
+  if (j.contains(key)) return &j;
+  for (auto& [k, v] : j.items())
+    if (const nlohmann::json* found = find_object_with(v, key)) return found;
+  return nullptr;
+}
+
+ReconNet wrap(recon::ReconNet net, int64_t input_size) {
+  ReconNet r;
+  r.module = net.ptr();
+  r.forward = [net, input_size](const torch::Tensor& image) mutable {
+    torch::Tensor x = image;
+    if (input_size > 0 && image.size(-1) != input_size)
+      x = F::interpolate(image, F::InterpolateFuncOptions()
+                                    .size(std::vector<int64_t>{input_size, input_size})
+                                    .mode(torch::kBilinear)
+                                    .align_corners(false));
+    return net->forward(x);
+  };
+  return r;
+}
+
+}  // namespace
+
+std::string check_teacher(const std::string& run) {
+  namespace fs = std::filesystem;
+  const std::string path = fs::is_directory(run) ? train::checkpoint_path(run) : run;
+  const std::string hint = "give --teacher the run folder of 'bareskin train recon' (the teacher F)";
+  if (!fs::exists(path)) throw IoError(path, "does not exist", hint);
+  SafeTensors file = SafeTensors::open(path);
+  auto it = file.metadata().find("bareskin.checkpoint");
+  if (it == file.metadata().end()) throw InvalidInput(path, "is not a training checkpoint", hint);
+  const nlohmann::json meta = nlohmann::json::parse(it->second, nullptr, false);
+  if (!meta.is_object()) throw InvalidInput(path, "has unreadable checkpoint metadata", hint);
+  const std::string task = meta.value("task", "");
+  if (task != "recon") throw InvalidInput(path, "is a checkpoint of '" + task + "', not of the teacher F (recon)", hint);
+  bool has_f = false;
+  for (const auto& name : file.names()) has_f = has_f || name.rfind("module.F.", 0) == 0;
+  if (!has_f) throw InvalidInput(path, "holds no teacher F (a student E run?)", hint);
+  return path;
+}
+
+ReconNet load_teacher(const std::string& run, const recon::FaceModel& model) {
+  const std::string path = check_teacher(run);
+  const nlohmann::json meta =
+      nlohmann::json::parse(SafeTensors::open(path).metadata().at("bareskin.checkpoint"), nullptr, false);
+  const nlohmann::json config = meta.value("config", nlohmann::json::object());
+  recon::ReconNetOptions net_options;
+  if (const nlohmann::json* o = find_object_with(config, "arch")) recon::from_json(*o, net_options);
+  net_options.gamma = true;
+  int64_t image_size = 256;
+  if (const nlohmann::json* o = find_object_with(config, "image_size")) image_size = o->at("image_size").get<int64_t>();
+  recon::ReconNet net(net_options, model.layout(true));
+  train::load_module_weights(path, "F", *net);
+  net->eval();
+  return wrap(net, image_size);
+}
+
+ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& options) {
+  recon::ReconNetOptions o;
+  o.arch = "resnet18";
+  o.gamma = false;
+  nlohmann::json j = o;
+  j.update(options);
+  recon::from_json(j, o);
+  o.gamma = false;
+  return wrap(recon::ReconNet(o, model.layout(false)), 0);
+}
+
+std::vector<std::string> required_members(const Options& o) {
+  std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
+  if (o.target != "before") r.push_back("before.png");
+  if (o.stage == 2 || o.target == "bare" || o.w_level > 0) r.push_back("face.png");
+  return r;
+}
+
+void to_json(nlohmann::json& j, const RunOptions& o) {
+  j = {{"task", o.task},     {"train_data", o.train_data}, {"val_data", o.val_data}, {"steps1", o.steps1},
+       {"steps2", o.steps2}, {"batch", o.batch},           {"seed", o.seed},           {"teacher", o.teacher},
+       {"model", o.model}};
+}
+
+namespace {
+
+train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std::string& dir, int64_t steps) {
+  data::LoaderOptions lo;
+  lo.dataset = ro.train_data;
+  lo.required = required_members(task.options());
+  lo.batch_size = ro.batch;
+  lo.seed = ro.seed;
+  lo.decode_threads = ro.decode_threads;
+  data::ShardLoader train_loader(lo);
+  if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made
+    train_loader.next();
+    train_loader.seek({0, 0});
+  }
+  std::unique_ptr<data::ShardLoader> val;
+  if (!ro.val_data.empty()) {
+    data::LoaderOptions vo = lo;
+    vo.dataset = ro.val_data;
+    vo.shuffle_buffer = 0;
+    val = std::make_unique<data::ShardLoader>(vo);
+  }
+  train::TrainerOptions to = ro.trainer;
+  to.run_dir = dir;
+  to.steps = steps;
+  to.config = ro;
+  to.config["stage"] = task.options().stage;
+  for (const char* key : {"steps1", "steps2", "val_data"}) to.resumable_keys.push_back(key);
+  task.set_stage_steps(steps);
+  train::Trainer trainer(to, task, train_loader, val.get());
+  return trainer.run();
+}
+
+}  // namespace
+
+RunResult train_two_stages(const RunOptions& ro, const std::function<Stage2Parts()>& make_parts) {
+  RunResult result;
+  const std::string dir1 = ro.run_dir + "/stage1", dir2 = ro.run_dir + "/stage2";
+  const std::string ck1 = train::checkpoint_path(dir1), ck2 = train::checkpoint_path(dir2);
+  namespace fs = std::filesystem;
+  const bool done1 = ro.trainer.resume && fs::exists(ck1) && train::read_checkpoint_step(ck1) >= ro.steps1;
+  if (!done1) {
+    Options o = ro.task;
+    o.stage = 1;
+    train::seed_everything(ro.seed);
+    BareSkinTask task(o);
+    RunOptions r1 = ro;
+    r1.trainer.resume = ro.trainer.resume && fs::exists(ck1);
+    result.stage1 = run_stage(r1, task, dir1, ro.steps1);
+    if (result.stage1.steps < ro.steps1) return result;  // stopped by a signal
+  }
+  if (ro.steps2 <= 0) return result;
+  Options o = ro.task;
+  o.stage = 2;
+  train::seed_everything(ro.seed + 1);
+  Stage2Parts parts = make_parts();
+  BareSkinTask task(o, parts.teacher, parts.student, parts.renderer, parts.layout);
+  RunOptions r2 = ro;
+  r2.trainer.resume = ro.trainer.resume && fs::exists(ck2);
+  if (!r2.trainer.resume) start_from_stage1(task, ck1);
+  result.stage2 = run_stage(r2, task, dir2, ro.steps2);
+  return result;
+}
+
+}  // namespace bareskin::bsn

@@ -1,0 +1,327 @@
+// BareSkinNet (Yang & Taketomi, PG 2022, §4 and §6): the de-makeup and de-lighting network G (pix2pix's U-Net),
+// trained in two stages on the face-image world's samples (texgen faces: makeup, before, bare, skin, face, json):
+//   stage 1  G alone: L_DD = w1·L1 + w2·L_GAN (PatchGAN D) + w3·L_LPIPS against the target (before or bare);
+//   stage 2  G and the student E jointly, the teacher F frozen: L_DD + L_FR with
+//            L_FR = w_coeff·L_coeff (E vs F) + w_land·L_land + w_diff·L_diff + w_light·L_light + w_reg·L_reg.
+// F reads the before image and gives the reference coefficients C and the light γ; E reads G's output and gives Ĉ.
+// The 3DMM is rendered from Ĉ without light (must equal G's output on the rendered face: L_diff, which is how the
+// de-lighting reaches G) and with F's γ (must equal the before image: L_light). The ablation rows of the paper's
+// Fig. 7 are presets of the same task (ablation_preset). Formulas, weights and rows: docs/training.md, "BareSkinNet".
+#pragma once
+#include <torch/torch.h>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/image.h"
+#include "detect/align.h"
+#include "recon/face_model.h"
+#include "training/losses.h"
+#include "training/nets/unet.h"
+#include "training/trainer.h"
+
+namespace bareskin::bsn {
+
+// The name the checkpoints of this task carry.
+inline constexpr const char* kTaskName = "bareskinnet";
+
+// Coefficient vectors are recon/face_model.h's: C = (α, β, δ, R, t) in the layout without γ; γ (27) separate.
+using CoeffLayout = recon::CoefficientLayout;
+
+// A reconstruction network: its module (whose state a checkpoint keeps) and its forward from aligned images
+// ([B, 3, S, S] sRGB in [0, 1], any S) to [B, layout.size()] coefficients, followed by γ [27] where it estimates
+// light (F does; E's extra outputs, if any, are ignored).
+struct ReconNet {
+  std::shared_ptr<torch::nn::Module> module;
+  std::function<torch::Tensor(const torch::Tensor& image)> forward;
+};
+
+// The 3DMM render stage 2 needs (recon/face_model.h): for coefficients [B, K] and γ [B, 27] at S×S pixels,
+// the lit and unlit images ([B, 3, S, S], linear light), the rendered face region [B, 1, S, S] and the 68 landmarks
+// [B, 68, 2] in pixels of the S×S image (origin top-left corner).
+struct FaceRender {
+  torch::Tensor lit, unlit, mask, landmarks;
+};
+using FaceRenderer = std::function<FaceRender(const torch::Tensor& coeff, const torch::Tensor& gamma, int64_t size)>;
+
+// The renderer of a morphable model (recon/face_model.h) seen by the canonical camera at the training size.
+FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model);
+
+struct Options {
+  int stage = 1;                  // 1: G alone (L_DD); 2: + L_FR through the reconstruction
+  std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth
+                                  // on the face region, the input elsewhere)
+  // Ours, not the paper's: G predicts a change of its input (output = input + Δ, Δ = the U-Net's Tanh output in
+  // [0, 1] units) and its last layer starts at zero, so G starts as the identity and training is judged by what it
+  // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false.
+  bool residual = true;
+  int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
+  nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
+  nlohmann::json d = nlohmann::json::object();  // patchgan options
+  std::string gan = "vanilla";                  // pix2pix's loss
+  std::string lpips_trunk = "vgg16-random";     // or "facenet" (face-api's recognition net; cheap on the CPU)
+  std::string face_api;                         // folder of face-api's weights (facenet trunk)
+  double w1 = 100, w2 = 1, w3 = 40;             // L1, GAN, LPIPS
+  double w_coeff = 0.1, w_land = 0.08, w_diff = 100, w_light = 100, w_reg = 1e-3;
+  // Stage 2's reconstruction of G's output: "E" (the student, the paper) or "F" (the teacher reads G's output
+  // itself: the ablation rows d and e, without L_coeff).
+  std::string recon = "E";
+  bool tune_f = false;  // F trained along (row e) instead of frozen
+  double lr_g = 2e-5, lr_d = 2e-5, lr_e = 1e-4, lr_f = 1e-5;
+  double beta1 = 0.5, beta2 = 0.999;
+  // Ours, not the paper's: an exponential moving average of G's weights and batch-norm statistics (0: off). Each
+  // stage keeps G_ema ← d·G_ema + (1 − d)·G with d = ema_decay(ema, n) at the start of every step (so after N steps
+  // it averages G after steps 0 … N − 1), starting from the G the stage starts with; the validation metrics, the
+  // sample grids, eval.json and inference use G_ema. The trained G itself is unchanged by it.
+  double ema = 0;
+  // Ours, not the paper's: each stage's learning rates (G, D, E, a tuned F) fall linearly to 0 from this fraction of
+  // the stage's steps on (1: constant, the paper; 0.5: the second half of each stage decays).
+  double lr_decay = 1;
+  // Ours, not the paper's: weight of L_level, the L1 distance between the mean colours (per image and channel) of
+  // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
+  // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.
+  double w_level = 0;
+};
+void to_json(nlohmann::json& j, const Options& o);
+void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
+
+// The paper's Fig. 7 rows as option changes: "b" L1 + GAN; "c" + LPIPS; "d" + frozen F; "e" + fine-tuned F;
+// "f" + E (teacher-student) without L_light; "g" the full model. Rows b, c are stage 1 only. InvalidInput otherwise.
+void ablation_preset(const std::string& row, Options& o);
+// Whether the row trains a second stage.
+bool ablation_has_stage2(const std::string& row);
+
+// The loss terms of L_FR, unweighted, on tensors (exposed for tests). Images in linear light.
+// L_diff: Σ m·|unlit − g_out| / Σ m over the rendered region m; L_light: the same for lit against the before image.
+torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask);
+torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_linear, const torch::Tensor& mask);
+// L_land: mean over landmarks and batch of the squared distance in pixels of the 256² canonical frame (`scale` =
+// 256 / S converts S×S pixels); L_coeff: mean squared difference of the coefficients; L_reg: per face Σα² + Σβ² +
+// Σδ² (standard deviations: the mean face is 0), averaged over the batch.
+torch::Tensor landmark_loss(const torch::Tensor& projected, const torch::Tensor& target, double scale);
+torch::Tensor coeff_loss(const torch::Tensor& student, const torch::Tensor& teacher);
+torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout);
+// L_level: mean over batch and channels of |Σ m·(a − b) / Σ m| (images [B, C, H, W], mask [B, 1, H, W]).
+torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+
+// The EMA's decay at update n (0-based): min(decay, (1 + n) / (10 + n)), so the first updates follow G closely and
+// the starting weights are forgotten within a few dozen steps even at decay 0.999.
+double ema_decay(double decay, int64_t n);
+// average ← d·average + (1 − d)·model over every parameter and floating-point buffer (batch-norm running mean and
+// variance); integer buffers (batch counts) are copied. The two modules must have the same layout. d = 0 copies.
+void ema_update(torch::nn::Module& average, torch::nn::Module& model, double d);
+
+// G_ema and its update count, one module so that checkpoints keep both ("G_ema.G.*", "G_ema.updates"); training
+// writes it, load_generator reads it.
+struct GeneratorEmaImpl : torch::nn::Module {
+  explicit GeneratorEmaImpl(std::shared_ptr<nets::UNetImpl> g)
+      : G(register_module("G", std::move(g))), updates(register_buffer("updates", torch::zeros({}, torch::kLong))) {
+    for (auto& p : G->parameters()) p.set_requires_grad(false);
+  }
+  std::shared_ptr<nets::UNetImpl> G;
+  torch::Tensor updates;
+};
+
+// sRGB-encoded [0, 1] → linear light (the IEC 61966-2-1 curve), differentiable.
+torch::Tensor srgb_to_linear(const torch::Tensor& x);
+
+// Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
+// SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
+torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+
+class BareSkinTask : public train::Task {
+ public:
+  // Stage 1 needs neither F nor E nor the renderer. Stage 2 needs F and the renderer, and E when options.recon is
+  // "E". Modules are built in a fixed order (G, D, E), so seed before constructing.
+  BareSkinTask(Options options, ReconNet teacher = {}, ReconNet student = {}, FaceRenderer renderer = {},
+               CoeffLayout layout = {});
+
+  std::string name() const override { return kTaskName; }
+  std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override;
+  std::vector<train::OptimizerSpec> optimizers() override;  // "D", then "G" (G with E, or a tuned F, as groups)
+  train::Losses loss(size_t phase, const data::Batch& batch) override;
+  std::map<std::string, double> evaluate(const data::Batch& batch) override;
+  std::vector<std::vector<torch::Tensor>> samples(const data::Batch& batch) override;
+
+  // G on aligned images [B, 3, S, S] in [0, 1] → the bare-skin images in [0, 1].
+  torch::Tensor generate(const torch::Tensor& images);
+  // The batch's member at the training size (area resize; landmarks scaled).
+  torch::Tensor member(const data::Batch& batch, const std::string& name) const;
+  // G's supervision at the training size: the before image, or for target "bare" the bare albedo on the face region
+  // (face.png) and the input elsewhere.
+  torch::Tensor target(const data::Batch& batch) const;
+
+  const Options& options() const { return options_; }
+  std::shared_ptr<torch::nn::Module> generator() const;
+  // G_ema (Options::ema > 0), else null; and the number of updates it has had.
+  std::shared_ptr<torch::nn::Module> generator_ema() const;
+  int64_t ema_updates() const;
+  // Restarts the average at G's current weights (the start of a stage).
+  void reset_ema();
+  // The number of steps of the stage, which places the learning-rate decay (Options::lr_decay); set it before the
+  // Trainer asks for the optimizers.
+  void set_stage_steps(int64_t steps) { stage_steps_ = steps; }
+
+ private:
+  struct Nets;
+  Options options_;
+  ReconNet teacher_, student_;
+  FaceRenderer renderer_;
+  CoeffLayout layout_;
+  std::shared_ptr<Nets> nets_;
+  torch::Tensor cached_output_;  // G's output of the D phase, reused by the G phase of the same step
+  int64_t stage_steps_ = 0;
+  torch::Tensor generate_eval(const torch::Tensor& images);  // G_ema when on, else G
+};
+
+// Stage 2 starts from stage 1's G and D: copies them from a finished stage-1 run's checkpoint into the task
+// (before its Trainer starts); G_ema, when on, restarts at that G. InvalidInput naming the file when it is not a
+// BareSkinNet checkpoint.
+void start_from_stage1(BareSkinTask& task, const std::string& stage1_checkpoint);
+
+// What stage 2 needs besides G and D, made after seeding (the teacher loaded from its run, a fresh student).
+struct Stage2Parts {
+  ReconNet teacher, student;
+  FaceRenderer renderer;
+  CoeffLayout layout;
+};
+
+struct RunOptions {
+  Options task;                    // its `stage` is set per stage
+  std::string train_data;          // a faces split folder (manifest.json) or one shard
+  std::string val_data;            // optional: validation metrics and sample grids
+  std::string run_dir;             // stage1/ and stage2/ are written inside
+  int64_t steps1 = 10000, steps2 = 30000;  // the paper's; steps2 = 0: stage 1 only
+  int64_t batch = 4;
+  uint64_t seed = 0;
+  int decode_threads = 2;
+  train::TrainerOptions trainer;   // intervals, device, progress, resume (run_dir, steps, config are set here)
+  std::string teacher, model;      // recorded in the run's configuration (demakeup's defaults)
+};
+void to_json(nlohmann::json& j, const RunOptions& o);
+
+struct RunResult {
+  train::TrainResult stage1, stage2;
+};
+
+// Runs stage 1 into run_dir/stage1, then stage 2 into run_dir/stage2 from stage 1's G and D. With
+// trainer.resume a finished stage is skipped and an unfinished one continues from its checkpoint; a stage-2 run
+// continued at the switch repeats an uninterrupted one to the bit.
+RunResult train_two_stages(const RunOptions& options, const std::function<Stage2Parts()>& make_parts);
+
+// The teacher F of a recon run (`bareskin train recon`; a run folder or its checkpoint) for this model, its input
+// resized to the size F was trained at. InvalidInput naming the file when the checkpoint belongs to another task
+// or holds no F, or when F's head does not fit the model.
+ReconNet load_teacher(const std::string& run, const recon::FaceModel& model);
+// The checks of load_teacher that need no model (the checkpoint's task and its F); returns the checkpoint's path.
+std::string check_teacher(const std::string& run);
+// A fresh student E (ResNet-18 by default, no light) for this model; `options` over recon::ReconNetOptions.
+ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& options = nlohmann::json::object());
+
+// The shard members a task reads.
+std::vector<std::string> required_members(const Options& o);
+
+// ---- Inference: `bareskin demakeup` and texture inference call this. ----
+
+// A trained BareSkinNet ready for photos: G of a run, the teacher F and the morphable model.
+struct Demakeup {
+  std::shared_ptr<torch::nn::Module> G;  // nets::UNetImpl
+  // G prepared for inference (nets::UNetInference: batch norms folded, CPU-fast upsampling); run_generator uses it
+  // when set (load and load_generator set it), else G.
+  std::shared_ptr<const nets::UNetInference> G_inference;
+  int64_t size = 256;                    // G's training resolution
+  bool residual = false;                 // G's output is input + Δ (Options::residual of its run)
+  bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
+  ReconNet F;
+  std::shared_ptr<recon::FaceModel> model;
+  torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex
+  torch::Device device = torch::kCPU;
+  // G from run/stage2 (else run/stage1), its moving average G_ema where the run kept one; F and the model from
+  // `teacher` / `model`, or from the run's configuration
+  // when empty. InvalidInput naming the file for a checkpoint of another task; IoError for missing files.
+  static Demakeup load(const std::string& run, const std::string& teacher = "", const std::string& model = "",
+                       torch::Device device = torch::kCPU);
+  // The model and its UV layout alone (no G, no F): what unwarp_to_uv needs.
+  static Demakeup with_model(const std::string& model, torch::Device device = torch::kCPU);
+};
+
+struct DemakeupResult {
+  double score = 0;                         // the detector's
+  Eigen::Matrix<double, 68, 2> landmarks;   // photo pixels
+  Eigen::Matrix<double, 2, 3> similarity;   // photo → aligned
+  torch::Tensor aligned;                    // [3, 256, 256] sRGB: the input G saw
+  torch::Tensor bare;                       // [3, 256, 256] sRGB: G's bare-skin image
+  torch::Tensor coefficients;               // [K + 27]: F's fit of the bare-skin image (α, β, δ, R, t, γ)
+  torch::Tensor unlit, mask;                // [3, 256, 256] sRGB albedo render of the fit, [1, 256, 256] its coverage
+  torch::Tensor uv, uv_mask;                // [3, R, R] sRGB bare skin in the template UV (row 0 = v 1), [1, R, R] seen
+  std::map<std::string, double> ms;         // wall milliseconds per stage: detect, align, G, F, render, unwarp
+};
+
+// G on aligned faces [B, 3, 256, 256] sRGB → bare-skin images (G runs at its training size, the output is resized
+// back).
+torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned);
+
+// Photo (an sRGB-encoded RGB image, values in [0, 1]) → detect (the best face) → align (detect/align.h) → G → F →
+// unlit render → unwarp. InvalidInput naming `source` when no face is found.
+DemakeupResult demakeup(const Demakeup& d, const Image& photo, const detect::PhotoDetector& detector,
+                        int64_t uv_size = 1024, const std::string& source = "photo");
+
+// An image (values in [0, 1]) as a [C, H, W] float tensor.
+torch::Tensor image_tensor(const Image& image);
+
+// The same from an already aligned face [3, 256, 256] sRGB (a texgen faces sample, or a photo aligned elsewhere):
+// score 0, no landmarks, the identity similarity.
+DemakeupResult demakeup_aligned(const Demakeup& d, const torch::Tensor& aligned, int64_t uv_size = 1024);
+
+// One result as files in `dir` (made here), each written atomically: aligned.png, bare.png, unlit.png (the fit's
+// albedo render on its coverage), uv.png + uv_mask.png, coefficients.json (the coefficient file with the photo, the
+// alignment, the camera; `detected`: the detector's score and landmarks).
+void write_demakeup(const DemakeupResult& r, const Demakeup& d, const std::string& dir, const std::string& photo,
+                    bool detected = true);
+
+// An image [B, 3, S, S] into the model's UV through the coefficients (canonical camera at S): per texel the image at
+// the projected surface point where that point is the nearest surface along its ray (depth within
+// `depth_tolerance` mm) and faces the camera. Returns the UV image [B, 3, R, R] and the seen mask [B, 1, R, R].
+std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
+                                                     const torch::Tensor& coefficients, int64_t uv_size,
+                                                     double depth_tolerance = 2.0);
+
+// ---- Evaluation on held-out faces (the test split: unseen subjects and, with texgen's --exclude-styles, unseen
+// makeup styles). ----
+struct EvalOptions {
+  std::string lpips_trunk = "vgg16-random";  // LPIPS of the skin region (masked images); "" = none
+  std::string face_api;                      // face-api folder: facenet LPIPS and the identity cosine ("" = no identity)
+  int64_t batch = 4;
+  int64_t max_samples = 0;  // 0: all
+  torch::Device device = torch::kCPU;
+};
+struct EvalResult {
+  int64_t samples = 0;
+  double ms_per_image = 0;  // G alone, batch 1 at its training size on this device (median)
+  std::map<std::string, double> mean;  // psnr_bare, ssim_bare, lpips_bare, psnr_before, ..., identity_bare,
+                                       // and the input's own (psnr_input_bare ...): the do-nothing baseline
+  std::map<std::string, std::map<std::string, double>> by_style;  // the same per makeup style
+};
+void to_json(nlohmann::json& j, const EvalResult& r);
+// G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json),
+// at G's training resolution (the samples area-resized to it; skin where the resized mask is ≥ 0.5).
+EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
+// G alone from a run (stage2, else stage1; G_ema where the run kept one): the Demakeup evaluate_generator takes.
+Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
+
+// G's image from the U-Net's output: input + Δ (residual) or the U-Net's Tanh image, both in [0, 1] units; `images`
+// [B, 3, S, S] in [0, 1]. Not clamped (training sees the raw value; inference clamps).
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual);
+// Zeroes the U-Net's last layer (weights and bias): with `residual`, G is then exactly the identity.
+void zero_last_layer(nets::UNetImpl& G);
+
+// The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
+nlohmann::json generator_options(const nlohmann::json& g, int64_t size);
+
+}  // namespace bareskin::bsn

@@ -1,0 +1,104 @@
+// Texture inference (BareSkinNet §5): pix2pixHD from the UV inputs (unwrapped bare-skin image and its confidence,
+// 3DMM albedo, 3DMM normal, 3DMM position) to the four maps (diffuse, normal, roughness, specular) at 1K, as a Task of
+// training/trainer.h; the trained generator is loaded back for inference with TextureNet. docs/texture.md describes
+// the method.
+#pragma once
+#include <torch/torch.h>
+
+#include <nlohmann/json.hpp>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "texture/maps.h"
+#include "training/nets/pix2pixhd.h"
+#include "training/trainer.h"
+#include "training/vgg16.h"
+
+namespace bareskin::texture {
+
+// Random occlusion masks for training (paper §5: unwrapped skin masks multiplied into the face texture each step).
+// From a `masks/` shard set (member mask.png, grey UV visibility), or synthetic: unions of random ellipses and
+// half-planes (hair, hands, glasses-like bands) cut out of an all-visible map. Draws use LibTorch's default
+// generator, so a resumed run draws what the uninterrupted run did.
+class OcclusionSampler {
+ public:
+  OcclusionSampler() = default;                          // synthetic
+  explicit OcclusionSampler(torch::Tensor masks);        // [N, 1, H, W] in [0, 1]
+  // Reads up to `max_masks` masks of a shard set (a folder with manifest.json or a .tar) at res².
+  static OcclusionSampler from_shards(const std::string& dataset, int64_t res, int64_t max_masks = 1024);
+  // [batch, 1, res, res] in [0, 1] (1 = visible).
+  torch::Tensor sample(int64_t batch, int64_t res) const;
+  int64_t count() const { return masks_.defined() ? masks_.size(0) : 0; }
+
+ private:
+  torch::Tensor masks_;
+};
+// The mask multiplied into the unwrap and its confidence (the first four channels of stacked inputs in [0, 1]); the
+// 3DMM channels are left as they are.
+torch::Tensor occlude(const torch::Tensor& inputs01, const torch::Tensor& mask);
+
+// ---- pix2pixHD ----
+struct TextureNetOptions {
+  std::string generator = "global";  // "global" (GlobalGenerator) | "local" (LocalEnhancer around it)
+  nlohmann::json generator_options = nlohmann::json::object();      // zoo options over the defaults (ngf, ...)
+  nlohmann::json discriminator_options = nlohmann::json::object();  // pix2pixhd_multiscale_d options
+  int64_t res = 1024;             // the maps' side (multiple of 2^n_downsampling)
+  double lambda_feat = 10;        // feature matching
+  double lambda_perceptual = 10;  // VGG loss (pix2pixHD: λ_feat as well); 0 = off
+  double lambda_l1 = 0;           // optional L1 to the targets (not in pix2pixHD; off by default)
+  double lr = 2e-4, beta1 = 0.5, beta2 = 0.999;
+  int64_t decay_start = -1;  // step where the linear decay starts (-1: half of the run, as niter = niter_decay)
+  int64_t steps = 1000;      // the run's length (for the default decay start)
+};
+void to_json(nlohmann::json& j, const TextureNetOptions& o);
+void from_json(const nlohmann::json& j, TextureNetOptions& o);
+
+// The generator of a texture run, built from options: 13 input channels → 8 outputs in (−1, 1).
+std::shared_ptr<torch::nn::Module> make_texture_generator(const TextureNetOptions& options);
+torch::Tensor run_generator(torch::nn::Module& generator, const torch::Tensor& x);
+
+class Pix2PixHDTask : public train::Task {
+ public:
+  Pix2PixHDTask(TextureNetOptions options, OcclusionSampler occlusion);
+  std::string name() const override { return "pix2pixhd-texture"; }
+  std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override;
+  std::vector<train::OptimizerSpec> optimizers() override;  // "G" then "D" (pix2pixHD's order)
+  train::Losses loss(size_t phase, const data::Batch& batch) override;
+  std::map<std::string, double> evaluate(const data::Batch& batch) override;  // PSNR per map, dB
+  std::vector<std::vector<torch::Tensor>> samples(const data::Batch& batch) override;
+
+  // The network input of a batch at the task's size ([−1, 1]); with `mask`, occluded by it.
+  torch::Tensor input(const data::Batch& batch, const torch::Tensor& mask = {}) const;
+  torch::Tensor target(const data::Batch& batch) const;  // [−1, 1]
+  torch::nn::Module& generator() { return *G_; }
+
+ private:
+  TextureNetOptions options_;
+  OcclusionSampler occlusion_;
+  std::shared_ptr<torch::nn::Module> G_;
+  nets::MultiscaleDiscriminator D_{nullptr};
+  losses::Vgg16Features vgg_{nullptr};
+  // G's phase hands its (occluded) input and output to D's phase of the same step, as pix2pixHD computes the fake
+  // once per iteration.
+  std::vector<std::string> cached_keys_;
+  torch::Tensor cached_input_, cached_fake_;
+};
+
+// ---- the trained net for inference ----
+// A texture run's generator (a run folder or its checkpoint.safetensors), with its options from the checkpoint.
+// InvalidInput naming the file when it is not a pix2pixhd-texture checkpoint.
+struct TextureNet {
+  TextureNetOptions options;
+  nlohmann::json config;  // the run's whole configuration
+  std::shared_ptr<torch::nn::Module> G;
+  static TextureNet load(const std::string& run, torch::Device device);
+  // Inputs per input map ([C, H, W] or [B, C, H, W], [0, 1], any size) → the four maps at options.res, [0, 1].
+  std::map<std::string, torch::Tensor> infer(const std::map<std::string, torch::Tensor>& inputs) const;
+};
+
+train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions model);
+
+}  // namespace bareskin::texture
