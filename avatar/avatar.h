@@ -39,8 +39,8 @@ struct AvatarOptions {
   int preview_size = 512;   // relit previews
   bool upscale = true;      // 4K maps (SRGAN where a run is given for the map and it is in sr_maps, else bicubic)
   // The maps SRGAN upscales (when a run is given for them); the others are upscaled bicubically. The default is the
-  // maps where SRGAN beat bicubic on held-out maps (bench/BENCHMARKS.md, demo data: diffuse +2.2 dB, roughness
-  // +1.6, specular +1.8); on the smooth normal map it gained nothing (+0.00 dB) for a net's time.
+  // maps where SRGAN beat bicubic on held-out maps; on the smooth normal map it gained nothing for a net's time
+  // (bench/BENCHMARKS.md, texture inference).
   std::set<std::string> sr_maps = {"diffuse", "roughness", "specular"};
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;

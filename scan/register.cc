@@ -278,8 +278,8 @@ NodeEmbedding embed_in_nodes(const TemplateFace& face, const Eigen::MatrixX3d& V
 // The first part asks neighbouring affines to agree where the nodes are (embedded-deformation consistency, Sumner et
 // al. 2007): unlike Amberg's term it does not depend on where the origin is. The second is Amberg's term; a little
 // of it (a = 0.03) fixes the affines' normal direction. c = 0, a = 1 is Amberg's NICP as published (the benchmark's
-// anchor). On the same 2k nodes the consistency term cuts the correspondence error by 40% (bench/register.sh:
-// median 0.845 -> 0.504 mm), most of it tangential slide on the nose. Its pattern, plus full 4x4
+// anchor). On the same nodes the consistency term cuts the correspondence error, most of it tangential slide on the nose
+// (bench/register.sh; the figures in bench/BENCHMARKS.md, registration). Its pattern, plus full 4x4
 // blocks on the diagonal (data) and between the corners of each landmark's node triangle (landmark term), is the
 // pattern of every system, so CHOLMOD analyses it once.
 Eigen::SparseMatrix<double> stiffness_matrix(const Eigen::MatrixX4d& v, const NodeEmbedding& e,

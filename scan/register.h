@@ -44,7 +44,7 @@ struct RegisterOptions {
   // differences are explained along the normals rather than by sliding points over a bump. The reference is NICP's
   // start under the similarity that best explains the current fit as displacements along the start's normals (refitted
   // every iteration): the scan's placement and scale, none of its shape. A prior: shape differences lie mostly along
-  // the normal (bench/BENCHMARKS.md: p95 with true landmarks 1.65 -> 1.16 mm on the demo's scans).
+  // the normal (its effect: bench/BENCHMARKS.md, registration).
   std::vector<double> tangential_weight = {0.1, 0.1, 0.1, 0.1, 0.1, 0.1};
   // Outline term (0: off): for scans cut along the template's face outline (forehead, temples, jaw line), as `scan
   // synth` makes them or a face mask crops them. Every NICP iteration draws each template outline vertex (its longest

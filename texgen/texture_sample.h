@@ -65,8 +65,7 @@ struct TextureSampleOptions {
   SilhouetteFitOptions silhouette;
   // Photometric consistency between the views' unwraps (fitting/view_alignment.h): the shared shape and the side
   // views' poses moved so that the views' unwraps agree, the landmarks holding them (weight 10); rounds 1 (the
-  // default): one pass at 64² and 128² (+0.34 dB and −0.57 mm over the demo's 10 held-out subjects, about +1 CPU-s
-  // per subject; bench/BENCHMARKS.md); 0: off. Per-view landmark fits keep their own shapes (poses only).
+  // default): one pass at 64² and 128² (its gain and cost per subject: bench/BENCHMARKS.md, make-dataset); 0: off. Per-view landmark fits keep their own shapes (poses only).
   ViewAlignmentOptions align = [] {
     ViewAlignmentOptions a;
     a.rounds = 1;
