@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "training/checkpoint.h"
 #include "core/safetensors.h"
 #include "training/lpips.h"
@@ -21,49 +22,8 @@
 namespace bareskin::bsn {
 namespace F = torch::nn::functional;
 
-void to_json(nlohmann::json& j, const Options& o) {
-  j = {{"stage", o.stage},       {"target", o.target},   {"residual", o.residual},   {"size", o.size},       {"g", o.g},
-       {"d", o.d},               {"gan", o.gan},         {"lpips_trunk", o.lpips_trunk},
-       {"w1", o.w1},             {"w2", o.w2},           {"w3", o.w3},           {"w_coeff", o.w_coeff},
-       {"w_land", o.w_land},     {"w_diff", o.w_diff},   {"w_light", o.w_light}, {"w_reg", o.w_reg},
-       {"recon", o.recon},       {"tune_f", o.tune_f},   {"lr_g", o.lr_g},       {"lr_d", o.lr_d},
-       {"lr_e", o.lr_e},         {"lr_f", o.lr_f},       {"beta1", o.beta1},     {"beta2", o.beta2},
-       {"ema", o.ema}};
-  // Written only when set, so that the configurations of runs made before the options existed still match on resume.
-  if (o.lr_decay != 1) j["lr_decay"] = o.lr_decay;
-  if (o.w_level != 0) j["w_level"] = o.w_level;
-}
-
-void from_json(const nlohmann::json& j, Options& o) {
-  Options d;
-  o.stage = j.value("stage", d.stage);
-  o.target = j.value("target", d.target);
-  o.residual = j.value("residual", false);  // runs written before the option had the paper's G
-  o.size = j.value("size", d.size);
-  o.g = j.value("g", d.g);
-  o.d = j.value("d", d.d);
-  o.gan = j.value("gan", d.gan);
-  o.lpips_trunk = j.value("lpips_trunk", d.lpips_trunk);
-  o.w1 = j.value("w1", d.w1);
-  o.w2 = j.value("w2", d.w2);
-  o.w3 = j.value("w3", d.w3);
-  o.w_coeff = j.value("w_coeff", d.w_coeff);
-  o.w_land = j.value("w_land", d.w_land);
-  o.w_diff = j.value("w_diff", d.w_diff);
-  o.w_light = j.value("w_light", d.w_light);
-  o.w_reg = j.value("w_reg", d.w_reg);
-  o.recon = j.value("recon", d.recon);
-  o.tune_f = j.value("tune_f", d.tune_f);
-  o.lr_g = j.value("lr_g", d.lr_g);
-  o.lr_d = j.value("lr_d", d.lr_d);
-  o.lr_e = j.value("lr_e", d.lr_e);
-  o.lr_f = j.value("lr_f", d.lr_f);
-  o.beta1 = j.value("beta1", d.beta1);
-  o.beta2 = j.value("beta2", d.beta2);
-  o.ema = j.value("ema", d.ema);
-  o.lr_decay = j.value("lr_decay", d.lr_decay);
-  o.w_level = j.value("w_level", d.w_level);
-  o.face_api = j.value("face_api", d.face_api);
+void Options::check() const {
+  const Options& o = *this;
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
     throw InvalidInput("target '" + o.target + "'", "is not a target", "use before (the paper) or bare");
@@ -82,6 +42,54 @@ void from_json(const nlohmann::json& j, Options& o) {
     if (!(w >= 0 && std::isfinite(w)))
       throw InvalidInput(std::string("loss weight ") + key, "is negative or not finite", "give a weight ≥ 0");
   losses::parse_gan_kind(o.gan, "gan");
+}
+
+namespace {
+// The keys of Options, listed once (core/json_options.h).
+const auto kOptionsFields = [](auto& v, auto& o) {
+  v("stage", o.stage);
+  v("target", o.target);
+  v("residual", o.residual);
+  v("size", o.size);
+  v("g", o.g);
+  v("d", o.d);
+  v("gan", o.gan);
+  v("lpips_trunk", o.lpips_trunk);
+  v("w1", o.w1);
+  v("w2", o.w2);
+  v("w3", o.w3);
+  v("w_coeff", o.w_coeff);
+  v("w_land", o.w_land);
+  v("w_diff", o.w_diff);
+  v("w_light", o.w_light);
+  v("w_reg", o.w_reg);
+  v("recon", o.recon);
+  v("tune_f", o.tune_f);
+  v("lr_g", o.lr_g);
+  v("lr_d", o.lr_d);
+  v("lr_e", o.lr_e);
+  v("lr_f", o.lr_f);
+  v("beta1", o.beta1);
+  v("beta2", o.beta2);
+  v("ema", o.ema);
+  // Written only when set, so that the configurations of runs made before the options existed still match on resume.
+  v.unless_default("lr_decay", o.lr_decay);
+  v.unless_default("w_level", o.w_level);
+  // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
+  v.unwritten("face_api", o.face_api);
+};
+}  // namespace
+
+void to_json(nlohmann::json& j, const Options& o) { json_options::write(j, o, kOptionsFields); }
+void from_json(const nlohmann::json& j, Options& o) { json_options::read(j, o, "bareskinnet", kOptionsFields); }
+
+Options options_of_run(const nlohmann::json& task) {
+  nlohmann::json j = task;
+  // Runs written before `residual` existed trained the paper's G; every run since writes the key.
+  if (j.is_object() && !j.contains("residual")) j["residual"] = false;
+  Options o;
+  from_json(j, o);
+  return o;
 }
 
 void ablation_preset(const std::string& row, Options& o) {
@@ -205,6 +213,7 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
       renderer_(std::move(renderer)),
       layout_(layout),
       nets_(std::make_shared<Nets>()) {
+  options_.check();
   nets_->G = std::dynamic_pointer_cast<nets::UNetImpl>(
       nets::find_model("unet256").make(generator_options(options_.g, options_.size)));
   nlohmann::json d = nets::find_model("patchgan").defaults;
@@ -471,11 +480,23 @@ std::vector<std::string> required_members(const Options& o) {
   return r;
 }
 
-void to_json(nlohmann::json& j, const RunOptions& o) {
-  j = {{"task", o.task},     {"train_data", o.train_data}, {"val_data", o.val_data}, {"steps1", o.steps1},
-       {"steps2", o.steps2}, {"batch", o.batch},           {"seed", o.seed},           {"teacher", o.teacher},
-       {"model", o.model}};
-}
+namespace {
+// The keys of RunOptions a run's configuration records (core/json_options.h); the folders, the trainer's options and
+// the decode threads are not part of it.
+const auto kRunFields = [](auto& v, auto& o) {
+  v("task", o.task);
+  v("train_data", o.train_data);
+  v("val_data", o.val_data);
+  v("steps1", o.steps1);
+  v("steps2", o.steps2);
+  v("batch", o.batch);
+  v("seed", o.seed);
+  v("teacher", o.teacher);
+  v("model", o.model);
+};
+}  // namespace
+
+void to_json(nlohmann::json& j, const RunOptions& o) { json_options::write(j, o, kRunFields); }
 
 namespace {
 

@@ -58,7 +58,8 @@ struct Options {
                                   // on the face region, the input elsewhere)
   // Ours, not the paper's: G predicts a change of its input (output = input + Δ, Δ = the U-Net's Tanh output in
   // [0, 1] units) and its last layer starts at zero, so G starts as the identity and training is judged by what it
-  // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false.
+  // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false:
+  // options_of_run reads them so (from_json takes this default, like every other key's).
   bool residual = true;
   int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
   nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
@@ -86,9 +87,13 @@ struct Options {
   // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
   // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.
   double w_level = 0;
+  void check() const;  // InvalidInput for a bad value (names the key)
 };
 void to_json(nlohmann::json& j, const Options& o);
-void from_json(const nlohmann::json& j, Options& o);  // InvalidInput for a bad value (names the key)
+void from_json(const nlohmann::json& j, Options& o);  // InvalidInput: unknown key, wrong type, bad value
+// The task options of a trained run (its config.json's "task"), as load_generator reads them: a run written before
+// `residual` existed trained the paper's G (residual false).
+Options options_of_run(const nlohmann::json& task);
 
 // The paper's Fig. 7 rows as option changes: "b" L1 + GAN; "c" + LPIPS; "d" + frozen F; "e" + fine-tuned F;
 // "f" + E (teacher-student) without L_light; "g" the full model. Rows b, c are stage 1 only. InvalidInput otherwise.

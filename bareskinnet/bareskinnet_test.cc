@@ -13,6 +13,7 @@
 #include "core/files.h"
 #include "core/image.h"
 #include "core/png.h"
+#include "core/test_options.h"
 #include "core/test_util.h"
 #include "core/shards.h"
 #include "training/checkpoint.h"
@@ -218,13 +219,64 @@ TEST(BareSkinNet, ResidualGStartsAsTheIdentityAndLearns) {
   torch::manual_seed(0);
   BareSkinTask paper(o);
   EXPECT_GT((paper.generate(x) - x).abs().mean().item<double>(), 0.05);
-  // Runs written before the option are the paper's G; a residual run keeps its flag through the configuration.
-  Options read;
-  from_json(nlohmann::json::object(), read);
-  EXPECT_FALSE(read.residual);
-  nlohmann::json j = small_options(1);
-  from_json(j, read);
-  EXPECT_TRUE(read.residual);
+  // Runs written before the option are the paper's G (options_of_run, which load_generator reads them with); a
+  // residual run keeps its flag through the configuration; options without the key take the struct's default.
+  EXPECT_FALSE(options_of_run(nlohmann::json::object()).residual);
+  EXPECT_TRUE(options_of_run(nlohmann::json(small_options(1))).residual);
+  Options paper_g = small_options(1);
+  paper_g.residual = false;
+  EXPECT_FALSE(options_of_run(nlohmann::json(paper_g)).residual);
+  EXPECT_TRUE(nlohmann::json::object().get<Options>().residual);
+}
+
+// The options through core/json_options.h: the default configuration is written as it always was (same keys, values
+// and JSON types: config.json's bytes), non-default values round-trip, unknown keys are refused.
+TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
+  const nlohmann::json expected = {
+      {"stage", 1},         {"target", "before"},    {"residual", true},      {"size", 256},
+      {"g", nlohmann::json::object()},               {"d", nlohmann::json::object()},
+      {"gan", "vanilla"},   {"lpips_trunk", "vgg16-random"},                  {"w1", 100.0},
+      {"w2", 1.0},          {"w3", 40.0},            {"w_coeff", 0.1},        {"w_land", 0.08},
+      {"w_diff", 100.0},    {"w_light", 100.0},      {"w_reg", 1e-3},         {"recon", "E"},
+      {"tune_f", false},    {"lr_g", 2e-5},          {"lr_d", 2e-5},          {"lr_e", 1e-4},
+      {"lr_f", 1e-5},       {"beta1", 0.5},          {"beta2", 0.999},        {"ema", 0.0}};
+  EXPECT_EQ(nlohmann::json(Options{}).dump(), expected.dump());
+  testing::expect_options_json<Options>({{"stage", 2},
+                                         {"target", "bare"},
+                                         {"residual", false},
+                                         {"size", 128},
+                                         {"g", {{"ngf", 8}}},
+                                         {"d", {{"ndf", 8}}},
+                                         {"gan", "lsgan"},
+                                         {"lpips_trunk", "facenet"},
+                                         {"w1", 10.0},
+                                         {"w_reg", 0.0},
+                                         {"recon", "F"},
+                                         {"tune_f", true},
+                                         {"lr_g", 1e-4},
+                                         {"beta1", 0.9},
+                                         {"ema", 0.99},
+                                         {"lr_decay", 0.5},
+                                         {"w_level", 1.0}});
+  // face_api is read (a folder of this machine) but never written into a run's configuration.
+  const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
+  EXPECT_EQ(with_folder.face_api, "/tmp/face-api");
+  EXPECT_FALSE(nlohmann::json(with_folder).contains("face_api"));
+  try {
+    (void)nlohmann::json({{"w_lvl", 1.0}}).get<Options>();
+    FAIL() << "a misspelt key was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown key 'w_lvl'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("w_level"), std::string::npos) << e.what();
+  }
+  // The run's configuration records the task and the run's keys, nothing of this machine.
+  RunOptions ro;
+  ro.run_dir = "/tmp/run";
+  const nlohmann::json run = ro;
+  EXPECT_EQ(run.at("task"), nlohmann::json(ro.task));
+  EXPECT_FALSE(run.contains("run_dir"));
+  EXPECT_EQ(run.size(), 9u);
+  EXPECT_TRUE(run.at("seed").is_number_unsigned());
 }
 
 TEST(BareSkinNet, LossFallsOnAFixedBatch) {

@@ -67,8 +67,7 @@ std::string bareskin_checkpoint(const std::string& run) {
 Demakeup load_generator(const std::string& run, torch::Device device) {
   const std::string path = bareskin_checkpoint(run);
   const nlohmann::json config = checkpoint_config(path);
-  Options o;
-  from_json(config.value("task", nlohmann::json::object()), o);
+  const Options o = options_of_run(config.value("task", nlohmann::json::object()));
   Demakeup d;
   d.device = device;
   d.size = o.size;

@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "render/sh.h"
 #include "training/identity.h"
 
@@ -48,20 +50,18 @@ void ReconNetOptions::check() const {
   if (!(translation_scale > 0)) throw InvalidInput("", "translation_scale must be > 0", "");
 }
 
-void to_json(nlohmann::json& j, const ReconNetOptions& o) {
-  j = {{"arch", o.arch}, {"width", o.width}, {"gamma", o.gamma}, {"translation_scale", o.translation_scale}};
-}
+namespace {
+// The keys of ReconNetOptions, listed once (core/json_options.h).
+const auto kNetFields = [](auto& v, auto& o) {
+  v("arch", o.arch);
+  v("width", o.width);
+  v("gamma", o.gamma);
+  v("translation_scale", o.translation_scale);
+};
+}  // namespace
 
-void from_json(const nlohmann::json& j, ReconNetOptions& o) {
-  for (const auto& [k, v] : j.items()) {
-    if (k == "arch" && v.is_string()) o.arch = v.get<std::string>();
-    else if (k == "width" && v.is_number_integer()) o.width = v.get<int>();
-    else if (k == "gamma" && v.is_boolean()) o.gamma = v.get<bool>();
-    else if (k == "translation_scale" && v.is_number()) o.translation_scale = v.get<double>();
-    else throw InvalidInput("", "net option '" + k + "' is unknown or of the wrong type", "use arch, width, gamma, translation_scale");
-  }
-  o.check();
-}
+void to_json(nlohmann::json& j, const ReconNetOptions& o) { json_options::write(j, o, kNetFields); }
+void from_json(const nlohmann::json& j, ReconNetOptions& o) { json_options::read(j, o, "recon net", kNetFields); }
 
 ReconNetImpl::ReconNetImpl(const ReconNetOptions& options, const CoefficientLayout& model_layout)
     : options_(options), layout_(model_layout) {
@@ -100,34 +100,51 @@ std::string to_string(Supervision s) {
   return s == Supervision::Truth ? "truth" : s == Supervision::Self ? "self" : "both";
 }
 
-void to_json(nlohmann::json& j, const LossOptions& o) {
-  j = {{"supervision", to_string(o.supervision)}, {"truth", o.truth}, {"w_alpha", o.w_alpha}, {"w_beta", o.w_beta},
-       {"w_delta", o.w_delta}, {"w_rotation", o.w_rotation}, {"w_translation", o.w_translation},
-       {"w_gamma", o.w_gamma}, {"rotation_unit", o.rotation_unit}, {"translation_unit", o.translation_unit},
-       {"gamma_unit", o.gamma_unit}, {"photo", o.photo}, {"landmark", o.landmark}, {"reg", o.reg},
-       {"reg_alpha", o.reg_alpha}, {"reg_beta", o.reg_beta}, {"reg_delta", o.reg_delta},
-       {"gamma_mono", o.gamma_mono}, {"identity", o.identity}};
+void to_json(nlohmann::json& j, Supervision s) { j = to_string(s); }
+void from_json(const nlohmann::json& j, Supervision& s) { s = parse_supervision(j.get<std::string>()); }
+
+namespace {
+// The keys of LossOptions, listed once (core/json_options.h).
+const auto kLossFields = [](auto& v, auto& o) {
+  v("supervision", o.supervision);
+  v("truth", o.truth);
+  v("w_alpha", o.w_alpha);
+  v("w_beta", o.w_beta);
+  v("w_delta", o.w_delta);
+  v("w_rotation", o.w_rotation);
+  v("w_translation", o.w_translation);
+  v("w_gamma", o.w_gamma);
+  v("rotation_unit", o.rotation_unit);
+  v("translation_unit", o.translation_unit);
+  v("gamma_unit", o.gamma_unit);
+  v("photo", o.photo);
+  v("landmark", o.landmark);
+  v("reg", o.reg);
+  v("reg_alpha", o.reg_alpha);
+  v("reg_beta", o.reg_beta);
+  v("reg_delta", o.reg_delta);
+  v("gamma_mono", o.gamma_mono);
+  v("identity", o.identity);
+};
+
+// Every number of LossOptions is a weight or a unit: ≥ 0.
+struct NonNegative {
+  template <typename T>
+  void operator()(const char* key, const T& value) const {
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!(value >= 0)) throw InvalidInput("", std::string("loss option '") + key + "' must be a number >= 0", "");
+    }
+  }
+};
+}  // namespace
+
+void LossOptions::check() const {
+  NonNegative v;
+  kLossFields(v, *this);
 }
 
-void from_json(const nlohmann::json& j, LossOptions& o) {
-  nlohmann::json all;
-  to_json(all, o);
-  for (const auto& [k, v] : j.items()) {
-    if (!all.contains(k)) throw InvalidInput("", "loss option '" + k + "' is unknown", "see docs/training.md");
-    if (k == "supervision") {
-      o.supervision = parse_supervision(v.get<std::string>());
-      continue;
-    }
-    if (!v.is_number() || v.get<double>() < 0) throw InvalidInput("", "loss option '" + k + "' must be a number >= 0", "");
-    all[k] = v;
-  }
-  const auto d = [&](const char* k) { return all.at(k).get<double>(); };
-  o.truth = d("truth"), o.w_alpha = d("w_alpha"), o.w_beta = d("w_beta"), o.w_delta = d("w_delta");
-  o.w_rotation = d("w_rotation"), o.w_translation = d("w_translation"), o.w_gamma = d("w_gamma");
-  o.rotation_unit = d("rotation_unit"), o.translation_unit = d("translation_unit"), o.gamma_unit = d("gamma_unit");
-  o.photo = d("photo"), o.landmark = d("landmark"), o.reg = d("reg"), o.reg_alpha = d("reg_alpha");
-  o.reg_beta = d("reg_beta"), o.reg_delta = d("reg_delta"), o.gamma_mono = d("gamma_mono"), o.identity = d("identity");
-}
+void to_json(nlohmann::json& j, const LossOptions& o) { json_options::write(j, o, kLossFields); }
+void from_json(const nlohmann::json& j, LossOptions& o) { json_options::read(j, o, "recon loss", kLossFields); }
 
 ReconTargets targets_from_batch(const data::Batch& batch, const FaceModel& model, const std::string& input) {
   ReconTargets t;
@@ -315,6 +332,8 @@ torch::Tensor overlay(const FaceModel& model, const torch::Tensor& predicted, co
 ReconTask::ReconTask(const ReconTaskOptions& options, FaceModel model,
                      std::shared_ptr<detect::FaceRecognitionNet> identity, torch::Device device)
     : options_(options), model_(model.to(device)), identity_(std::move(identity)), device_(device) {
+  options_.loss.check();
+  options_.schedule.check();
   net_ = ReconNet(options_.net, model_.layout());
   net_->to(device_);
   if (options_.loss.identity > 0 && options_.loss.supervision != Supervision::Truth && !identity_) {

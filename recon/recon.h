@@ -29,7 +29,7 @@ struct ReconNetOptions {
   void check() const;             // InvalidInput for an unknown arch or a bad value
 };
 void to_json(nlohmann::json& j, const ReconNetOptions& o);
-void from_json(const nlohmann::json& j, ReconNetOptions& o);  // InvalidInput: unknown key, wrong type
+void from_json(const nlohmann::json& j, ReconNetOptions& o);  // InvalidInput: unknown key, wrong type, bad value
 
 // Backbone (torchvision ResNet without its fc), global average pooling, one zero-initialised linear head per group
 // (so an untrained net answers the mean face, frontal, at the origin, under Deep3DFaceRecon's ambient light):
@@ -55,6 +55,8 @@ TORCH_MODULE(ReconNet);
 enum class Supervision { Truth, Self, Both };
 Supervision parse_supervision(const std::string& name);  // truth | self | both; InvalidInput otherwise
 std::string to_string(Supervision s);
+void to_json(nlohmann::json& j, Supervision s);         // its name
+void from_json(const nlohmann::json& j, Supervision& s);  // InvalidInput for an unknown name
 
 // Loss weights. Deep3DFaceRecon's defaults for the self-supervised terms; the supervised term's units: α, β, δ in
 // standard deviations, rotation in rotation_unit rad, translation in translation_unit mm, γ in gamma_unit.
@@ -68,9 +70,10 @@ struct LossOptions {
   double reg = 3e-4, reg_alpha = 1.0, reg_beta = 0.8, reg_delta = 1.7e-2;
   double gamma_mono = 10;  // γ's spread over the colour channels
   double identity = 0.2;   // 1 − cos of face-api's descriptors of the render (over the input) and the input
+  void check() const;      // InvalidInput for a negative weight or unit
 };
 void to_json(nlohmann::json& j, const LossOptions& o);
-void from_json(const nlohmann::json& j, LossOptions& o);
+void from_json(const nlohmann::json& j, LossOptions& o);  // InvalidInput: unknown key, wrong type, bad value
 
 // What the losses compare against, decoded from a batch of face samples (docs/file_formats.md, face samples).
 struct ReconTargets {

@@ -10,6 +10,7 @@
 #include <random>
 
 #include "core/error.h"
+#include "core/test_options.h"
 #include "recon/face_model.h"
 #include "recon/recon.h"
 #include "training/checkpoint.h"
@@ -101,6 +102,19 @@ TEST(FaceModel, SplitJoinAndCoefficientFiles) {
 
 // The self-supervised terms' gradient (photometric over an interior skin region, landmarks, regularisation, γ) in
 // double against central differences, for one coefficient of every group.
+// The options through core/json_options.h: non-default values round-trip, unknown keys and bad values are refused.
+TEST(ReconOptions, RoundTripAndRefuseUnknownKeys) {
+  testing::expect_options_json<ReconNetOptions>(
+      {{"arch", "resnet18"}, {"width", 16}, {"gamma", false}, {"translation_scale", 5.0}});
+  testing::expect_options_json<LossOptions>({{"supervision", "self"}, {"truth", 0.5}, {"w_alpha", 2.0},
+                                             {"rotation_unit", 0.1}, {"photo", 1.0}, {"identity", 0.0}});
+  EXPECT_THROW(nlohmann::json({{"arch", "vgg"}}).get<ReconNetOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"width", 64.5}}).get<ReconNetOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"photo", -1}}).get<LossOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"supervision", "some"}}).get<LossOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"supervision", 1}}).get<LossOptions>(), InvalidInput);
+}
+
 TEST(ReconLosses, GradientMatchesFiniteDifferences) {
   const FaceModel m = FaceModel::load(toy_model_path()).to(torch::kCPU, torch::kDouble);
   const int64_t size = 48;

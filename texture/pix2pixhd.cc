@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "core/png.h"
 #include "core/shards.h"
 #include "training/checkpoint.h"
@@ -99,42 +100,33 @@ torch::Tensor perceptual_all(losses::Vgg16Features& vgg, const torch::Tensor& fa
 
 // ---- options ----
 
-void to_json(nlohmann::json& j, const TextureNetOptions& o) {
-  j = {{"generator", o.generator},
-       {"generator_options", o.generator_options},
-       {"discriminator_options", o.discriminator_options},
-       {"res", o.res},
-       {"lambda_feat", o.lambda_feat},
-       {"lambda_perceptual", o.lambda_perceptual},
-       {"lambda_l1", o.lambda_l1},
-       {"lr", o.lr},
-       {"beta1", o.beta1},
-       {"beta2", o.beta2},
-       {"decay_start", o.decay_start},
-       {"steps", o.steps}};
+void TextureNetOptions::check() const {
+  const std::string what = "texture model";
+  nets::require(generator == "global" || generator == "local", what, "generator must be global or local",
+                "e.g. \"generator\": \"global\"");
+  nets::require(res >= 16, what, "res must be at least 16", "e.g. --res 1024");
 }
 
-void from_json(const nlohmann::json& j, TextureNetOptions& o) {
-  const std::string what = "texture model";
-  nets::check_keys(j, what,
-                   {"generator", "generator_options", "discriminator_options", "res", "lambda_feat",
-                    "lambda_perceptual", "lambda_l1", "lr", "beta1", "beta2", "decay_start", "steps"});
-  nets::read_key(j, what, "generator", o.generator);
-  if (j.contains("generator_options")) o.generator_options = j.at("generator_options");
-  if (j.contains("discriminator_options")) o.discriminator_options = j.at("discriminator_options");
-  nets::read_key(j, what, "res", o.res);
-  nets::read_key(j, what, "lambda_feat", o.lambda_feat);
-  nets::read_key(j, what, "lambda_perceptual", o.lambda_perceptual);
-  nets::read_key(j, what, "lambda_l1", o.lambda_l1);
-  nets::read_key(j, what, "lr", o.lr);
-  nets::read_key(j, what, "beta1", o.beta1);
-  nets::read_key(j, what, "beta2", o.beta2);
-  nets::read_key(j, what, "decay_start", o.decay_start);
-  nets::read_key(j, what, "steps", o.steps);
-  nets::require(o.generator == "global" || o.generator == "local", what, "generator must be global or local",
-                "e.g. \"generator\": \"global\"");
-  nets::require(o.res >= 16, what, "res must be at least 16", "e.g. --res 1024");
-}
+namespace {
+// The keys of TextureNetOptions, listed once (core/json_options.h).
+const auto kTextureFields = [](auto& v, auto& o) {
+  v("generator", o.generator);
+  v("generator_options", o.generator_options);
+  v("discriminator_options", o.discriminator_options);
+  v("res", o.res);
+  v("lambda_feat", o.lambda_feat);
+  v("lambda_perceptual", o.lambda_perceptual);
+  v("lambda_l1", o.lambda_l1);
+  v("lr", o.lr);
+  v("beta1", o.beta1);
+  v("beta2", o.beta2);
+  v("decay_start", o.decay_start);
+  v("steps", o.steps);
+};
+}  // namespace
+
+void to_json(nlohmann::json& j, const TextureNetOptions& o) { json_options::write(j, o, kTextureFields); }
+void from_json(const nlohmann::json& j, TextureNetOptions& o) { json_options::read(j, o, "texture model", kTextureFields); }
 
 // ---- pix2pixHD ----
 
@@ -166,6 +158,7 @@ torch::Tensor run_generator(torch::nn::Module& generator, const torch::Tensor& x
 
 Pix2PixHDTask::Pix2PixHDTask(TextureNetOptions options, OcclusionSampler occlusion)
     : options_(std::move(options)), occlusion_(std::move(occlusion)) {
+  options_.check();
   G_ = make_texture_generator(options_);
   nets::MultiscaleDiscriminatorOptions d;
   nlohmann::json dj = options_.discriminator_options;

@@ -52,9 +52,10 @@ struct TextureNetOptions {
   double lr = 2e-4, beta1 = 0.5, beta2 = 0.999;
   int64_t decay_start = -1;  // step where the linear decay starts (-1: half of the run, as niter = niter_decay)
   int64_t steps = 1000;      // the run's length (for the default decay start)
+  void check() const;        // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const TextureNetOptions& o);
-void from_json(const nlohmann::json& j, TextureNetOptions& o);
+void from_json(const nlohmann::json& j, TextureNetOptions& o);  // InvalidInput: unknown key, wrong type, bad value
 
 // The generator of a texture run, built from options: 13 input channels → 8 outputs in (−1, 1).
 std::shared_ptr<torch::nn::Module> make_texture_generator(const TextureNetOptions& options);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/json_options.h"
 
 namespace bareskin::train {
 
@@ -15,17 +16,27 @@ double Schedule::factor(int64_t step, int64_t steps) const {
     return std::max(0.0, 1.0 - double(step - decay_start) / span);
   }
   if (kind == "step") return step_every > 0 ? std::pow(gamma, double(step / step_every)) : 1.0;
-  throw InvalidInput("schedule '" + kind + "'", "is not a schedule", "use constant, linear or step");
+  check();
+  BS_CHECK(false, "Schedule::check accepted '" + kind + "'");
+  return 1.0;
 }
 
-void to_json(nlohmann::json& j, const Schedule& s) {
-  j = {{"kind", s.kind}, {"decay_start", s.decay_start}, {"step_every", s.step_every}, {"gamma", s.gamma}};
+void Schedule::check() const {
+  if (kind != "constant" && kind != "linear" && kind != "step")
+    throw InvalidInput("schedule '" + kind + "'", "is not a schedule", "use constant, linear or step");
 }
-void from_json(const nlohmann::json& j, Schedule& s) {
-  s.kind = j.value("kind", s.kind);
-  s.decay_start = j.value("decay_start", s.decay_start);
-  s.step_every = j.value("step_every", s.step_every);
-  s.gamma = j.value("gamma", s.gamma);
-}
+
+namespace {
+// The keys of Schedule, listed once (core/json_options.h).
+const auto kScheduleFields = [](auto& v, auto& s) {
+  v("kind", s.kind);
+  v("decay_start", s.decay_start);
+  v("step_every", s.step_every);
+  v("gamma", s.gamma);
+};
+}  // namespace
+
+void to_json(nlohmann::json& j, const Schedule& s) { json_options::write(j, s, kScheduleFields); }
+void from_json(const nlohmann::json& j, Schedule& s) { json_options::read(j, s, "schedule", kScheduleFields); }
 
 }  // namespace bareskin::train

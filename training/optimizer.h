@@ -17,7 +17,8 @@ struct Schedule {
   int64_t decay_start = 0;
   int64_t step_every = 0;
   double gamma = 0.2;
-  double factor(int64_t step, int64_t steps) const;
+  double factor(int64_t step, int64_t steps) const;  // InvalidInput (check()) for an unknown kind
+  void check() const;                                // InvalidInput for an unknown kind
 };
 void to_json(nlohmann::json& j, const Schedule& s);
 void from_json(const nlohmann::json& j, Schedule& s);

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/test_options.h"
 #include "core/test_util.h"
 #include "training/checkpoint.h"
 #include "training/tensor_io.h"
@@ -333,6 +334,9 @@ TEST(Schedule, Factors) {
   EXPECT_EQ(step.factor(99, 1000), 1.0);
   EXPECT_DOUBLE_EQ(step.factor(250, 1000), 0.04);
   EXPECT_THROW(Schedule{"cosine"}.factor(1, 2), InvalidInput);
+  EXPECT_THROW(Schedule{"cosine"}.check(), InvalidInput);
+  testing::expect_options_json<Schedule>({{"kind", "step"}, {"decay_start", 5}, {"step_every", 100}, {"gamma", 0.5}});
+  EXPECT_THROW(nlohmann::json({{"kind", "cosine"}}).get<Schedule>(), InvalidInput);
 }
 
 // ---- two ranks (Gloo on 127.0.0.1) equal one process on the combined batch ----

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "core/png.h"
 #include "core/shards.h"
 #include "training/checkpoint.h"
@@ -18,49 +19,46 @@ namespace F = torch::nn::functional;
 
 // ---- options ----
 
-void to_json(nlohmann::json& j, const UpscaleOptions& o) {
-  j = {{"map", o.map},
-       {"phase", o.phase},
-       {"pixel_loss", o.pixel_loss},
-       {"base", o.base},
-       {"generator_options", o.generator_options},
-       {"discriminator_options", o.discriminator_options},
-       {"patch", o.patch},
-       {"lambda_l1", o.lambda_l1},
-       {"lambda_perceptual", o.lambda_perceptual},
-       {"lambda_gan", o.lambda_gan},
-       {"lr", o.lr},
-       {"beta1", o.beta1},
-       {"beta2", o.beta2}};
+void UpscaleOptions::check() const {
+  const std::string what = "upscale model";
+  find_map(map);
+  nets::require(phase == "l1" || phase == "gan", what, "phase must be l1 or gan", "pre-train with l1, then gan");
+  nets::require(pixel_loss == "mse" || pixel_loss == "l1", what, "pixel_loss must be mse or l1",
+                "use mse (SRGAN's SRResNet) or l1 (BasicSR)");
+  nets::require(base == "bicubic" || base == "bilinear", what, "base must be bicubic or bilinear",
+                "use bicubic (ours) or bilinear (BasicSR)");
+  nets::require(patch == 128 || patch == 256, what, "patch must be 128 or 256",
+                "the SRGAN discriminator's head takes 128² or 256²");
 }
 
-void from_json(const nlohmann::json& j, UpscaleOptions& o) {
-  const std::string what = "upscale model";
-  nets::check_keys(j, what,
-                   {"map", "phase", "pixel_loss", "base", "generator_options", "discriminator_options", "patch",
-                    "lambda_l1", "lambda_perceptual", "lambda_gan", "lr", "beta1", "beta2"});
-  nets::read_key(j, what, "map", o.map);
-  nets::read_key(j, what, "phase", o.phase);
+namespace {
+// The keys of UpscaleOptions, listed once (core/json_options.h).
+const auto kUpscaleFields = [](auto& v, auto& o) {
+  v("map", o.map);
+  v("phase", o.phase);
+  v("pixel_loss", o.pixel_loss);
+  v("base", o.base);
+  v("generator_options", o.generator_options);
+  v("discriminator_options", o.discriminator_options);
+  v("patch", o.patch);
+  v("lambda_l1", o.lambda_l1);
+  v("lambda_perceptual", o.lambda_perceptual);
+  v("lambda_gan", o.lambda_gan);
+  v("lr", o.lr);
+  v("beta1", o.beta1);
+  v("beta2", o.beta2);
+};
+}  // namespace
+
+void to_json(nlohmann::json& j, const UpscaleOptions& o) { json_options::write(j, o, kUpscaleFields); }
+void from_json(const nlohmann::json& j, UpscaleOptions& o) { json_options::read(j, o, "upscale model", kUpscaleFields); }
+
+UpscaleOptions upscale_options_of_run(const nlohmann::json& model) {
+  nlohmann::json j = model;
   // Runs written before these keys existed trained BasicSR's net (bilinear base) with L1.
-  o.pixel_loss = j.contains("pixel_loss") ? j.at("pixel_loss").get<std::string>() : "l1";
-  o.base = j.contains("base") ? j.at("base").get<std::string>() : "bilinear";
-  if (j.contains("generator_options")) o.generator_options = j.at("generator_options");
-  if (j.contains("discriminator_options")) o.discriminator_options = j.at("discriminator_options");
-  nets::read_key(j, what, "patch", o.patch);
-  nets::read_key(j, what, "lambda_l1", o.lambda_l1);
-  nets::read_key(j, what, "lambda_perceptual", o.lambda_perceptual);
-  nets::read_key(j, what, "lambda_gan", o.lambda_gan);
-  nets::read_key(j, what, "lr", o.lr);
-  nets::read_key(j, what, "beta1", o.beta1);
-  nets::read_key(j, what, "beta2", o.beta2);
-  find_map(o.map);
-  nets::require(o.phase == "l1" || o.phase == "gan", what, "phase must be l1 or gan", "pre-train with l1, then gan");
-  nets::require(o.pixel_loss == "mse" || o.pixel_loss == "l1", what, "pixel_loss must be mse or l1",
-                "use mse (SRGAN's SRResNet) or l1 (BasicSR)");
-  nets::require(o.base == "bicubic" || o.base == "bilinear", what, "base must be bicubic or bilinear",
-                "use bicubic (ours) or bilinear (BasicSR)");
-  nets::require(o.patch == 128 || o.patch == 256, what, "patch must be 128 or 256",
-                "the SRGAN discriminator's head takes 128² or 256²");
+  if (j.is_object() && !j.contains("pixel_loss")) j["pixel_loss"] = "l1";
+  if (j.is_object() && !j.contains("base")) j["base"] = "bilinear";
+  return j.get<UpscaleOptions>();
 }
 
 // ---- SRGAN ----
@@ -238,6 +236,7 @@ data::Batch PatchSource::next() {
 }
 
 SrganTask::SrganTask(UpscaleOptions options) : options_(std::move(options)) {
+  options_.check();
   G_ = make_upscaler(options_);
   if (options_.phase == "gan") {
     nlohmann::json j = options_.discriminator_options;
@@ -317,7 +316,7 @@ Upscaler Upscaler::load(const std::string& run, torch::Device device) {
                        "give runs of 'bareskin train upscale' as --upscale");
   Upscaler up;
   up.config = meta.at("config");
-  up.options = up.config.at("model").get<UpscaleOptions>();
+  up.options = upscale_options_of_run(up.config.at("model"));
   up.G = make_upscaler(up.options);
   train::load_module_weights(path, "G", *up.G);
   up.G->to(device);

@@ -31,9 +31,13 @@ struct UpscaleOptions {
   double lambda_perceptual = 1; // VGG loss (vgg16-random trunk); 0 = off
   double lambda_gan = 1e-3;     // SRGAN's adversarial weight
   double lr = 1e-4, beta1 = 0.9, beta2 = 0.999;
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UpscaleOptions& o);
-void from_json(const nlohmann::json& j, UpscaleOptions& o);
+void from_json(const nlohmann::json& j, UpscaleOptions& o);  // InvalidInput: unknown key, wrong type, bad value
+// The options of a trained run (its config.json's "model"): a run written before pixel_loss and base existed trained
+// BasicSR's net (l1, bilinear), which the struct's defaults no longer are.
+UpscaleOptions upscale_options_of_run(const nlohmann::json& model);
 
 nets::MSRResNet make_upscaler(const UpscaleOptions& options);
 

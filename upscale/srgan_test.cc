@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/test_options.h"
 #include "core/test_util.h"
 #include "upscale/srgan.h"
 #include "training/ssim.h"
@@ -35,15 +36,38 @@ TEST(Srgan, BicubicBaseIsTorchBicubicAndOldRunsKeepBilinear) {
       lr, torch::nn::functional::InterpolateFuncOptions().scale_factor(std::vector<double>{4, 4}).mode(torch::kBicubic)
               .align_corners(false));
   EXPECT_LT((G->forward(lr) - expected).abs().max().item<double>(), 1e-6);
-  // A configuration without the keys (runs before them) reads as BasicSR's: bilinear base, L1.
+  // A run's configuration without the keys (runs before them) reads as BasicSR's: bilinear base, L1; options
+  // without them otherwise take the struct's defaults.
   nlohmann::json j = o;
   j.erase("base");
   j.erase("pixel_loss");
-  const auto old = j.get<UpscaleOptions>();
+  const auto old = upscale_options_of_run(j);
   EXPECT_EQ(old.base, "bilinear");
   EXPECT_EQ(old.pixel_loss, "l1");
+  EXPECT_EQ(j.get<UpscaleOptions>().base, "bicubic");
+  EXPECT_EQ(j.get<UpscaleOptions>().pixel_loss, "mse");
+  EXPECT_EQ(upscale_options_of_run(nlohmann::json(o)).base, "bicubic");
   j["base"] = "nearest";
   EXPECT_THROW(j.get<UpscaleOptions>(), InvalidInput);
+  EXPECT_THROW(upscale_options_of_run(j), InvalidInput);
+}
+
+TEST(Srgan, OptionsRoundTripAndRefuseUnknownKeys) {
+  testing::expect_options_json<UpscaleOptions>({{"map", "normal"},
+                                                {"phase", "l1"},
+                                                {"pixel_loss", "l1"},
+                                                {"base", "bilinear"},
+                                                {"generator_options", {{"num_feat", 8}}},
+                                                {"discriminator_options", {{"num_feat", 8}}},
+                                                {"patch", 256},
+                                                {"lambda_l1", 1.0},
+                                                {"lambda_perceptual", 0.0},
+                                                {"lambda_gan", 0.01},
+                                                {"lr", 2e-4},
+                                                {"beta1", 0.5},
+                                                {"beta2", 0.99}});
+  EXPECT_THROW(nlohmann::json({{"patch", 64}}).get<UpscaleOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"map", "albedo"}}).get<UpscaleOptions>(), InvalidInput);
 }
 
 // A data source of fixed maps (sample k: every texel = k + its index / 1e6), one per batch, counting reads.

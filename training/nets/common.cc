@@ -10,19 +10,6 @@ void require(bool condition, const std::string& what, const std::string& message
   if (!condition) throw InvalidInput(what + " options", message, hint);
 }
 
-void check_keys(const nlohmann::json& j, const std::string& what, std::initializer_list<const char*> known) {
-  require(j.is_object(), what, "options must be a JSON object, not " + j.dump(), "write them as {\"key\": value}");
-  for (const auto& item : j.items()) {
-    bool found = false;
-    std::string list;
-    for (const char* k : known) {
-      found = found || item.key() == k;
-      list += (list.empty() ? "" : ", ") + std::string(k);
-    }
-    require(found, what, "unknown key '" + item.key() + "'", "known keys: " + list);
-  }
-}
-
 void check_norm(const std::string& norm, const std::string& what, bool allow_none) {
   const bool ok = norm == "batch" || norm == "instance" || (allow_none && norm == "none");
   require(ok, what, "norm '" + norm + "' is not known",

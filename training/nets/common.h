@@ -1,10 +1,10 @@
-// What every network of the zoo shares: reading an options object from JSON strictly (an unknown key or a value of
-// the wrong type is the user's error), validation errors in one line, the normalisation layers by name, and the
-// weight initialisations of the reference implementations.
+// What every network of the zoo shares: validation errors in one line (each options struct's check()), the
+// normalisation layers by name, and the weight initialisations of the reference implementations. The options go to
+// and from JSON through core/json_options.h (an unknown key, a value of the wrong type or a bad value is the user's
+// error).
 #pragma once
 #include <torch/nn.h>
 
-#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -14,14 +14,6 @@ namespace bareskin::nets {
 
 // Throws InvalidInput("<what> options", message, hint) when `condition` is false.
 void require(bool condition, const std::string& what, const std::string& message, const std::string& hint);
-
-// Checks that `j` is an object whose keys are all in `known` (InvalidInput naming the unknown key and listing the
-// known ones otherwise).
-void check_keys(const nlohmann::json& j, const std::string& what, std::initializer_list<const char*> known);
-
-// Reads j[key] into `value` when present (InvalidInput naming the key when its type is wrong).
-template <typename T>
-void read_key(const nlohmann::json& j, const std::string& what, const char* key, T& value);
 
 // "batch" | "instance" | "none" (InvalidInput for anything else).
 void check_norm(const std::string& norm, const std::string& what, bool allow_none = true);
@@ -37,16 +29,4 @@ void init_normal_002(torch::nn::Module& module);
 
 // Parameters (elements) of a module and all its children.
 int64_t parameter_count(const torch::nn::Module& module);
-
-template <typename T>
-void read_key(const nlohmann::json& j, const std::string& what, const char* key, T& value) {
-  const auto it = j.find(key);
-  if (it == j.end()) return;
-  try {
-    value = it->template get<T>();
-  } catch (const nlohmann::json::exception&) {
-    throw InvalidInput(what + " options", std::string("'") + key + "' has the wrong type (" + it->dump() + ")",
-                       "give it the type of the default (see bareskin train --print-model)");
-  }
-}
 }  // namespace bareskin::nets

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "training/nets/common.h"
 
 namespace bareskin::nets {
@@ -31,36 +32,53 @@ torch::Tensor lrelu_(torch::Tensor x, double slope) { return torch::leaky_relu_(
 
 }  // namespace
 
-void to_json(nlohmann::json& j, const MSRResNetOptions& o) {
-  j = {{"num_in_ch", o.num_in_ch},
-       {"num_out_ch", o.num_out_ch},
-       {"num_feat", o.num_feat},
-       {"num_block", o.num_block},
-       {"upscale", o.upscale},
-       {"base", o.base}};
+void MSRResNetOptions::check() const {
+  const MSRResNetOptions& o = *this;
+  const std::string w = "msrresnet";
+  require(o.num_in_ch >= 1 && o.num_out_ch >= 1 && o.num_feat >= 1 && o.num_block >= 0, w,
+          "channel counts must be positive and num_block not negative", "fix the options");
+  require(o.num_in_ch == o.num_out_ch, w, "num_out_ch must equal num_in_ch",
+          "the output is added to the upsampled input; give both the same channel count");
+  require(o.upscale >= 2 && o.upscale <= 4, w, "upscale " + std::to_string(o.upscale) + " is not built",
+          "use 2, 3 or 4");
+  require(o.base == "bilinear" || o.base == "bicubic", w, "base '" + o.base + "' is not built", "use bilinear or bicubic");
 }
 
+// The keys of MSRResNetOptions, listed once (core/json_options.h).
+const auto kMSRResNetFields = [](auto& v, auto& o) {
+  v("num_in_ch", o.num_in_ch);
+  v("num_out_ch", o.num_out_ch);
+  v("num_feat", o.num_feat);
+  v("num_block", o.num_block);
+  v("upscale", o.upscale);
+  v("base", o.base);
+};
+
+void to_json(nlohmann::json& j, const MSRResNetOptions& o) { json_options::write(j, o, kMSRResNetFields); }
 void from_json(const nlohmann::json& j, MSRResNetOptions& o) {
-  const std::string w = "msrresnet";
-  check_keys(j, w, {"num_in_ch", "num_out_ch", "num_feat", "num_block", "upscale", "base"});
-  read_key(j, w, "num_in_ch", o.num_in_ch);
-  read_key(j, w, "num_out_ch", o.num_out_ch);
-  read_key(j, w, "num_feat", o.num_feat);
-  read_key(j, w, "num_block", o.num_block);
-  read_key(j, w, "upscale", o.upscale);
-  read_key(j, w, "base", o.base);
+  json_options::read(j, o, "msrresnet", kMSRResNetFields);
 }
+
+void VGGStyleDiscriminatorOptions::check() const {
+  const VGGStyleDiscriminatorOptions& o = *this;
+  const std::string w = "srgan_d";
+  require(o.input_size == 128 || o.input_size == 256, w, "input_size " + std::to_string(o.input_size) + " is not built",
+          "use 128 or 256");
+  require(o.num_in_ch >= 1 && o.num_feat >= 1, w, "channel counts must be positive", "fix the options");
+}
+
+// The keys of VGGStyleDiscriminatorOptions, listed once (core/json_options.h).
+const auto kVGGStyleDiscriminatorFields = [](auto& v, auto& o) {
+  v("num_in_ch", o.num_in_ch);
+  v("num_feat", o.num_feat);
+  v("input_size", o.input_size);
+};
 
 void to_json(nlohmann::json& j, const VGGStyleDiscriminatorOptions& o) {
-  j = {{"num_in_ch", o.num_in_ch}, {"num_feat", o.num_feat}, {"input_size", o.input_size}};
+  json_options::write(j, o, kVGGStyleDiscriminatorFields);
 }
-
 void from_json(const nlohmann::json& j, VGGStyleDiscriminatorOptions& o) {
-  const std::string w = "srgan_d";
-  check_keys(j, w, {"num_in_ch", "num_feat", "input_size"});
-  read_key(j, w, "num_in_ch", o.num_in_ch);
-  read_key(j, w, "num_feat", o.num_feat);
-  read_key(j, w, "input_size", o.input_size);
+  json_options::read(j, o, "srgan_d", kVGGStyleDiscriminatorFields);
 }
 
 ResidualBlockNoBNImpl::ResidualBlockNoBNImpl(int64_t num_feat) {
@@ -78,14 +96,7 @@ torch::Tensor ResidualBlockNoBNImpl::forward(torch::Tensor x) {
 }
 
 MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
-  const std::string w = "msrresnet";
-  require(o.num_in_ch >= 1 && o.num_out_ch >= 1 && o.num_feat >= 1 && o.num_block >= 0, w,
-          "channel counts must be positive and num_block not negative", "fix the options");
-  require(o.num_in_ch == o.num_out_ch, w, "num_out_ch must equal num_in_ch",
-          "the output is added to the upsampled input; give both the same channel count");
-  require(o.upscale >= 2 && o.upscale <= 4, w, "upscale " + std::to_string(o.upscale) + " is not built",
-          "use 2, 3 or 4");
-  require(o.base == "bilinear" || o.base == "bicubic", w, "base '" + o.base + "' is not built", "use bilinear or bicubic");
+  o.check();
   conv_first_ = register_module("conv_first", conv(o.num_in_ch, o.num_feat, 3, 1));
   body_ = nn::Sequential();
   for (int i = 0; i < o.num_block; ++i) body_->push_back(ResidualBlockNoBN(o.num_feat));
@@ -129,10 +140,7 @@ torch::Tensor MSRResNetImpl::upsample(const torch::Tensor& features, const torch
 }
 
 VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminatorOptions& o) : options_(o) {
-  const std::string w = "srgan_d";
-  require(o.input_size == 128 || o.input_size == 256, w, "input_size " + std::to_string(o.input_size) + " is not built",
-          "use 128 or 256");
-  require(o.num_in_ch >= 1 && o.num_feat >= 1, w, "channel counts must be positive", "fix the options");
+  o.check();
   conv0_0_ = register_module("conv0_0", conv(o.num_in_ch, o.num_feat, 3, 1));
   // Stage k has num_feat·min(2^k, 8) channels; stages 0..4 (128²) or 0..5 (256²) halve the size once each.
   const int stages = o.input_size == 128 ? 5 : 6;

@@ -24,6 +24,7 @@ struct MSRResNetOptions {
   int num_block = 16;
   int upscale = 4;  // 2 | 3 | 4
   std::string base = "bilinear";  // the upsampling the output is a residual over: bilinear (BasicSR) | bicubic
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const MSRResNetOptions& o);
 void from_json(const nlohmann::json& j, MSRResNetOptions& o);
@@ -32,6 +33,7 @@ struct VGGStyleDiscriminatorOptions {
   int num_in_ch = 3;
   int num_feat = 64;
   int input_size = 128;  // 128 | 256: the only input size the linear head accepts
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const VGGStyleDiscriminatorOptions& o);
 void from_json(const nlohmann::json& j, VGGStyleDiscriminatorOptions& o);

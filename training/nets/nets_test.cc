@@ -8,6 +8,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/test_options.h"
 #include "core/test_util.h"
 #include "training/nets/msrresnet.h"
 #include "training/nets/patchgan.h"
@@ -296,6 +297,46 @@ TEST(NetsZoo, EveryEntryBuildsFromItsDefaultsAndRoundTrips) {
   EXPECT_EQ(J(u).get<UNetOptions>().norm, "instance");
   EXPECT_EQ(find_model("resnet50").defaults["depth"], 50);
   EXPECT_EQ(find_model("pix2pixhd_multiscale_d").defaults["num_D"], 2);
+}
+
+// Every options struct of the zoo through core/json_options.h: non-default values round-trip with their types, an
+// unknown key or a wrong type is refused naming the key.
+TEST(NetsZoo, OptionsRoundTripAndRefuseUnknownKeys) {
+  testing::expect_options_json<ResNetOptions>({{"depth", 34}, {"width", 16}, {"num_classes", 0}, {"in_channels", 4}});
+  testing::expect_options_json<UNetOptions>({{"in_channels", 4},
+                                             {"out_channels", 2},
+                                             {"ngf", 16},
+                                             {"num_downs", 6},
+                                             {"norm", "instance"},
+                                             {"dropout", false},
+                                             {"upsample", "resize_conv"}});
+  testing::expect_options_json<PatchGANOptions>({{"in_channels", 3}, {"ndf", 8}, {"n_layers", 2}, {"norm", "none"}});
+  testing::expect_options_json<GlobalGeneratorOptions>(
+      {{"in_channels", 13}, {"out_channels", 8}, {"ngf", 8}, {"n_downsampling", 2}, {"n_blocks", 1}, {"norm", "batch"}});
+  testing::expect_options_json<LocalEnhancerOptions>({{"in_channels", 13},
+                                                      {"out_channels", 8},
+                                                      {"ngf", 8},
+                                                      {"n_downsample_global", 2},
+                                                      {"n_blocks_global", 1},
+                                                      {"n_local_enhancers", 2},
+                                                      {"n_blocks_local", 1},
+                                                      {"norm", "batch"}});
+  testing::expect_options_json<MultiscaleDiscriminatorOptions>({{"in_channels", 21},
+                                                                {"ndf", 8},
+                                                                {"n_layers", 2},
+                                                                {"norm", "batch"},
+                                                                {"num_D", 3},
+                                                                {"get_interm_feat", false},
+                                                                {"use_sigmoid", true}});
+  testing::expect_options_json<MSRResNetOptions>(
+      {{"num_in_ch", 1}, {"num_out_ch", 1}, {"num_feat", 8}, {"num_block", 2}, {"upscale", 2}, {"base", "bicubic"}});
+  testing::expect_options_json<VGGStyleDiscriminatorOptions>({{"num_in_ch", 1}, {"num_feat", 8}, {"input_size", 256}});
+  // A bad value is refused by from_json as well as by the constructor (check()); an integer option refuses 8.5.
+  EXPECT_THROW(J({{"depth", 20}}).get<ResNetOptions>(), InvalidInput);
+  EXPECT_THROW(J({{"ngf", 8.5}}).get<UNetOptions>(), InvalidInput);
+  UNetOptions bad;
+  bad.num_downs = 4;
+  EXPECT_THROW(bad.check(), InvalidInput);
 }
 
 TEST(NetsZoo, BadNamesAndOptionsAreTheUsersError) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "core/json_options.h"
 #include "training/nets/common.h"
 
 namespace bareskin::nets {
@@ -17,22 +18,26 @@ nn::Conv2d conv4(int64_t in, int64_t out, int64_t stride, bool bias) {
 nn::LeakyReLU leaky() { return nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)); }
 }  // namespace
 
-void to_json(nlohmann::json& j, const PatchGANOptions& o) {
-  j = {{"in_channels", o.in_channels}, {"ndf", o.ndf}, {"n_layers", o.n_layers}, {"norm", o.norm}};
-}
-
-void from_json(const nlohmann::json& j, PatchGANOptions& o) {
-  check_keys(j, kWhat, {"in_channels", "ndf", "n_layers", "norm"});
-  read_key(j, kWhat, "in_channels", o.in_channels);
-  read_key(j, kWhat, "ndf", o.ndf);
-  read_key(j, kWhat, "n_layers", o.n_layers);
-  read_key(j, kWhat, "norm", o.norm);
-}
-
-PatchGANImpl::PatchGANImpl(const PatchGANOptions& o) : options_(o) {
+void PatchGANOptions::check() const {
+  const PatchGANOptions& o = *this;
   check_norm(o.norm, kWhat);
   require(o.in_channels >= 1 && o.ndf >= 1 && o.n_layers >= 1 && o.n_layers <= 8, kWhat,
           "in_channels and ndf must be positive and n_layers in 1..8", "fix the options (pix2pix: 6, 64, 3)");
+}
+
+// The keys of PatchGANOptions, listed once (core/json_options.h).
+const auto kPatchGANFields = [](auto& v, auto& o) {
+  v("in_channels", o.in_channels);
+  v("ndf", o.ndf);
+  v("n_layers", o.n_layers);
+  v("norm", o.norm);
+};
+
+void to_json(nlohmann::json& j, const PatchGANOptions& o) { json_options::write(j, o, kPatchGANFields); }
+void from_json(const nlohmann::json& j, PatchGANOptions& o) { json_options::read(j, o, "patchgan", kPatchGANFields); }
+
+PatchGANImpl::PatchGANImpl(const PatchGANOptions& o) : options_(o) {
+  o.check();
   const bool bias = o.norm != "batch";
   model_ = nn::Sequential(conv4(o.in_channels, o.ndf, 2, true), leaky());
   int64_t mult = 1;

@@ -16,6 +16,7 @@ struct PatchGANOptions {
   int ndf = 64;
   int n_layers = 3;
   std::string norm = "batch";  // batch | instance | none
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const PatchGANOptions& o);
 void from_json(const nlohmann::json& j, PatchGANOptions& o);

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "training/nets/common.h"
 
 namespace bareskin::nets {
@@ -55,68 +56,82 @@ void check_multiple(const torch::Tensor& x, int64_t channels, int64_t m, const s
 
 }  // namespace
 
-void to_json(nlohmann::json& j, const GlobalGeneratorOptions& o) {
-  j = {{"in_channels", o.in_channels},       {"out_channels", o.out_channels}, {"ngf", o.ngf},
-       {"n_downsampling", o.n_downsampling}, {"n_blocks", o.n_blocks},         {"norm", o.norm}};
-}
-
-void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o) {
+void GlobalGeneratorOptions::check() const {
+  const GlobalGeneratorOptions& o = *this;
   const std::string w = "pix2pixhd_global";
-  check_keys(j, w, {"in_channels", "out_channels", "ngf", "n_downsampling", "n_blocks", "norm"});
-  read_key(j, w, "in_channels", o.in_channels);
-  read_key(j, w, "out_channels", o.out_channels);
-  read_key(j, w, "ngf", o.ngf);
-  read_key(j, w, "n_downsampling", o.n_downsampling);
-  read_key(j, w, "n_blocks", o.n_blocks);
-  read_key(j, w, "norm", o.norm);
+  check_norm(o.norm, w, false);
+  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks >= 0, w,
+          "channel counts must be positive and n_blocks not negative", "fix the options");
+  require(o.n_downsampling >= 0 && o.n_downsampling <= 8, w, "n_downsampling must be in 0..8", "pix2pixHD uses 4");
 }
 
-void to_json(nlohmann::json& j, const LocalEnhancerOptions& o) {
-  j = {{"in_channels", o.in_channels},
-       {"out_channels", o.out_channels},
-       {"ngf", o.ngf},
-       {"n_downsample_global", o.n_downsample_global},
-       {"n_blocks_global", o.n_blocks_global},
-       {"n_local_enhancers", o.n_local_enhancers},
-       {"n_blocks_local", o.n_blocks_local},
-       {"norm", o.norm}};
+// The keys of GlobalGeneratorOptions, listed once (core/json_options.h).
+const auto kGlobalGeneratorFields = [](auto& v, auto& o) {
+  v("in_channels", o.in_channels);
+  v("out_channels", o.out_channels);
+  v("ngf", o.ngf);
+  v("n_downsampling", o.n_downsampling);
+  v("n_blocks", o.n_blocks);
+  v("norm", o.norm);
+};
+
+void to_json(nlohmann::json& j, const GlobalGeneratorOptions& o) { json_options::write(j, o, kGlobalGeneratorFields); }
+void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o) {
+  json_options::read(j, o, "pix2pixhd_global", kGlobalGeneratorFields);
 }
 
-void from_json(const nlohmann::json& j, LocalEnhancerOptions& o) {
+void LocalEnhancerOptions::check() const {
+  const LocalEnhancerOptions& o = *this;
   const std::string w = "pix2pixhd_local";
-  check_keys(j, w,
-             {"in_channels", "out_channels", "ngf", "n_downsample_global", "n_blocks_global", "n_local_enhancers",
-              "n_blocks_local", "norm"});
-  read_key(j, w, "in_channels", o.in_channels);
-  read_key(j, w, "out_channels", o.out_channels);
-  read_key(j, w, "ngf", o.ngf);
-  read_key(j, w, "n_downsample_global", o.n_downsample_global);
-  read_key(j, w, "n_blocks_global", o.n_blocks_global);
-  read_key(j, w, "n_local_enhancers", o.n_local_enhancers);
-  read_key(j, w, "n_blocks_local", o.n_blocks_local);
-  read_key(j, w, "norm", o.norm);
+  check_norm(o.norm, w, false);
+  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks_global >= 0 && o.n_blocks_local >= 0, w,
+          "channel counts must be positive and block counts not negative", "fix the options");
+  require(
+      o.n_downsample_global >= 0 && o.n_downsample_global <= 8 && o.n_local_enhancers >= 1 && o.n_local_enhancers <= 3,
+      w, "n_downsample_global must be in 0..8 and n_local_enhancers in 1..3", "pix2pixHD uses 4 and 1");
 }
+
+// The keys of LocalEnhancerOptions, listed once (core/json_options.h).
+const auto kLocalEnhancerFields = [](auto& v, auto& o) {
+  v("in_channels", o.in_channels);
+  v("out_channels", o.out_channels);
+  v("ngf", o.ngf);
+  v("n_downsample_global", o.n_downsample_global);
+  v("n_blocks_global", o.n_blocks_global);
+  v("n_local_enhancers", o.n_local_enhancers);
+  v("n_blocks_local", o.n_blocks_local);
+  v("norm", o.norm);
+};
+
+void to_json(nlohmann::json& j, const LocalEnhancerOptions& o) { json_options::write(j, o, kLocalEnhancerFields); }
+void from_json(const nlohmann::json& j, LocalEnhancerOptions& o) {
+  json_options::read(j, o, "pix2pixhd_local", kLocalEnhancerFields);
+}
+
+void MultiscaleDiscriminatorOptions::check() const {
+  const MultiscaleDiscriminatorOptions& o = *this;
+  const std::string w = "pix2pixhd_multiscale_d";
+  check_norm(o.norm, w, false);
+  require(o.in_channels >= 1 && o.ndf >= 1 && o.n_layers >= 1 && o.n_layers <= 8 && o.num_D >= 1 && o.num_D <= 5, w,
+          "in_channels and ndf must be positive, n_layers in 1..8 and num_D in 1..5", "pix2pixHD uses 6, 64, 3, 2");
+}
+
+// The keys of MultiscaleDiscriminatorOptions, listed once (core/json_options.h).
+const auto kMultiscaleDiscriminatorFields = [](auto& v, auto& o) {
+  v("in_channels", o.in_channels);
+  v("ndf", o.ndf);
+  v("n_layers", o.n_layers);
+  v("norm", o.norm);
+  v("num_D", o.num_D);
+  v("get_interm_feat", o.get_interm_feat);
+  v("use_sigmoid", o.use_sigmoid);
+};
 
 void to_json(nlohmann::json& j, const MultiscaleDiscriminatorOptions& o) {
-  j = {{"in_channels", o.in_channels},
-       {"ndf", o.ndf},
-       {"n_layers", o.n_layers},
-       {"norm", o.norm},
-       {"num_D", o.num_D},
-       {"get_interm_feat", o.get_interm_feat},
-       {"use_sigmoid", o.use_sigmoid}};
+  json_options::write(j, o, kMultiscaleDiscriminatorFields);
 }
-
 void from_json(const nlohmann::json& j, MultiscaleDiscriminatorOptions& o) {
-  const std::string w = "pix2pixhd_multiscale_d";
-  check_keys(j, w, {"in_channels", "ndf", "n_layers", "norm", "num_D", "get_interm_feat", "use_sigmoid"});
-  read_key(j, w, "in_channels", o.in_channels);
-  read_key(j, w, "ndf", o.ndf);
-  read_key(j, w, "n_layers", o.n_layers);
-  read_key(j, w, "norm", o.norm);
-  read_key(j, w, "num_D", o.num_D);
-  read_key(j, w, "get_interm_feat", o.get_interm_feat);
-  read_key(j, w, "use_sigmoid", o.use_sigmoid);
+  json_options::read(j, o, "pix2pixhd_multiscale_d", kMultiscaleDiscriminatorFields);
 }
 
 HDResnetBlockImpl::HDResnetBlockImpl(int64_t dim, const std::string& norm) {
@@ -132,11 +147,7 @@ HDResnetBlockImpl::HDResnetBlockImpl(int64_t dim, const std::string& norm) {
 torch::Tensor HDResnetBlockImpl::forward(torch::Tensor x) { return x + conv_block_->forward(x); }
 
 GlobalGeneratorImpl::GlobalGeneratorImpl(const GlobalGeneratorOptions& o) : options_(o) {
-  const std::string w = "pix2pixhd_global";
-  check_norm(o.norm, w, false);
-  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks >= 0, w,
-          "channel counts must be positive and n_blocks not negative", "fix the options");
-  require(o.n_downsampling >= 0 && o.n_downsampling <= 8, w, "n_downsampling must be in 0..8", "pix2pixHD uses 4");
+  o.check();
   model_ = register_module(
       "model", global_layers(o.in_channels, o.out_channels, o.ngf, o.n_downsampling, o.n_blocks, o.norm, true));
   init_normal_002(*this);
@@ -148,13 +159,7 @@ torch::Tensor GlobalGeneratorImpl::forward(torch::Tensor x) {
 }
 
 LocalEnhancerImpl::LocalEnhancerImpl(const LocalEnhancerOptions& o) : options_(o) {
-  const std::string w = "pix2pixhd_local";
-  check_norm(o.norm, w, false);
-  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1 && o.n_blocks_global >= 0 && o.n_blocks_local >= 0, w,
-          "channel counts must be positive and block counts not negative", "fix the options");
-  require(
-      o.n_downsample_global >= 0 && o.n_downsample_global <= 8 && o.n_local_enhancers >= 1 && o.n_local_enhancers <= 3,
-      w, "n_downsample_global must be in 0..8 and n_local_enhancers in 1..3", "pix2pixHD uses 4 and 1");
+  o.check();
   const int64_t ngf_global = int64_t(o.ngf) << o.n_local_enhancers;
   model_ = register_module("model", global_layers(o.in_channels, o.out_channels, ngf_global, o.n_downsample_global,
                                                   o.n_blocks_global, o.norm, false));
@@ -196,10 +201,7 @@ torch::Tensor LocalEnhancerImpl::forward(torch::Tensor x) {
 }
 
 MultiscaleDiscriminatorImpl::MultiscaleDiscriminatorImpl(const MultiscaleDiscriminatorOptions& o) : options_(o) {
-  const std::string w = "pix2pixhd_multiscale_d";
-  check_norm(o.norm, w, false);
-  require(o.in_channels >= 1 && o.ndf >= 1 && o.n_layers >= 1 && o.n_layers <= 8 && o.num_D >= 1 && o.num_D <= 5, w,
-          "in_channels and ndf must be positive, n_layers in 1..8 and num_D in 1..5", "pix2pixHD uses 6, 64, 3, 2");
+  o.check();
   const auto leaky = [] { return nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)); };
   for (int d = 0; d < o.num_D; ++d) {
     // Layer groups of the reference's NLayerDiscriminator: padding ceil((4 − 1) / 2) = 2, channels doubled up to 512.

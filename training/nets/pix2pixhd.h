@@ -26,6 +26,7 @@ struct GlobalGeneratorOptions {
   int n_downsampling = 4;  // the input's sides must be multiples of 2^n_downsampling
   int n_blocks = 9;
   std::string norm = "instance";  // instance | batch
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const GlobalGeneratorOptions& o);
 void from_json(const nlohmann::json& j, GlobalGeneratorOptions& o);
@@ -40,6 +41,7 @@ struct LocalEnhancerOptions {
   int n_local_enhancers = 1;
   int n_blocks_local = 3;
   std::string norm = "instance";
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const LocalEnhancerOptions& o);
 void from_json(const nlohmann::json& j, LocalEnhancerOptions& o);
@@ -52,6 +54,7 @@ struct MultiscaleDiscriminatorOptions {
   int num_D = 2;
   bool get_interm_feat = true;  // the reference trains with its feature-matching loss, hence with this on
   bool use_sigmoid = false;     // true for the original (non-LSGAN) loss
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const MultiscaleDiscriminatorOptions& o);
 void from_json(const nlohmann::json& j, MultiscaleDiscriminatorOptions& o);

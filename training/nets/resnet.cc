@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include "core/json_options.h"
 #include "training/nets/common.h"
 
 namespace bareskin::nets {
@@ -32,17 +33,24 @@ nn::Sequential make_layer(int64_t& in, int64_t planes, int blocks, int64_t strid
 
 }  // namespace
 
-void to_json(nlohmann::json& j, const ResNetOptions& o) {
-  j = {{"depth", o.depth}, {"width", o.width}, {"num_classes", o.num_classes}, {"in_channels", o.in_channels}};
+void ResNetOptions::check() const {
+  const ResNetOptions& o = *this;
+  const bool known_depth = o.depth == 18 || o.depth == 34 || o.depth == 50;
+  require(known_depth, kWhat, "depth " + std::to_string(o.depth) + " is not built", "use 18, 34 or 50");
+  require(o.width >= 1 && o.in_channels >= 1 && o.num_classes >= 0, kWhat,
+          "width and in_channels must be positive and num_classes not negative", "fix the options");
 }
 
-void from_json(const nlohmann::json& j, ResNetOptions& o) {
-  check_keys(j, kWhat, {"depth", "width", "num_classes", "in_channels"});
-  read_key(j, kWhat, "depth", o.depth);
-  read_key(j, kWhat, "width", o.width);
-  read_key(j, kWhat, "num_classes", o.num_classes);
-  read_key(j, kWhat, "in_channels", o.in_channels);
-}
+// The keys of ResNetOptions, listed once (core/json_options.h).
+const auto kResNetFields = [](auto& v, auto& o) {
+  v("depth", o.depth);
+  v("width", o.width);
+  v("num_classes", o.num_classes);
+  v("in_channels", o.in_channels);
+};
+
+void to_json(nlohmann::json& j, const ResNetOptions& o) { json_options::write(j, o, kResNetFields); }
+void from_json(const nlohmann::json& j, ResNetOptions& o) { json_options::read(j, o, "resnet", kResNetFields); }
 
 BasicBlockImpl::BasicBlockImpl(int64_t in, int64_t planes, int64_t stride) {
   conv1_ = register_module("conv1", conv(in, planes, 3, stride));
@@ -78,10 +86,7 @@ torch::Tensor BottleneckImpl::forward(torch::Tensor x) {
 }
 
 ResNetImpl::ResNetImpl(const ResNetOptions& o) : options_(o) {
-  const bool known_depth = o.depth == 18 || o.depth == 34 || o.depth == 50;
-  require(known_depth, kWhat, "depth " + std::to_string(o.depth) + " is not built", "use 18, 34 or 50");
-  require(o.width >= 1 && o.in_channels >= 1 && o.num_classes >= 0, kWhat,
-          "width and in_channels must be positive and num_classes not negative", "fix the options");
+  o.check();
   conv1_ = register_module("conv1",
                            nn::Conv2d(nn::Conv2dOptions(o.in_channels, o.width, 7).stride(2).padding(3).bias(false)));
   bn1_ = register_module("bn1", nn::BatchNorm2d(o.width));

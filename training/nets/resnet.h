@@ -15,9 +15,10 @@ struct ResNetOptions {
   int width = 64;          // channels of conv1 and layer1 (torchvision: 64); layer k has width·2^(k-1) (·4 for 50)
   int num_classes = 1000;  // outputs of fc; 0: no head, forward returns the pooled features
   int in_channels = 3;
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const ResNetOptions& o);
-void from_json(const nlohmann::json& j, ResNetOptions& o);  // InvalidInput: unknown key, wrong type, bad value
+void from_json(const nlohmann::json& j, ResNetOptions& o);
 
 class BasicBlockImpl : public torch::nn::Module {
  public:

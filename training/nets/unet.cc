@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include "core/error.h"
+#include "core/json_options.h"
 #include "training/nets/common.h"
 
 namespace bareskin::nets {
@@ -20,26 +21,30 @@ nn::AnyModule upsampler(const UNetOptions& o, int64_t in, int64_t out, bool bias
 
 }  // namespace
 
-void to_json(nlohmann::json& j, const UNetOptions& o) {
-  j = {{"in_channels", o.in_channels},
-       {"out_channels", o.out_channels},
-       {"ngf", o.ngf},
-       {"num_downs", o.num_downs},
-       {"norm", o.norm},
-       {"dropout", o.dropout},
-       {"upsample", o.upsample}};
+void UNetOptions::check() const {
+  const UNetOptions& o = *this;
+  check_norm(o.norm, kWhat);
+  require(o.upsample == "transpose" || o.upsample == "resize_conv", kWhat, "upsample '" + o.upsample + "' is not known",
+          "use transpose or resize_conv");
+  require(o.num_downs >= 5 && o.num_downs <= 12, kWhat, "num_downs " + std::to_string(o.num_downs) + " is out of range",
+          "use 5 to 12 (8 for 256² inputs)");
+  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1, kWhat, "channel counts must be positive",
+          "fix in_channels, out_channels or ngf");
 }
 
-void from_json(const nlohmann::json& j, UNetOptions& o) {
-  check_keys(j, kWhat, {"in_channels", "out_channels", "ngf", "num_downs", "norm", "dropout", "upsample"});
-  read_key(j, kWhat, "in_channels", o.in_channels);
-  read_key(j, kWhat, "out_channels", o.out_channels);
-  read_key(j, kWhat, "ngf", o.ngf);
-  read_key(j, kWhat, "num_downs", o.num_downs);
-  read_key(j, kWhat, "norm", o.norm);
-  read_key(j, kWhat, "dropout", o.dropout);
-  read_key(j, kWhat, "upsample", o.upsample);
-}
+// The keys of UNetOptions, listed once (core/json_options.h).
+const auto kUNetFields = [](auto& v, auto& o) {
+  v("in_channels", o.in_channels);
+  v("out_channels", o.out_channels);
+  v("ngf", o.ngf);
+  v("num_downs", o.num_downs);
+  v("norm", o.norm);
+  v("dropout", o.dropout);
+  v("upsample", o.upsample);
+};
+
+void to_json(nlohmann::json& j, const UNetOptions& o) { json_options::write(j, o, kUNetFields); }
+void from_json(const nlohmann::json& j, UNetOptions& o) { json_options::read(j, o, "unet", kUNetFields); }
 
 ResizeConvImpl::ResizeConvImpl(int64_t in, int64_t out, bool bias) {
   conv_ = register_module("conv", nn::Conv2d(nn::Conv2dOptions(in, out, 3).padding(1).bias(bias)));
@@ -96,13 +101,7 @@ torch::Tensor UNetBlockImpl::forward(torch::Tensor x) {
 }
 
 UNetImpl::UNetImpl(const UNetOptions& o) : options_(o) {
-  check_norm(o.norm, kWhat);
-  require(o.upsample == "transpose" || o.upsample == "resize_conv", kWhat, "upsample '" + o.upsample + "' is not known",
-          "use transpose or resize_conv");
-  require(o.num_downs >= 5 && o.num_downs <= 12, kWhat, "num_downs " + std::to_string(o.num_downs) + " is out of range",
-          "use 5 to 12 (8 for 256² inputs)");
-  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1, kWhat, "channel counts must be positive",
-          "fix in_channels, out_channels or ngf");
+  o.check();
   using Kind = UNetBlockImpl::Kind;
   const int64_t g = o.ngf;
   auto block = UNetBlock(Kind::innermost, g * 8, g * 8, g * 8, o, false, nn::AnyModule());

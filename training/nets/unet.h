@@ -25,6 +25,7 @@ struct UNetOptions {
   std::string norm = "batch";          // batch | instance | none
   bool dropout = true;                 // pix2pix trains with dropout in the innermost levels
   std::string upsample = "transpose";  // transpose (reference) | resize_conv (bilinear ×2 + 3×3 convolution)
+  void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UNetOptions& o);
 void from_json(const nlohmann::json& j, UNetOptions& o);
