@@ -13,7 +13,7 @@ namespace nn = torch::nn;
 namespace F = torch::nn::functional;
 namespace {
 
-nn::Conv2d conv(int64_t in, int64_t out, int64_t k, int64_t stride, bool bias = true) {
+nn::Conv2d msr_conv(int64_t in, int64_t out, int64_t k, int64_t stride, bool bias = true) {
   return nn::Conv2d(nn::Conv2dOptions(in, out, k).stride(stride).padding(1).bias(bias));
 }
 
@@ -82,8 +82,8 @@ void from_json(const nlohmann::json& j, VGGStyleDiscriminatorOptions& o) {
 }
 
 ResidualBlockNoBNImpl::ResidualBlockNoBNImpl(int64_t num_feat) {
-  conv1_ = register_module("conv1", conv(num_feat, num_feat, 3, 1));
-  conv2_ = register_module("conv2", conv(num_feat, num_feat, 3, 1));
+  conv1_ = register_module("conv1", msr_conv(num_feat, num_feat, 3, 1));
+  conv2_ = register_module("conv2", msr_conv(num_feat, num_feat, 3, 1));
   init_scaled(conv1_, 0.1);
   init_scaled(conv2_, 0.1);
 }
@@ -97,15 +97,15 @@ torch::Tensor ResidualBlockNoBNImpl::forward(torch::Tensor x) {
 
 MSRResNetImpl::MSRResNetImpl(const MSRResNetOptions& o) : options_(o) {
   o.check();
-  conv_first_ = register_module("conv_first", conv(o.num_in_ch, o.num_feat, 3, 1));
+  conv_first_ = register_module("conv_first", msr_conv(o.num_in_ch, o.num_feat, 3, 1));
   body_ = nn::Sequential();
   for (int i = 0; i < o.num_block; ++i) body_->push_back(ResidualBlockNoBN(o.num_feat));
   register_module("body", body_);
   const int64_t r = o.upscale == 4 ? 2 : o.upscale;
-  upconv1_ = register_module("upconv1", conv(o.num_feat, o.num_feat * r * r, 3, 1));
-  if (o.upscale == 4) upconv2_ = register_module("upconv2", conv(o.num_feat, o.num_feat * 4, 3, 1));
-  conv_hr_ = register_module("conv_hr", conv(o.num_feat, o.num_feat, 3, 1));
-  conv_last_ = register_module("conv_last", conv(o.num_feat, o.num_out_ch, 3, 1));
+  upconv1_ = register_module("upconv1", msr_conv(o.num_feat, o.num_feat * r * r, 3, 1));
+  if (o.upscale == 4) upconv2_ = register_module("upconv2", msr_conv(o.num_feat, o.num_feat * 4, 3, 1));
+  conv_hr_ = register_module("conv_hr", msr_conv(o.num_feat, o.num_feat, 3, 1));
+  conv_last_ = register_module("conv_last", msr_conv(o.num_feat, o.num_out_ch, 3, 1));
   if (o.base == "bicubic") {
     // Ours: the untrained net is exactly bicubic (conv_last zero) and the convolutions before it keep He normal's
     // full scale, so the residual's gradient is not damped by five ×0.1 layers (the blocks keep BasicSR's ×0.1).
@@ -141,7 +141,7 @@ torch::Tensor MSRResNetImpl::upsample(const torch::Tensor& features, const torch
 
 VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminatorOptions& o) : options_(o) {
   o.check();
-  conv0_0_ = register_module("conv0_0", conv(o.num_in_ch, o.num_feat, 3, 1));
+  conv0_0_ = register_module("conv0_0", msr_conv(o.num_in_ch, o.num_feat, 3, 1));
   // Stage k has num_feat·min(2^k, 8) channels; stages 0..4 (128²) or 0..5 (256²) halve the size once each.
   const int stages = o.input_size == 128 ? 5 : 6;
   int64_t in = o.num_feat;
@@ -149,7 +149,7 @@ VGGStyleDiscriminatorImpl::VGGStyleDiscriminatorImpl(const VGGStyleDiscriminator
     const int64_t c = int64_t(o.num_feat) * std::min(1 << k, 8);
     for (int s = k == 0 ? 1 : 0; s < 2; ++s) {
       const std::string id = std::to_string(k) + "_" + std::to_string(s);
-      convs_.push_back(register_module("conv" + id, s == 0 ? conv(in, c, 3, 1, false) : conv(c, c, 4, 2, false)));
+      convs_.push_back(register_module("conv" + id, s == 0 ? msr_conv(in, c, 3, 1, false) : msr_conv(c, c, 4, 2, false)));
       norms_.push_back(register_module("bn" + id, nn::BatchNorm2d(c)));
       in = c;
     }

@@ -10,7 +10,7 @@
 namespace bareskin::nets {
 namespace nn = torch::nn;
 namespace {
-const char* kWhat = "patchgan";
+const char* kPatchgan = "patchgan";
 
 nn::Conv2d conv4(int64_t in, int64_t out, int64_t stride, bool bias) {
   return nn::Conv2d(nn::Conv2dOptions(in, out, 4).stride(stride).padding(1).bias(bias));
@@ -20,8 +20,8 @@ nn::LeakyReLU leaky() { return nn::LeakyReLU(nn::LeakyReLUOptions().negative_slo
 
 void PatchGANOptions::check() const {
   const PatchGANOptions& o = *this;
-  check_norm(o.norm, kWhat);
-  require(o.in_channels >= 1 && o.ndf >= 1 && o.n_layers >= 1 && o.n_layers <= 8, kWhat,
+  check_norm(o.norm, kPatchgan);
+  require(o.in_channels >= 1 && o.ndf >= 1 && o.n_layers >= 1 && o.n_layers <= 8, kPatchgan,
           "in_channels and ndf must be positive and n_layers in 1..8", "fix the options (pix2pix: 6, 64, 3)");
 }
 

@@ -12,7 +12,7 @@ namespace bareskin::nets {
 namespace nn = torch::nn;
 namespace {
 
-nn::Conv2d conv(int64_t in, int64_t out, int64_t k, int64_t stride, int64_t pad) {
+nn::Conv2d hd_conv(int64_t in, int64_t out, int64_t k, int64_t stride, int64_t pad) {
   return nn::Conv2d(nn::Conv2dOptions(in, out, k).stride(stride).padding(pad));
 }
 nn::ConvTranspose2d up_conv(int64_t in, int64_t out) {
@@ -23,12 +23,12 @@ nn::ReflectionPad2d reflect(int64_t p) { return nn::ReflectionPad2d(nn::Reflecti
 // The global generator's modules; `head` false leaves out the last three (pad, 7×7 conv, Tanh) as LocalEnhancer does.
 nn::Sequential global_layers(int64_t in, int64_t out, int64_t ngf, int n_down, int n_blocks, const std::string& norm,
                              bool head) {
-  nn::Sequential m(reflect(3), conv(in, ngf, 7, 1, 0));
+  nn::Sequential m(reflect(3), hd_conv(in, ngf, 7, 1, 0));
   push_norm(m, norm, ngf);
   m->push_back(nn::ReLU());
   for (int i = 0; i < n_down; ++i) {
     const int64_t c = ngf << i;
-    m->push_back(conv(c, c * 2, 3, 2, 1));
+    m->push_back(hd_conv(c, c * 2, 3, 2, 1));
     push_norm(m, norm, c * 2);
     m->push_back(nn::ReLU());
   }
@@ -41,7 +41,7 @@ nn::Sequential global_layers(int64_t in, int64_t out, int64_t ngf, int n_down, i
   }
   if (head) {
     m->push_back(reflect(3));
-    m->push_back(conv(ngf, out, 7, 1, 0));
+    m->push_back(hd_conv(ngf, out, 7, 1, 0));
     m->push_back(nn::Tanh());
   }
   return m;
@@ -135,11 +135,11 @@ void from_json(const nlohmann::json& j, MultiscaleDiscriminatorOptions& o) {
 }
 
 HDResnetBlockImpl::HDResnetBlockImpl(int64_t dim, const std::string& norm) {
-  conv_block_ = nn::Sequential(reflect(1), conv(dim, dim, 3, 1, 0));
+  conv_block_ = nn::Sequential(reflect(1), hd_conv(dim, dim, 3, 1, 0));
   push_norm(conv_block_, norm, dim);
   conv_block_->push_back(nn::ReLU());
   conv_block_->push_back(reflect(1));
-  conv_block_->push_back(conv(dim, dim, 3, 1, 0));
+  conv_block_->push_back(hd_conv(dim, dim, 3, 1, 0));
   push_norm(conv_block_, norm, dim);
   register_module("conv_block", conv_block_);
 }
@@ -165,10 +165,10 @@ LocalEnhancerImpl::LocalEnhancerImpl(const LocalEnhancerOptions& o) : options_(o
                                                   o.n_blocks_global, o.norm, false));
   for (int n = 1; n <= o.n_local_enhancers; ++n) {
     const int64_t c = int64_t(o.ngf) << (o.n_local_enhancers - n);
-    nn::Sequential front(reflect(3), conv(o.in_channels, c, 7, 1, 0));
+    nn::Sequential front(reflect(3), hd_conv(o.in_channels, c, 7, 1, 0));
     push_norm(front, o.norm, c);
     front->push_back(nn::ReLU());
-    front->push_back(conv(c, c * 2, 3, 2, 1));
+    front->push_back(hd_conv(c, c * 2, 3, 2, 1));
     push_norm(front, o.norm, c * 2);
     front->push_back(nn::ReLU());
     nn::Sequential back;
@@ -178,7 +178,7 @@ LocalEnhancerImpl::LocalEnhancerImpl(const LocalEnhancerOptions& o) : options_(o
     back->push_back(nn::ReLU());
     if (n == o.n_local_enhancers) {
       back->push_back(reflect(3));
-      back->push_back(conv(o.ngf, o.out_channels, 7, 1, 0));
+      back->push_back(hd_conv(o.ngf, o.out_channels, 7, 1, 0));
       back->push_back(nn::Tanh());
     }
     front_.push_back(register_module("model" + std::to_string(n) + "_1", front));
@@ -206,17 +206,17 @@ MultiscaleDiscriminatorImpl::MultiscaleDiscriminatorImpl(const MultiscaleDiscrim
   for (int d = 0; d < o.num_D; ++d) {
     // Layer groups of the reference's NLayerDiscriminator: padding ceil((4 − 1) / 2) = 2, channels doubled up to 512.
     std::vector<nn::Sequential> groups;
-    groups.push_back(nn::Sequential(conv(o.in_channels, o.ndf, 4, 2, 2), leaky()));
+    groups.push_back(nn::Sequential(hd_conv(o.in_channels, o.ndf, 4, 2, 2), leaky()));
     int64_t nf = o.ndf;
     for (int n = 1; n <= o.n_layers; ++n) {
       const int64_t prev = nf;
       nf = std::min<int64_t>(nf * 2, 512);
-      nn::Sequential g(conv(prev, nf, 4, n < o.n_layers ? 2 : 1, 2));
+      nn::Sequential g(hd_conv(prev, nf, 4, n < o.n_layers ? 2 : 1, 2));
       push_norm(g, o.norm, nf);
       g->push_back(leaky());
       groups.push_back(g);
     }
-    groups.push_back(nn::Sequential(conv(nf, 1, 4, 1, 2)));
+    groups.push_back(nn::Sequential(hd_conv(nf, 1, 4, 1, 2)));
     if (o.use_sigmoid) groups.push_back(nn::Sequential(nn::Sigmoid()));
     if (o.get_interm_feat) {
       for (size_t j = 0; j < groups.size(); ++j)

@@ -9,16 +9,16 @@ namespace bareskin::nets {
 namespace nn = torch::nn;
 namespace {
 
-const char* kWhat = "resnet";
+const char* kResnet = "resnet";
 
-nn::Conv2d conv(int64_t in, int64_t out, int64_t k, int64_t stride) {
+nn::Conv2d resnet_conv(int64_t in, int64_t out, int64_t k, int64_t stride) {
   return nn::Conv2d(nn::Conv2dOptions(in, out, k).stride(stride).padding(k / 2).bias(false));
 }
 
 // torchvision: a 1×1 convolution with the block's stride and a batch norm, when the identity cannot be added.
 nn::Sequential make_downsample(int64_t in, int64_t out, int64_t stride) {
   if (stride == 1 && in == out) return nullptr;
-  return nn::Sequential(conv(in, out, 1, stride), nn::BatchNorm2d(out));
+  return nn::Sequential(resnet_conv(in, out, 1, stride), nn::BatchNorm2d(out));
 }
 
 template <typename Block>
@@ -36,8 +36,8 @@ nn::Sequential make_layer(int64_t& in, int64_t planes, int blocks, int64_t strid
 void ResNetOptions::check() const {
   const ResNetOptions& o = *this;
   const bool known_depth = o.depth == 18 || o.depth == 34 || o.depth == 50;
-  require(known_depth, kWhat, "depth " + std::to_string(o.depth) + " is not built", "use 18, 34 or 50");
-  require(o.width >= 1 && o.in_channels >= 1 && o.num_classes >= 0, kWhat,
+  require(known_depth, kResnet, "depth " + std::to_string(o.depth) + " is not built", "use 18, 34 or 50");
+  require(o.width >= 1 && o.in_channels >= 1 && o.num_classes >= 0, kResnet,
           "width and in_channels must be positive and num_classes not negative", "fix the options");
 }
 
@@ -53,9 +53,9 @@ void to_json(nlohmann::json& j, const ResNetOptions& o) { json_options::write(j,
 void from_json(const nlohmann::json& j, ResNetOptions& o) { json_options::read(j, o, "resnet", kResNetFields); }
 
 BasicBlockImpl::BasicBlockImpl(int64_t in, int64_t planes, int64_t stride) {
-  conv1_ = register_module("conv1", conv(in, planes, 3, stride));
+  conv1_ = register_module("conv1", resnet_conv(in, planes, 3, stride));
   bn1_ = register_module("bn1", nn::BatchNorm2d(planes));
-  conv2_ = register_module("conv2", conv(planes, planes, 3, 1));
+  conv2_ = register_module("conv2", resnet_conv(planes, planes, 3, 1));
   bn2_ = register_module("bn2", nn::BatchNorm2d(planes));
   downsample_ = make_downsample(in, planes, stride);
   if (downsample_) register_module("downsample", downsample_);
@@ -68,11 +68,11 @@ torch::Tensor BasicBlockImpl::forward(torch::Tensor x) {
 }
 
 BottleneckImpl::BottleneckImpl(int64_t in, int64_t planes, int64_t stride) {
-  conv1_ = register_module("conv1", conv(in, planes, 1, 1));
+  conv1_ = register_module("conv1", resnet_conv(in, planes, 1, 1));
   bn1_ = register_module("bn1", nn::BatchNorm2d(planes));
-  conv2_ = register_module("conv2", conv(planes, planes, 3, stride));
+  conv2_ = register_module("conv2", resnet_conv(planes, planes, 3, stride));
   bn2_ = register_module("bn2", nn::BatchNorm2d(planes));
-  conv3_ = register_module("conv3", conv(planes, planes * kExpansion, 1, 1));
+  conv3_ = register_module("conv3", resnet_conv(planes, planes * kExpansion, 1, 1));
   bn3_ = register_module("bn3", nn::BatchNorm2d(planes * kExpansion));
   downsample_ = make_downsample(in, planes * kExpansion, stride);
   if (downsample_) register_module("downsample", downsample_);

@@ -12,7 +12,7 @@ namespace bareskin::nets {
 namespace nn = torch::nn;
 namespace {
 
-const char* kWhat = "unet";
+const char* kUnet = "unet";
 
 nn::AnyModule upsampler(const UNetOptions& o, int64_t in, int64_t out, bool bias) {
   if (o.upsample == "resize_conv") return nn::AnyModule(ResizeConv(in, out, bias));
@@ -23,12 +23,12 @@ nn::AnyModule upsampler(const UNetOptions& o, int64_t in, int64_t out, bool bias
 
 void UNetOptions::check() const {
   const UNetOptions& o = *this;
-  check_norm(o.norm, kWhat);
-  require(o.upsample == "transpose" || o.upsample == "resize_conv", kWhat, "upsample '" + o.upsample + "' is not known",
+  check_norm(o.norm, kUnet);
+  require(o.upsample == "transpose" || o.upsample == "resize_conv", kUnet, "upsample '" + o.upsample + "' is not known",
           "use transpose or resize_conv");
-  require(o.num_downs >= 5 && o.num_downs <= 12, kWhat, "num_downs " + std::to_string(o.num_downs) + " is out of range",
+  require(o.num_downs >= 5 && o.num_downs <= 12, kUnet, "num_downs " + std::to_string(o.num_downs) + " is out of range",
           "use 5 to 12 (8 for 256² inputs)");
-  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1, kWhat, "channel counts must be positive",
+  require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1, kUnet, "channel counts must be positive",
           "fix in_channels, out_channels or ngf");
 }
 
