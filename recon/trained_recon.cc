@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 
+#include "core/error.h"
 #include "core/safetensors.h"
 #include "training/checkpoint.h"
 
