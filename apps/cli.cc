@@ -8,8 +8,9 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "core/files.h"
+#include "apps/device_flag.h"
 #include "core/error.h"
+#include "core/files.h"
 #include "core/parallel.h"
 
 #ifndef BARESKIN_VERSION
@@ -100,8 +101,27 @@ void Globals::apply() const {
   set_num_threads(threads > 0 ? threads : 0);
 }
 
-void Globals::write_resolved_config(const std::string& path) const {
-  write_file_atomic(path, root->config_to_str(true, false));
+std::string Globals::resolved_config() const { return root->config_to_str(true, false); }
+
+void Globals::write_resolved_config(const std::string& path) const { write_file_atomic(path, resolved_config()); }
+
+nlohmann::json json_flag(const std::string& text, const std::string& flag, const std::string& example) {
+  if (text.empty()) return nlohmann::json::object();
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) throw InvalidInput(flag, "is not a JSON object", "e.g. " + flag + " '" + example + "'");
+  return j;
+}
+
+void add_trainer_flags(CLI::App& app, TrainerFlags& f, bool steps) {
+  if (steps) app.add_option("--steps", f.steps, "Training steps")->capture_default_str()->check(CLI::Range(1, 1000000000));
+  app.add_option("--batch", f.batch, "Batch size")->capture_default_str();
+  app.add_option("--seed", f.seed, "Seed of weights and data order (and of the run's random draws)")->capture_default_str();
+  add_device_option(app, f.device);
+  app.add_option("--log-every", f.log_every, "Steps between log lines")->capture_default_str();
+  app.add_option("--checkpoint-every", f.checkpoint_every, "Steps between checkpoints")->capture_default_str();
+  app.add_option("--eval-every", f.eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
+  app.add_option("--sample-every", f.sample_every, "Steps between sample grids (0: never)")->capture_default_str();
+  app.add_flag("--resume", f.resume, "Continue the run in the output folder from its checkpoint");
 }
 
 int run(int argc, char** argv) {

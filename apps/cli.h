@@ -2,7 +2,9 @@
 // and the mapping from our exceptions to one line on stderr.
 #pragma once
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -30,7 +32,8 @@ struct Globals {
   void apply() const;
   // A progress bar unless -q.
   ProgressBar progress(const std::string& label) const { return ProgressBar(label, !quiet()); }
-  // Writes the resolved configuration (config file + flags + defaults) as JSON next to a command's outputs.
+  // The resolved configuration (config file + flags + defaults) as JSON, and written next to a command's outputs.
+  std::string resolved_config() const;
   void write_resolved_config(const std::string& path) const;
 };
 
@@ -53,6 +56,23 @@ class JsonConfig : public CLI::Config {
   std::vector<CLI::ConfigItem> from_config(std::istream& input) const override;
   CLI::Option* file_option = nullptr;  // --config: names the file in errors
 };
+
+// A flag whose value is a JSON object (--loss, --g-options, --generator, --options, ...): {} when empty; InvalidInput
+// naming the flag, with `example` as the hint, when it is not a JSON object.
+nlohmann::json json_flag(const std::string& text, const std::string& flag, const std::string& example);
+
+// The flags every training shares. A command sets its defaults here, registers them with add_trainer_flags, and
+// copies them into its library's run options.
+struct TrainerFlags {
+  int64_t steps = 1000, batch = 1, log_every = 50, checkpoint_every = 1000, eval_every = 1000, sample_every = 1000;
+  uint64_t seed = 0;
+  bool resume = false;
+  std::string device = "cpu";
+};
+
+// --steps (unless `steps` is false: the command has its own), --batch, --seed, --device, --log-every,
+// --checkpoint-every, --eval-every, --sample-every, --resume.
+void add_trainer_flags(CLI::App& app, TrainerFlags& flags, bool steps = true);
 
 // Parses argv, runs the chosen command, and turns exceptions into one line + exit code.
 int run(int argc, char** argv);

@@ -1,8 +1,7 @@
-// bareskin landmarks detect: faces and their iBUG-68 landmarks in a photo, with face-api's networks in LibTorch
-// (detect/face_api.h). The output is a landmark file every other command reads (the best face's points), plus
-// every face found with its box and score.
+// bareskin landmarks detect / scan / calibrate / capture: a photo's or a scan's landmarks with face-api's networks in
+// LibTorch (detect/landmark_files.h), the detector's calibration, a synthetic rig capture; and the detectors the
+// geometry commands take (apps/detector.h).
 #include <algorithm>
-#include <chrono>
 #include <memory>
 #include <optional>
 #include <thread>
@@ -14,14 +13,13 @@
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "core/image_io.h"
 #include "core/landmarks.h"
 #include "core/scan_folder.h"
 #include "detect/capture_landmarks.h"
 #include "detect/face_api.h"
 #include "detect/multiview_landmarks.h"
+#include "detect/landmark_files.h"
 #include "detect/scan_landmarks.h"
-#include "render/preview.h"
 #include "scan/capture.h"
 #include "training/device.h"
 
@@ -70,16 +68,6 @@ detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
   };
 }
 
-namespace {
-
-void save_views(const std::string& dir, const detect::MultiviewScanLandmarks& m) {
-  std::vector<Camera> cameras;
-  for (const auto& v : m.views) cameras.push_back(v.camera);
-  write_capture_folder(dir, "view", m.pictures, cameras);
-}
-
-}  // namespace
-
 std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {
   struct Options {
     std::string photo, output, draw, weights, device = "cpu";
@@ -103,15 +91,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       ->check(CLI::Range(0, 100000));
   add_device_option(*d, opt->device);
 
-  struct ScanOptions {
-    std::string scan, texture, output, draw, weights;
-    detect::ScanLandmarkOptions detect;
-    detect::MultiviewOptions multiview;
-    bool no_jaw = false;
-    std::string calibration, uncalibrated, save_views, capture, sparse;
-    ColmapOptions colmap;
-  };
-  auto sc = std::make_shared<ScanOptions>();
+  auto sc = std::make_shared<detect::ScanLandmarkFilesOptions>();
   sc->multiview.views = 1;
   CLI::App* s = app.add_subcommand("scan", "3D landmarks of a textured scan: detected in its front render, back-projected");
   s->add_option("scan", sc->scan, "Scan folder (mesh.obj|ply + diffuse.png|exr|tif) or a mesh file")->required();
@@ -206,109 +186,20 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       return;
     }
     if (s->parsed()) {
-      check_output_file(sc->output);
-      if (!sc->uncalibrated.empty() && sc->calibration.empty())
-        throw InvalidInput("--uncalibrated", "needs --calibration (the points before it)", "pass --calibration FILE");
-      if (!sc->uncalibrated.empty()) check_output_file(sc->uncalibrated);
-      if (sc->weights.empty()) sc->weights = detect::default_face_api_folder();
-      const TexturedScan scan = read_textured_scan(sc->scan, sc->texture);
-      const Mesh& mesh = scan.mesh;
-      const Image* diffuse = scan.diffuse ? &*scan.diffuse : nullptr;
-      const std::string& mesh_path = scan.mesh_path;
-      detect::FaceApi net(sc->weights);
-      if (sc->multiview.views == 1 && !(sc->calibration.empty() && sc->save_views.empty() && sc->capture.empty()))
-        throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
-      if (!sc->sparse.empty() && sc->capture.empty())
-        throw InvalidInput("--sparse", "needs --capture (the photos the model was made from)", "pass --capture DIR");
       sc->colmap.threads = globals.threads;
-      if (sc->multiview.views > 1) {
-        sc->multiview.triangulate.jaw = !sc->no_jaw;
-        sc->multiview.refinements = sc->detect.refinements;
-        std::optional<LandmarkCalibration> calibration;
-        if (!sc->calibration.empty()) calibration = read_landmark_calibration(sc->calibration);
-        auto m = detect::detect_multiview_landmarks(net, mesh, diffuse, sc->multiview,
-                                                    !sc->draw.empty() || !sc->save_views.empty());
-        if (!sc->save_views.empty()) save_views(sc->save_views, m);
-        nlohmann::json capture_info;
-        if (!sc->capture.empty())
-          capture_info = detect::capture_landmarks(net, mesh, m, {sc->capture, sc->sparse, sc->colmap}, sc->multiview);
-        if (!sc->uncalibrated.empty()) write_file_atomic(sc->uncalibrated, multiview_landmarks_json(m.result));
-        if (calibration) apply_calibration(mesh, *calibration, m.result);
-        if (!sc->draw.empty() && !m.pictures.empty()) write_image(sc->draw, detect::draw_multiview(m));
-        nlohmann::json doc = nlohmann::json::parse(multiview_landmarks_json(m.result));
-        if (!capture_info.is_null()) doc["capture"] = capture_info;
-        write_file_atomic(sc->output, doc.dump(1) + "\n");
-        int valid = 0;
-        for (const auto& p : m.result.points) valid += p.valid;
-        spdlog::info("landmarks scan: {}: {} of {} views with a face, {} of 68 points triangulated; render {:.1f} s, "
-                     "detect {:.1f} s, triangulate {:.2f} s -> {}", mesh_path, m.result.views_detected, m.result.views,
-                     valid, m.seconds_render, m.seconds_detect, m.seconds_triangulate, sc->output);
-        return;
-      }
-      const auto r = detect::detect_scan_landmarks(net, mesh, diffuse, sc->detect);
-      if (!sc->draw.empty()) {
-        Image canvas = r.picture;
-        draw_landmarks(canvas, r.px, {1.f, 0.2f, 0.2f}, std::max(1, sc->detect.size / 256));
-        write_image(sc->draw, canvas);
-      }
-      write_landmarks(sc->output, r.landmarks);
-      spdlog::info("landmarks scan: {}: detector score {:.3f}{}, {} point(s) snapped onto the silhouette -> {}", mesh_path,
-                   r.detector_score, r.detector_score == 0 ? " (none: coverage box used)" : "", r.off_surface,
-                   sc->output);
+      detect::scan_landmark_files(*sc);
       return;
     }
     const torch::Device device = parse_device(opt->device);
-    for (const std::string& out : {opt->output, opt->draw}) {
-      if (!out.empty() && out == opt->photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
-    }
-    if (lower_extension(opt->output) != ".json")
-      throw InvalidInput(opt->output, "landmarks are written as JSON", "name the output *.json");
-    if (opt->weights.empty()) opt->weights = detect::default_face_api_folder();
-    detect::FaceApi net(opt->weights);
-    net.to(device);
-    const Image image = read_image(opt->photo);
-    const torch::Tensor photo = detect::photo_tensor(image, opt->photo);
-    const auto start = std::chrono::steady_clock::now();
-    const auto faces = net.detect(photo, opt->detect);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (faces.empty())
-      throw InvalidInput(opt->photo, "no face found with score above " + std::to_string(opt->detect.min_score),
-                         "try a lower --min-score or a larger --input-size, or crop the photo around the face");
-
-    auto points_json = [](const Eigen::Matrix<double, 68, 2>& p) {
-      auto a = nlohmann::json::array();
-      for (int i = 0; i < 68; ++i) a.push_back({p(i, 0), p(i, 1)});
-      return a;
-    };
-    nlohmann::json doc = {{"scheme", "ibug68"}, {"units", "px"}, {"image", opt->photo},
-                          {"width", image.width},  {"height", image.height}};
-    doc["points"] = points_json(faces[0].points);
-    doc["score"] = faces[0].score;
-    doc["faces"] = nlohmann::json::array();
-    for (const auto& f : faces)
-      doc["faces"].push_back({{"score", f.score},
-                              {"box", {f.box.x, f.box.y, f.box.width, f.box.height}},
-                              {"points", points_json(f.points)}});
-    doc["detector"] = {{"model", "face-api 1.7.15 tiny_face_detector + face_landmark_68"},
-                       {"input_size", opt->detect.input_size},
-                       {"min_score", opt->detect.min_score},
-                       {"device", opt->device}};
-
-    std::string drawn;
-    if (!opt->draw.empty()) {
-      Image canvas(image.width, image.height, 3, ColorSpace::sRGB);
-      const torch::Tensor rgb = photo.contiguous();
-      std::copy(rgb.data_ptr<float>(), rgb.data_ptr<float>() + rgb.numel(), canvas.pixels.begin());
-      for (const auto& f : faces) {
-        const int r = std::max(1, int(std::lround(f.box.width / 100)));
-        draw_box(canvas, f.box.x, f.box.y, f.box.width, f.box.height, {0.2f, 0.9f, 0.3f});
-        draw_landmarks(canvas, f.points, {1.f, 0.2f, 0.2f}, r);
-      }
-      write_image(opt->draw, canvas);
-    }
-    write_file_atomic(opt->output, doc.dump(1) + "\n");
-    spdlog::info("landmarks detect: {}: {} face(s), best score {:.3f}; {:.1f} ms on {} ({})", opt->photo, faces.size(), faces[0].score, ms,
-              opt->device, opt->output);
+    detect::PhotoLandmarksOptions d;
+    d.photo = opt->photo;
+    d.output = opt->output;
+    d.draw = opt->draw;
+    d.weights = opt->weights;
+    d.device = device;
+    d.device_name = opt->device;
+    d.detect = opt->detect;
+    detect::detect_photo_landmarks(d);
   };
 }
 

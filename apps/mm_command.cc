@@ -2,13 +2,11 @@
 // and its metrics (compactness, generalisation, specificity; per region).
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "apps/detector.h"
 #include "apps/model_input.h"
-#include "core/svg_chart.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
@@ -171,11 +169,7 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
 }
 
 std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& globals) {
-  struct Options {
-    std::string model, registered, output;
-    MetricsOptions metrics;
-  };
-  auto opt = std::make_shared<Options>();
+  auto opt = std::make_shared<EvaluateModelOptions>();
   app.add_option("model", opt->model, "Model from 'bareskin mm-build'")->required();
   app.add_option("registered", opt->registered, "Registered subjects (the model's training set)")->required();
   app.add_option("-o,--output", opt->output, "Output folder (metrics.csv, metrics.json, *.svg); default: "
@@ -186,105 +180,10 @@ std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& global
       ->capture_default_str();
   app.add_option("--seed", opt->metrics.seed, "Sampling seed")->capture_default_str();
   return [opt, &globals] {
-    if (opt->metrics.samples < 1 || opt->metrics.max_components < 1 || opt->metrics.max_held_out < 1) {
-      throw InvalidInput("", "--samples, --max-components and --max-held-out must be >= 1", "");
-    }
-    const MorphableModel model = read_model(opt->model);
-    if (opt->output.empty()) opt->output = stem_path(opt->model) + "_metrics";
-    std::vector<std::string> dirs;
-    for (const std::string& s : model.subjects) {
-      const std::string d = opt->registered + "/" + s;
-      if (!fs::is_directory(d)) {
-        throw InvalidInput(d, "is missing: the model was trained on subject " + s,
-                           "give the registered folder the model was built from");
-      }
-      dirs.push_back(d);
-    }
-    TemplateFace face;
-    face.mesh = model.topology;
-    face.landmark_vertices = model.landmark_vertices;
-    RowMatrixXf X = read_shapes(face, dirs);
-    // Into the model frame with the model's own Procrustes transforms.
-    for (Eigen::Index i = 0; i < X.rows(); ++i) {
-      const Eigen::Matrix4d& T = model.procrustes.at(size_t(i));
-      Eigen::Map<Eigen::Matrix<float, 3, Eigen::Dynamic>> P(X.row(i).data(), 3, X.cols() / 3);
-      P = ((T.topLeftCorner<3, 3>() * P.cast<double>()).colwise() + T.topRightCorner<3, 1>()).cast<float>();
-    }
-    const auto t0 = std::chrono::steady_clock::now();
-    const ModelMetrics m = model_metrics(X, model.vertex_region, model.region_names, opt->metrics);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-    AtomicDirectory out(opt->output);
-    std::string csv = "components,compactness,generalization_mm,specificity_mm";
-    for (const std::string& r : m.regions) csv += ",generalization_" + r + "_mm";
-    csv += "\n";
-    for (size_t q = 0; q < m.components.size(); ++q) {
-      csv += fmt::format("{},{:.6f},{:.5f},{:.5f}", m.components[q], m.compactness[q], m.generalization_mm[q],
-                         m.specificity_mm[q]);
-      for (const auto& r : m.generalization_region_mm) csv += fmt::format(",{:.5f}", r[q]);
-      csv += "\n";
-    }
-    write_file_atomic(out.path() + "/metrics.csv", csv);
-    nlohmann::json j = {{"model", opt->model},
-                        {"subjects", m.subjects},
-                        {"held_out", m.held_out},
-                        {"samples", m.samples},
-                        {"distance", "RMS over vertices of the per-vertex Euclidean distance, mm, in the model frame"},
-                        {"components", m.components},
-                        {"compactness", m.compactness},
-                        {"generalization_mm", m.generalization_mm},
-                        {"specificity_mm", m.specificity_mm},
-                        {"seconds", seconds}};
-    for (size_t r = 0; r < m.regions.size(); ++r) j["generalization_region_mm"][m.regions[r]] = m.generalization_region_mm[r];
-    write_file_atomic(out.path() + "/metrics.json", j.dump(1) + "\n");
-    std::vector<double> k(m.components.begin(), m.components.end());
-    const auto chart = [&](const std::string& name, const std::string& title, const std::string& y,
-                           std::vector<ChartSeries> series) {
-      write_file_atomic(out.path() + "/" + name + ".svg", svg_line_chart({title, "components", y, std::move(series)}));
-    };
-    chart("compactness", "Compactness", "explained variance fraction", {{"shape", k, m.compactness}});
-    chart("generalization", "Generalisation (leave-one-out)", "RMS vertex error, mm", {{"all vertices", k, m.generalization_mm}});
-    chart("specificity", "Specificity", "RMS distance to nearest training shape, mm", {{"shape", k, m.specificity_mm}});
-    std::vector<ChartSeries> regions;
-    for (size_t r = 0; r < m.regions.size(); ++r) regions.push_back({m.regions[r], k, m.generalization_region_mm[r]});
-    chart("generalization_regions", "Generalisation per region", "RMS vertex error, mm", regions);
-    globals.write_resolved_config(out.path() + "/config.json");
-    out.commit();
-    spdlog::info("mm-eval: {} subjects; at {} components: compactness {:.3f}, generalisation {:.3f} mm, specificity "
-                 "{:.3f} mm ({:.1f} s) -> {}",
-                 m.subjects, m.components.back(), m.compactness.back(), m.generalization_mm.back(),
-                 m.specificity_mm.back(), seconds, opt->output);
+    opt->config = globals.resolved_config();
+    evaluate_model(*opt);
   };
 }
-
-namespace {
-
-// mm-fit --trace: the CSV (stage, iteration, milliseconds since the stage began, value) and one chart per stage,
-// accuracy against time with a marker per iteration.
-void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const PhotometricFit& photo) {
-  std::string csv = "stage,iteration,milliseconds,value,unit\n";
-  const std::string stem = csv_path.size() > 4 && csv_path.substr(csv_path.size() - 4) == ".csv"
-                               ? csv_path.substr(0, csv_path.size() - 4) : csv_path;
-  const auto add = [&](const char* stage, const std::vector<FitTraceStep>& trace, const char* unit, const std::string& title,
-                       const std::string& y_label) {
-    if (trace.empty()) return;
-    ChartSeries series{stage, {}, {}};
-    for (const FitTraceStep& t : trace) {
-      csv += fmt::format("{},{},{:.3f},{:.6g},{}\n", stage, t.iteration, 1000 * t.seconds, t.value, unit);
-      series.x.push_back(1000 * t.seconds);
-      series.y.push_back(t.value);
-    }
-    Chart chart{title, "milliseconds (one marker per iteration)", y_label, {series}};
-    chart.log_y = std::string(stage) == "landmarks";
-    chart.y_from_zero = false;
-    write_file_atomic(stem + "_" + stage + ".svg", svg_line_chart(chart));
-  };
-  add("landmarks", fit.trace, "px", "Landmark fit (Levenberg-Marquardt)", "landmark RMS (px, log scale)");
-  add("photometric", photo.trace, "dB", "Photometric fit (Gauss-Newton on delta, gamma)", "render PSNR (dB)");
-  write_file_atomic(csv_path, csv);
-}
-
-}  // namespace
 
 std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals) {
   struct Options {

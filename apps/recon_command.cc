@@ -1,7 +1,6 @@
 // bareskin recon: a photo → face-api's 68 landmarks → recon/recon_photo.h (Deep3DFaceRecon's 5-point alignment, the
 // net F or E of a `bareskin train recon` run, --refine: mm-fit's fitters from the net's answer) → coefficient file,
-// posed mesh (OBJ), overlay picture, landmarks, and a confidence. This file parses flags and writes files. docs/cli.md.
-#include <algorithm>
+// posed mesh (OBJ), overlay picture, landmarks, and a confidence. This file parses flags. docs/cli.md.
 #include <filesystem>
 #include <iostream>
 
@@ -11,64 +10,10 @@
 #include "training/device.h"
 #include "recon/recon_eval.h"
 #include "core/error.h"
-#include "core/files.h"
-#include "core/image_io.h"
-#include "core/landmarks.h"
-#include "core/mesh_io.h"
-#include "detect/face_api.h"
-#include "morphable/coefficients.h"
-#include "morphable/model.h"
-#include "training/checkpoint.h"
-#include "recon/recon.h"
 #include "recon/recon_photo.h"
 
 namespace bareskin::cli {
-namespace {
-
 namespace fs = std::filesystem;
-
-struct Context {
-  recon::TrainedRecon net;
-  MorphableModel geometry;  // for --refine and the OBJ
-  std::shared_ptr<const detect::FaceApi> detector;
-  recon::PhotoReconOptions options;
-};
-
-// Everything about one photo, computed before anything is written: a failure leaves no output.
-void reconstruct_photo(const Context& ctx, const std::string& photo_path, const std::string& out_dir, bool quiet) {
-  const Image photo = read_image(photo_path);
-  if (photo.channels < 3) throw InvalidInput(photo_path, "is not an RGB image", "give a colour photo");
-  const std::vector<detect::Face> faces = ctx.detector->detect(detect::photo_tensor(photo, photo_path));
-  if (faces.empty()) throw InvalidInput(photo_path, "no face was found", "give a photo with a face of at least ~80 px");
-  recon::PhotoReconstruction r = recon::reconstruct_photo(ctx.net, ctx.geometry, photo, faces.front().points, ctx.options);
-  Coefficients& c = r.coefficients;
-  c.extra.update({{"source", "bareskin recon"}, {"photo", photo_path}, {"detector_score", faces.front().score}});
-  const auto [overlay, projected] = recon::photo_overlay(ctx.net, c, r.similarity, photo);
-  Landmarks out_lm;
-  out_lm.units = "px";
-  out_lm.points = projected;
-  const Mesh mesh = posed_mesh(ctx.geometry, c);
-  // Written only now, each file atomically.
-  fs::create_directories(out_dir);
-  write_coefficients(out_dir + "/coefficients.json", c);
-  write_mesh(out_dir + "/mesh.obj", mesh);
-  write_image(out_dir + "/overlay.png", overlay);
-  write_image(out_dir + "/aligned.png", r.aligned);
-  write_landmarks(out_dir + "/landmarks.json", out_lm);
-  if (!quiet) {
-    std::cerr << photo_path << ": confidence " << r.answer.confidence << (r.answer.flagged ? " (FLAGGED)" : "")
-              << ", landmarks " << r.answer.landmark_residual_px << " px, PSNR " << r.answer.psnr_db << " dB → "
-              << out_dir << "\n";
-  }
-}
-
-bool is_image(const fs::path& p) {
-  std::string e = p.extension().string();
-  for (char& ch : e) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff";
-}
-
-}  // namespace
 
 std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals) {
   struct Options {
@@ -109,18 +54,7 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     if (o->eval.data.empty() && !fs::exists(o->input)) {
       throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
     }
-    std::string model_path = o->model;
-    if (model_path.empty()) {
-      // The run's config names the model it was trained with.
-      const std::string ckpt = fs::is_directory(o->run) ? train::checkpoint_path(o->run) : o->run;
-      if (!fs::exists(ckpt)) throw IoError(ckpt, "does not exist", "give --run the folder of 'bareskin train recon'");
-      const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
-      if (fs::exists(cfg)) model_path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
-      if (model_path.empty()) {
-        throw InvalidInput(cfg, "is missing or names no model file (the one the run was trained with)",
-                           "give --run the folder of 'bareskin train recon', or --model");
-      }
-    }
+    const std::string model_path = recon::run_model_path(o->run, o->model);
     if (!o->eval.data.empty()) {
       recon::EvalOptions e = o->eval;
       e.run = o->run;
@@ -133,37 +67,18 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
       if (!globals.quiet()) std::cout << summary.dump(2) << "\n";
       return;
     }
-    Context ctx;
-    ctx.net = recon::load_recon(o->run, recon::FaceModel::load(model_path), device);
-    ctx.geometry = read_model(model_path);
-    ctx.detector = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-    ctx.options.confidence = o->confidence;
-    ctx.options.refine = o->refine;
-    ctx.options.refine_iterations = o->refine_iterations;
-    if (!fs::is_directory(o->input)) {
-      reconstruct_photo(ctx, o->input, o->output, globals.quiet());
-      return;
-    }
-    std::vector<fs::path> photos;
-    for (const auto& e : fs::directory_iterator(o->input)) {
-      if (e.is_regular_file() && is_image(e.path())) photos.push_back(e.path());
-    }
-    std::sort(photos.begin(), photos.end());
-    if (photos.empty()) throw InvalidInput(o->input, "holds no photos (.png, .jpg, .tif)", "give a folder of photos");
-    int failed = 0;
-    for (const fs::path& p : photos) {
-      try {
-        reconstruct_photo(ctx, p.string(), (fs::path(o->output) / p.stem()).string(), globals.quiet());
-      } catch (const Error& e) {
-        if (!o->keep_going) throw;
-        ++failed;
-        std::cerr << "error: " << e.what() << "\n";
-      }
-    }
-    if (failed) {
-      throw InvalidInput(o->input, std::to_string(failed) + " of " + std::to_string(photos.size()) + " photos failed",
-                         "see the lines above");
-    }
+    recon::PhotoFilesOptions p;
+    p.input = o->input;
+    p.output = o->output;
+    p.run = o->run;
+    p.model = model_path;
+    p.device = device;
+    p.recon.confidence = o->confidence;
+    p.recon.refine = o->refine;
+    p.recon.refine_iterations = o->refine_iterations;
+    p.keep_going = o->keep_going;
+    p.quiet = globals.quiet();
+    recon::reconstruct_photo_files(p);
   };
 }
 

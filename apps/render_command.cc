@@ -5,7 +5,6 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
 
 #include "apps/cli.h"
 #include "apps/model_input.h"
@@ -14,9 +13,8 @@
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "core/mesh_io.h"
-#include "core/safetensors.h"
+#include "morphable/model.h"
 #include "render/preview.h"
-#include "render/sh.h"
 #include "render/shade.h"
 
 namespace bareskin::cli {
@@ -26,27 +24,6 @@ namespace {
 std::string expand(std::string pattern, const std::string& key, const std::string& value) {
   for (size_t at; (at = pattern.find(key)) != std::string::npos;) pattern.replace(at, key.size(), value);
   return pattern;
-}
-
-// The 27 SH coefficients from --sh.
-std::array<double, 27> lighting(const std::string& sh) {
-  if (sh == "default") return default_lighting();
-  std::array<double, 27> g{};
-  if (sh == "none") {
-    for (int c = 0; c < 3; ++c) g[size_t(9 * c)] = kDeep3dAmbient;
-    return g;
-  }
-  const auto doc = nlohmann::json::parse(read_file(sh), nullptr, false);
-  if (doc.is_discarded() || !doc.is_array() || doc.size() != 27) {
-    throw InvalidInput(sh, "is not a JSON list of 27 numbers", "give 9 SH coefficients per RGB channel, channel-major");
-  }
-  for (size_t k = 0; k < 27; ++k) {
-    if (!doc[k].is_number() || !std::isfinite(doc[k].get<double>())) {
-      throw InvalidInput(sh, "coefficient " + std::to_string(k) + " is not a finite number", "");
-    }
-    g[k] = doc[k].get<double>();
-  }
-  return g;
 }
 
 struct RenderArgs {
@@ -61,54 +38,6 @@ struct RenderArgs {
   bool cull = false;
 };
 
-// --blendshapes with --expression NAME=WEIGHT: the mesh posed by the weighted deltas (normals dropped).
-void pose_expression(Mesh& mesh, const std::string& blendshapes, const std::vector<std::string>& expression) {
-  if (!expression.empty() && blendshapes.empty()) {
-    throw InvalidInput("", "--expression needs --blendshapes FILE", "pass scans/blendshapes/blendshapes.safetensors");
-  }
-  if (blendshapes.empty()) return;
-  const SafeTensors st = SafeTensors::open(blendshapes);
-  const TensorView& deltas = st.tensor("deltas", DType::F32, {-1, mesh.V.rows(), 3});
-  const auto names = nlohmann::json::parse(st.metadata().count("names") ? st.metadata().at("names") : "", nullptr, false);
-  if (names.is_discarded() || !names.is_array() || int64_t(names.size()) != deltas.shape[0]) {
-    throw InvalidInput(blendshapes, "metadata 'names' does not list the blendshapes", "rewrite it with 'scan synth'");
-  }
-  const std::vector<float> d = deltas.to_vector<float>();
-  for (const std::string& item : expression) {
-    const size_t eq = item.find('=');
-    const std::string name = item.substr(0, eq);
-    double weight = 1.0;
-    if (eq != std::string::npos) {
-      try {
-        weight = std::stod(item.substr(eq + 1));
-      } catch (const std::exception&) {
-        throw InvalidInput("", "--expression '" + item + "': weight is not a number", "write NAME=WEIGHT");
-      }
-    }
-    const auto it = std::find(names.begin(), names.end(), name);
-    if (it == names.end()) throw InvalidInput(blendshapes, "has no blendshape '" + name + "'", "see its names.json");
-    const size_t k = size_t(it - names.begin()), n = size_t(mesh.V.rows());
-    for (size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) mesh.V(Eigen::Index(i), c) += weight * d[(k * n + i) * 3 + size_t(c)];
-  }
-  mesh.N.resize(0, 3);  // recomputed for the posed shape
-}
-
-// One pass of a frame as the image to write: depth normalised (nearer brighter) and colours sRGB-encoded unless EXR.
-Image pass_image(const Frame& frame, const std::string& pass, bool exr) {
-  Image img = pass == "colour" ? frame.colour : pass == "albedo" ? frame.albedo : pass == "normal" ? frame.normal
-                                                : pass == "mask" ? frame.mask : frame.depth;
-  if (pass == "depth" && !exr) {  // nearer brighter, over the covered range
-    float lo = 1e30f, hi = -1e30f;
-    for (size_t i = 0; i < img.pixels.size(); ++i)
-      if (frame.mask.pixels[i] > 0) lo = std::min(lo, img.pixels[i]), hi = std::max(hi, img.pixels[i]);
-    for (size_t i = 0; i < img.pixels.size(); ++i)
-      img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
-  }
-  if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
-  return img;
-}
-
 // --camera: every view's frame, its passes and projected landmarks.
 void render_with_camera(const RenderArgs& opt, const Mesh& mesh, const ModelInstance& instance, bool sh_given) {
   const std::vector<std::string> views = opt.views.empty() ? std::vector<std::string>{opt.view} : opt.views;
@@ -117,7 +46,7 @@ void render_with_camera(const RenderArgs& opt, const Mesh& mesh, const ModelInst
     throw InvalidInput("", "several views or passes need {view} / {pass} in -o", "e.g. -o out/face_{view}_{pass}.png");
   }
   ShadeOptions shade;
-  shade.gamma = instance.gamma && !sh_given ? *instance.gamma : lighting(opt.sh);
+  shade.gamma = instance.gamma && !sh_given ? *instance.gamma : read_sh_lighting(opt.sh);
   shade.cull_back_faces = opt.cull;
   Image texture;
   if (!opt.texture.empty()) {
@@ -225,7 +154,7 @@ std::function<void()> setup_render_command(CLI::App& app, const Globals&) {
     ModelInstance instance;
     if (!opt->model.empty()) instance = model_instance(opt->model, opt->coeffs);
     Mesh mesh = opt->model.empty() ? read_mesh(opt->mesh) : instance.mesh;
-    pose_expression(mesh, opt->blendshapes, opt->expression);
+    pose_blendshapes(mesh, opt->blendshapes, opt->expression);
     if (!opt->camera.empty()) return render_with_camera(*opt, mesh, instance, sh_option->count() > 0);
     render_preview_picture(*opt, mesh);
   };

@@ -1,17 +1,13 @@
 // bareskin train bareskin: BareSkinNet's two stages (bareskinnet/bareskinnet.h) on `texgen faces` samples, with the
 // teacher F of `bareskin train recon`. docs/training.md, "BareSkinNet"; docs/cli.md.
-#include <fmt/format.h>
-
 #include <filesystem>
 #include <iostream>
 #include <set>
 
 #include "apps/cli.h"
-#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
-#include "core/files.h"
-#include "detect/face_recognition.h"
+#include "core/shards.h"
 #include "detect/face_api.h"
 #include "bareskinnet/bareskinnet.h"
 #include "training/device.h"
@@ -20,37 +16,17 @@
 namespace bareskin::cli {
 namespace fs = std::filesystem;
 
-namespace {
-
-nlohmann::json json_option(const std::string& text, const std::string& flag) {
-  if (text.empty()) return nlohmann::json::object();
-  auto j = nlohmann::json::parse(text, nullptr, false);
-  if (!j.is_object()) throw InvalidInput(flag, "is not a JSON object", "e.g. " + flag + " '{\"ngf\": 32}'");
-  return j;
-}
-
-// faces/ holds train/, val/ (and test/); a folder with its own manifest.json is taken as the training split.
-std::pair<std::string, std::string> splits(const std::string& data) {
-  if (fs::exists(fs::path(data) / "manifest.json")) return {data, ""};
-  const fs::path train = fs::path(data) / "train", val = fs::path(data) / "val";
-  if (!fs::exists(train / "manifest.json"))
-    throw InvalidInput(data, "has no train/manifest.json (nor manifest.json)", "give the folder 'bareskin texgen faces' wrote");
-  return {train.string(), fs::exists(val / "manifest.json") ? val.string() : ""};
-}
-
-}  // namespace
-
 std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals) {
   struct Options {
-    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, weights, device = "cpu";
+    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, weights;
     bsn::Options task;
-    int64_t steps1 = 10000, steps2 = 30000, batch = 4, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
-            sample_every = 1000;
-    uint64_t seed = 0;
-    bool resume = false, evaluate = false, paper_g = false;
+    int64_t steps1 = 10000, steps2 = 30000;
+    TrainerFlags t;
+    bool evaluate = false, paper_g = false;
     int64_t eval_samples = 0;
   };
   auto o = std::make_shared<Options>();
+  o->t.batch = 4;
   CLI::App* app = train.add_subcommand("bareskin", "Train BareSkinNet: stage 1 (G alone), stage 2 (G + E with the frozen teacher F)");
   app->add_option("--data", o->data, "Face samples of 'texgen faces' (train/ and val/ inside)")->required();
   app->add_option("--teacher", o->teacher, "The teacher F: a 'bareskin train recon' run folder (needed by stage 2)");
@@ -60,7 +36,6 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
       ->check(CLI::Range(1, 1000000000));
   app->add_option("--steps2", o->steps2, "Stage-2 iterations (the paper: 30000; 0: stage 1 only)")
       ->capture_default_str()->check(CLI::Range(0, 1000000000));
-  app->add_option("--batch", o->batch, "Batch size (the paper: 4)")->capture_default_str();
   app->add_option("--size", o->task.size, "Training resolution (a power of two; the samples are area-resized)")->capture_default_str();
   app->add_option("--target", o->task.target, "G's supervision: before (the paper) or bare (the albedo truth)")
       ->check(CLI::IsMember({"before", "bare"}))->capture_default_str();
@@ -84,28 +59,24 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, e.g. '{\"w2\": 0.5}'");
-  app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
-  add_device_option(*app, o->device);
-  app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
-  app->add_option("--checkpoint-every", o->checkpoint_every, "Steps between checkpoints")->capture_default_str();
-  app->add_option("--eval-every", o->eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
-  app->add_option("--sample-every", o->sample_every, "Steps between sample grids (0: never)")->capture_default_str();
-  app->add_flag("--resume", o->resume, "Continue the run in the output folder (finished stages are kept)");
+  add_trainer_flags(*app, o->t, false);
+  app->get_option("--batch")->description("Batch size (the paper: 4)");
+  app->get_option("--resume")->description("Continue the run in the output folder (finished stages are kept)");
   app->add_flag("--evaluate", o->evaluate, "Only evaluate the run in the output folder on the test split (eval.json)");
   app->add_option("--eval-samples", o->eval_samples, "Test samples the final evaluation reads (0: all)")->capture_default_str();
   app->footer("Example:\n  bareskin train bareskin --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
               "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
   return [o, app, &globals] {
     set_torch_threads(globals);
-    const torch::Device device = parse_device(o->device);
-    const auto data_splits = splits(o->data);
+    const torch::Device device = parse_device(o->t.device);
+    const shards::Splits data_splits = shards::find_splits(o->data, "give the folder 'bareskin texgen faces' wrote");
     bsn::Options task = o->task;
     task.residual = !o->paper_g;
-    task.g = json_option(o->g, "--g-options");
-    task.d = json_option(o->d, "--d-options");
+    task.g = json_flag(o->g, "--g-options", "{\"ngf\": 32}");
+    task.d = json_flag(o->d, "--d-options", "{\"ngf\": 32}");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);
     nlohmann::json check = task;
-    const nlohmann::json weights = json_option(o->weights, "--loss-weights");  // named: items() of a temporary dangles
+    const nlohmann::json weights = json_flag(o->weights, "--loss-weights", "{\"ngf\": 32}");  // named: items() of a temporary dangles
     for (auto& [key, value] : weights.items()) {
       static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
       if (!kWeights.count(key) || !value.is_number())
@@ -116,7 +87,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     bsn::from_json(check, task);  // validates size, target, ...
     if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
     if (!o->ablation.empty() && !bsn::ablation_has_stage2(o->ablation)) o->steps2 = 0;
-    const nlohmann::json student_options = json_option(o->student, "--student-options");
+    const nlohmann::json student_options = json_flag(o->student, "--student-options", "{\"ngf\": 32}");
     if (o->steps2 > 0 && !o->evaluate) {
       if (o->teacher.empty())
         throw InvalidInput("--teacher", "is needed by stage 2", "give a 'bareskin train recon' run, or --steps2 0");
@@ -127,46 +98,30 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     }
     bsn::RunOptions ro;
     ro.task = task;
-    std::tie(ro.train_data, ro.val_data) = data_splits;
+    ro.train_data = data_splits.train;
+    ro.val_data = data_splits.val;
     ro.run_dir = o->output;
     ro.steps1 = o->steps1;
     ro.steps2 = o->steps2;
-    ro.batch = o->batch;
-    ro.seed = o->seed;
+    ro.batch = o->t.batch;
+    ro.seed = o->t.seed;
     if (!o->teacher.empty()) ro.teacher = fs::absolute(o->teacher).string();
     if (!o->model.empty()) ro.model = fs::absolute(o->model).string();
-    ro.trainer.resume = o->resume;
+    ro.trainer.resume = o->t.resume;
     ro.trainer.device = device;
-    ro.trainer.log_every = o->log_every;
-    ro.trainer.checkpoint_every = o->checkpoint_every;
-    ro.trainer.eval_every = ro.val_data.empty() ? 0 : o->eval_every;
-    ro.trainer.sample_every = o->sample_every;
+    ro.trainer.log_every = o->t.log_every;
+    ro.trainer.checkpoint_every = o->t.checkpoint_every;
+    ro.trainer.eval_every = ro.val_data.empty() ? 0 : o->t.eval_every;
+    ro.trainer.sample_every = o->t.sample_every;
     ro.trainer.progress = !globals.quiet();
     // The held-out evaluation (test/: unseen subjects and makeup styles) into <run>/eval.json.
-    const std::string test_split = (fs::path(o->data) / "test").string();
-    auto evaluate = [&] {
-      if (!fs::exists(fs::path(test_split) / "manifest.json")) {
-        if (o->evaluate) throw InvalidInput(o->data, "has no test/manifest.json to evaluate on", "give the folder 'bareskin texgen faces' wrote");
-        return;
-      }
-      bsn::EvalOptions eo;
-      eo.lpips_trunk = task.lpips_trunk;
-      eo.device = device;
-      eo.max_samples = o->eval_samples;
-      const std::string face_api = detect::default_face_api_folder();
-      if (fs::exists(fs::path(face_api) / detect::kFaceRecognitionManifest)) eo.face_api = face_api;
-      if (eo.lpips_trunk == "facenet" && eo.face_api.empty()) eo.lpips_trunk.clear();
-      const bsn::EvalResult r = bsn::evaluate_generator(bsn::load_generator(o->output, device), test_split, eo);
-      nlohmann::json j = r;
-      j["lpips_trunk"] = eo.lpips_trunk;
-      j["split"] = test_split;
-      write_file_atomic(o->output + "/eval.json", j.dump(2) + "\n");
-      if (!globals.quiet())
-        std::cerr << fmt::format("test ({} faces): skin PSNR {:.2f} dB / SSIM {:.4f} vs bare (input {:.2f} / {:.4f}); vs before {:.2f} dB; G {:.1f} ms\n",
-                                 r.samples, r.mean.at("psnr_bare"), r.mean.at("ssim_bare"), r.mean.at("psnr_input_bare"),
-                                 r.mean.at("ssim_input_bare"), r.mean.at("psnr_before"), r.ms_per_image);
-    };
-    if (o->evaluate) return evaluate();
+    bsn::RunEvalOptions eval;
+    eval.lpips_trunk = task.lpips_trunk;
+    eval.max_samples = o->eval_samples;
+    eval.device = device;
+    eval.required = o->evaluate;
+    eval.quiet = globals.quiet();
+    if (o->evaluate) return bsn::evaluate_run(o->output, o->data, eval);
     // Check the teacher before stage 1 spends its time: a wrong checkpoint fails at once.
     std::shared_ptr<recon::FaceModel> model;
     if (o->steps2 > 0) {
@@ -189,7 +144,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
         for (auto& [k, v] : r->last_eval) std::cerr << (r == &result.stage1 ? "stage 1 " : "stage 2 ") << k << " " << v << "\n";
       std::cerr << "wrote " << o->output << "/stage1" << (o->steps2 > 0 ? " and stage2" : "") << "\n";
     }
-    if (result.stage1.steps + result.stage2.steps > 0 || !fs::exists(o->output + "/eval.json")) evaluate();
+    if (result.stage1.steps + result.stage2.steps > 0 || !fs::exists(o->output + "/eval.json"))
+      bsn::evaluate_run(o->output, o->data, eval);
   };
 }
 

@@ -27,17 +27,6 @@ std::string parameter_count(torch::nn::Module& module) {
   return out;
 }
 
-nlohmann::json parse_options(const std::string& text) {
-  if (text.empty()) return nlohmann::json::object();
-  try {
-    auto j = nlohmann::json::parse(text);
-    if (!j.is_object()) throw InvalidInput("--options", "must be a JSON object", "e.g. --options '{\"ngf\": 32}'");
-    return j;
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InvalidInput("--options", std::string("is not JSON (") + e.what() + ")", "e.g. --options '{\"ngf\": 32}'");
-  }
-}
-
 void list_models() {
   std::cout << fmt::format("{:<24} {:>14}  {}\n", "model", "parameters", "what it is");
   for (const auto& entry : nets::model_zoo()) {
@@ -50,7 +39,7 @@ void list_models() {
 void print_model(const std::string& name, const std::string& options_text, bool structure) {
   const auto& entry = nets::find_model(name);
   nlohmann::json options = entry.defaults;
-  options.update(parse_options(options_text));
+  options.update(json_flag(options_text, "--options", "{\"ngf\": 32}"));
   auto net = entry.make(options);
   std::cout << entry.name << ": " << entry.summary << "\n"
             << "parameters: " << parameter_count(*net) << "\n" << "options: " << options.dump(2) << "\n";

@@ -5,7 +5,6 @@
 #include <iostream>
 
 #include "apps/cli.h"
-#include "apps/device_flag.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "detect/face_api.h"
@@ -14,43 +13,21 @@
 #include "recon/recon.h"
 
 namespace bareskin::cli {
-namespace {
 
 namespace fs = std::filesystem;
 
-// faces/ with train/ (and val/), or one split folder with its own manifest.json.
-std::pair<std::string, std::string> recon_splits(const std::string& data) {
-  if (fs::exists(fs::path(data) / "manifest.json")) return {data, ""};
-  const fs::path train = fs::path(data) / "train", val = fs::path(data) / "val";
-  if (!fs::exists(train / "manifest.json")) {
-    throw InvalidInput(data, "has no train/manifest.json (nor manifest.json)", "give the folder 'bareskin texgen faces' wrote");
-  }
-  // An empty val/ (few subjects) means no validation.
-  const bool has_val = fs::exists(val / "manifest.json") && shards::read_manifest(val.string()).samples() > 0;
-  return {train.string(), has_val ? val.string() : ""};
-}
-
-nlohmann::json json_object(const std::string& text, const std::string& flag) {
-  if (text.empty()) return nlohmann::json::object();
-  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-  if (!j.is_object()) throw InvalidInput(flag, "is not a JSON object", "e.g. " + flag + " '{\"photo\": 1.0}'");
-  return j;
-}
-
-}  // namespace
-
 std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals) {
   struct Options {
-    std::string data, model, output = "runs/F", arch = "resnet50", supervision = "both", input = "before",
-                       loss, device = "cpu", gamma = "auto";
+    std::string data, model, output = "runs/F", arch = "resnet50", supervision = "both", input = "before", loss,
+                gamma = "auto";
     int width = 64, image_size = 0;
-    int64_t steps = 20000, batch = 8, decay_every = 0, log_every = 50, checkpoint_every = 1000, eval_every = 1000,
-            eval_batches = 8, sample_every = 1000;
+    int64_t decay_every = 0, eval_batches = 8;
     double lr = 1e-4;
-    uint64_t seed = 0;
-    bool resume = false;
+    TrainerFlags t;
   };
   auto o = std::make_shared<Options>();
+  o->t.steps = 20000;
+  o->t.batch = 8;
   CLI::App* app = train.add_subcommand("recon", "Train the teacher F (resnet50) or the student E (resnet18): 3DMM "
                                                 "coefficients and light from an aligned face");
   app->add_option("--data", o->data, "Face samples of 'texgen faces' (train/ and val/ inside)")->required();
@@ -70,24 +47,16 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   app->add_option("--image-size", o->image_size, "Train at this square size (the samples are area-resampled; 0: "
                                                  "theirs, 256²; 128 is 4× cheaper on the CPU)")->capture_default_str();
   app->add_option("--loss", o->loss, "Loss weights over the defaults, JSON (docs/training.md), e.g. '{\"identity\": 0}'");
-  app->add_option("--steps", o->steps, "Iterations")->capture_default_str()->check(CLI::Range(1, 1000000000));
-  app->add_option("--batch", o->batch, "Batch size")->capture_default_str();
+  add_trainer_flags(*app, o->t);
   app->add_option("--lr", o->lr, "Adam's learning rate (Deep3DFaceRecon: 1e-4)")->capture_default_str();
   app->add_option("--decay-every", o->decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
-  app->add_option("--seed", o->seed, "Seed of weights and data order")->capture_default_str();
-  add_device_option(*app, o->device);
-  app->add_option("--log-every", o->log_every, "Steps between log lines")->capture_default_str();
-  app->add_option("--checkpoint-every", o->checkpoint_every, "Steps between checkpoints")->capture_default_str();
-  app->add_option("--eval-every", o->eval_every, "Steps between validation metrics on val/ (0: never)")->capture_default_str();
   app->add_option("--eval-batches", o->eval_batches, "Validation batches per evaluation")->capture_default_str();
-  app->add_option("--sample-every", o->sample_every, "Steps between sample grids (0: never)")->capture_default_str();
-  app->add_flag("--resume", o->resume, "Continue the run in the output folder");
   app->footer("Example:\n  bareskin train recon --arch resnet50 --data faces/ --model model.safetensors -o runs/F\n"
               "docs/training.md, \"Face reconstruction (F / E)\", describes the heads, losses and metrics.");
   return [o, app, &globals] {
     if (!app->parsed()) return false;
-    const torch::Device device = parse_device(o->device);
+    const torch::Device device = parse_device(o->t.device);
     if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file (mm-build)");
     recon::ReconTaskOptions to;
     to.net.arch = o->arch;
@@ -95,18 +64,18 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
     to.net.gamma = o->gamma == "auto" ? o->arch == "resnet50" : o->gamma == "on";
     to.net.check();
     to.loss.supervision = recon::parse_supervision(o->supervision);
-    recon::from_json(json_object(o->loss, "--loss"), to.loss);
+    recon::from_json(json_flag(o->loss, "--loss", "{\"photo\": 1.0}"), to.loss);
     to.input = o->input;
     to.lr = o->lr;
-    to.schedule.step_every = o->decay_every > 0 ? o->decay_every : o->decay_every == 0 ? std::max<int64_t>(1, o->steps / 2) : 0;
+    to.schedule.step_every = o->decay_every > 0 ? o->decay_every : o->decay_every == 0 ? std::max<int64_t>(1, o->t.steps / 2) : 0;
     if (to.schedule.step_every == 0) to.schedule.kind = "constant";
     const recon::FaceModel model = recon::FaceModel::load(o->model);
-    const auto [train_dir, val_dir] = recon_splits(o->data);
+    const auto [train_dir, val_dir] = shards::find_splits(o->data, "give the folder 'bareskin texgen faces' wrote");
     data::LoaderOptions lo;
     lo.dataset = train_dir;
     lo.required = {o->input + ".png", "json"};
-    lo.batch_size = o->batch;
-    lo.seed = o->seed;
+    lo.batch_size = o->t.batch;
+    lo.seed = o->t.seed;
     data::ShardLoader loader(lo);
     {
       // The image size from the first sample; the nets take any size, the face model renders at it.
@@ -133,26 +102,26 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
       (*identity)->eval();
       for (auto& p : (*identity)->parameters()) p.requires_grad_(false);
     }
-    train::seed_everything(o->seed);
+    train::seed_everything(o->t.seed);
     recon::ReconTask task(to, model, identity, device);
     train::TrainerOptions topt;
     topt.run_dir = o->output;
-    topt.steps = o->steps;
-    topt.log_every = o->log_every;
-    topt.checkpoint_every = o->checkpoint_every;
-    topt.eval_every = val ? o->eval_every : 0;
+    topt.steps = o->t.steps;
+    topt.log_every = o->t.log_every;
+    topt.checkpoint_every = o->t.checkpoint_every;
+    topt.eval_every = val ? o->t.eval_every : 0;
     topt.eval_batches = o->eval_batches;
-    topt.sample_every = o->sample_every;
-    topt.resume = o->resume;
+    topt.sample_every = o->t.sample_every;
+    topt.resume = o->t.resume;
     topt.device = device;
     topt.progress = !globals.quiet();
     topt.config = {{"net", to.net}, {"loss", to.loss}, {"input", to.input}, {"image_size", to.image_size},
                    {"model", fs::absolute(o->model).string()},
                    {"layout", {{"id", model.layout().id}, {"exp", model.layout().exp}, {"app", model.layout().app}}},
-                   {"data", o->data}, {"batch", o->batch}, {"lr", o->lr}, {"decay_every", o->decay_every},
-                   {"seed", o->seed}, {"steps", o->steps}, {"log_every", o->log_every},
-                   {"checkpoint_every", o->checkpoint_every}, {"eval_every", topt.eval_every},
-                   {"eval_batches", o->eval_batches}, {"sample_every", o->sample_every}, {"device", o->device}};
+                   {"data", o->data}, {"batch", o->t.batch}, {"lr", o->lr}, {"decay_every", o->decay_every},
+                   {"seed", o->t.seed}, {"steps", o->t.steps}, {"log_every", o->t.log_every},
+                   {"checkpoint_every", o->t.checkpoint_every}, {"eval_every", topt.eval_every},
+                   {"eval_batches", o->eval_batches}, {"sample_every", o->t.sample_every}, {"device", o->t.device}};
     train::Trainer trainer(topt, task, loader, val.get());
     const train::TrainResult result = trainer.run();
     if (!globals.quiet()) {

@@ -3,7 +3,6 @@
 #include <memory>
 
 #include "apps/cli.h"
-#include "apps/device_flag.h"
 #include "core/error.h"
 #include "core/shards.h"
 #include "texture/pix2pixhd.h"
@@ -13,18 +12,9 @@
 namespace bareskin::cli {
 namespace {
 
-nlohmann::json json_option(const std::string& text, const std::string& flag) {
-  if (text.empty()) return nlohmann::json::object();
-  try {
-    auto j = nlohmann::json::parse(text);
-    if (j.is_object()) return j;
-  } catch (const nlohmann::json::parse_error&) {
-  }
-  throw InvalidInput(flag + " " + text, "is not a JSON object", "e.g. " + flag + " '{\"ngf\": 16}'");
-}
-
 struct Common {
   texture::TrainRunOptions run;
+  TrainerFlags t;
   std::string model, generator, discriminator;
 };
 
@@ -36,22 +26,24 @@ void add_common(CLI::App* app, Common& c) {
   app->add_option("--model", c.model,
                   "The morphable model the dataset was made with: its CRC-32 is recorded, and 'bareskin run' refuses "
                   "another model with this run");
-  app->add_option("--steps", c.run.steps, "Training steps")->capture_default_str()->check(CLI::Range(1, 1000000000));
-  app->add_option("--batch", c.run.batch, "Batch size")->capture_default_str();
-  app->add_option("--seed", c.run.seed, "Seed (weights, data order, occlusion draws)")->capture_default_str();
-  app->add_option("--log-every", c.run.log_every, "Loss logging interval")->capture_default_str();
-  app->add_option("--checkpoint-every", c.run.checkpoint_every, "Checkpoint interval")->capture_default_str();
-  app->add_option("--eval-every", c.run.eval_every, "Validation interval")->capture_default_str();
-  app->add_option("--sample-every", c.run.sample_every, "Sample grid interval")->capture_default_str();
+  c.t = {c.run.steps, c.run.batch, c.run.log_every, c.run.checkpoint_every, c.run.eval_every, c.run.sample_every,
+         c.run.seed, c.run.resume, c.run.device};
+  add_trainer_flags(*app, c.t);
   app->add_option("--decode-threads", c.run.decode_threads, "PNG decode threads")->capture_default_str();
-  add_device_option(*app, c.run.device);
-  app->add_flag("--resume", c.run.resume, "Continue the run folder from its checkpoint");
   app->add_option("--generator", c.generator, "Generator options over the zoo defaults (JSON)");
   app->add_option("--discriminator", c.discriminator, "Discriminator options over the zoo defaults (JSON)");
 }
 
 void finish_common(Common& c, const Globals& globals) {
-  c.run.device = parse_device(c.run.device).str();
+  c.run.steps = c.t.steps;
+  c.run.batch = c.t.batch;
+  c.run.log_every = c.t.log_every;
+  c.run.checkpoint_every = c.t.checkpoint_every;
+  c.run.eval_every = c.t.eval_every;
+  c.run.sample_every = c.t.sample_every;
+  c.run.seed = c.t.seed;
+  c.run.resume = c.t.resume;
+  c.run.device = parse_device(c.t.device).str();
   c.run.progress = !globals.quiet();
   c.run.extra["threads"] = globals.threads;
   c.run.extra["model_crc32"] = c.model.empty() ? nlohmann::json() : nlohmann::json(shards::file_crc32(c.model));
@@ -107,16 +99,16 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   return [&globals, t, u, tex, tex_model, up, up_model] {
     if (t->parsed()) {
       finish_common(*tex, globals);
-      tex_model->generator_options = json_option(tex->generator, "--generator");
-      tex_model->discriminator_options = json_option(tex->discriminator, "--discriminator");
+      tex_model->generator_options = json_flag(tex->generator, "--generator", "{\"ngf\": 16}");
+      tex_model->discriminator_options = json_flag(tex->discriminator, "--discriminator", "{\"ngf\": 16}");
       *tex_model = nlohmann::json(*tex_model).get<texture::TextureNetOptions>();  // range checks
       texture::train_texture(tex->run, *tex_model);
       return true;
     }
     if (u->parsed()) {
       finish_common(*up, globals);
-      up_model->generator_options = json_option(up->generator, "--generator");
-      up_model->discriminator_options = json_option(up->discriminator, "--discriminator");
+      up_model->generator_options = json_flag(up->generator, "--generator", "{\"ngf\": 16}");
+      up_model->discriminator_options = json_flag(up->discriminator, "--discriminator", "{\"ngf\": 16}");
       *up_model = nlohmann::json(*up_model).get<texture::UpscaleOptions>();  // range checks
       texture::train_upscale(up->run, *up_model);
       return true;

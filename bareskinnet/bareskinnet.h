@@ -320,6 +320,17 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
 // G alone from a run (stage2, else stage1; G_ema where the run kept one): the Demakeup evaluate_generator takes.
 Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);
 
+struct RunEvalOptions {
+  std::string lpips_trunk = "vgg16-random";  // facenet falls back to none without face-api's recognition net
+  int64_t max_samples = 0;                   // 0: all
+  torch::Device device = torch::kCPU;
+  bool required = false;  // InvalidInput when the test split is missing (else nothing is done)
+  bool quiet = false;     // no summary line on stderr
+};
+// The held-out evaluation of a run (`train bareskin`): G of `run` on <data>/test (unseen subjects and makeup styles)
+// into <run>/eval.json, with the LPIPS trunk and the split recorded.
+void evaluate_run(const std::string& run, const std::string& data, const RunEvalOptions& options);
+
 // G's image from the U-Net's output: input + Δ (residual) or the U-Net's Tanh image, both in [0, 1] units; `images`
 // [B, 3, S, S] in [0, 1]. Not clamped (training sees the raw value; inference clamps).
 torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual);

@@ -1,15 +1,18 @@
 // BareSkinNet at inference (bareskinnet/bareskinnet.h, "Inference" and "Evaluation"): G, F and the 3DMM loaded from
 // runs, a photo or an aligned face to bare skin, its fit and its UV unwrap, the written result files, and G's
-// held-out evaluation.
+// held-out evaluation (`evaluate_run`: a run's eval.json).
 #include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fmt/format.h>
+#include <iostream>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "core/png.h"
 #include "core/safetensors.h"
+#include "detect/face_api.h"
 #include "detect/face_recognition.h"
 #include "render/torch/ops.h"
 #include "bareskinnet/bareskinnet.h"
@@ -215,6 +218,32 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   std::sort(times.begin(), times.end());
   r.ms_per_image = times[times.size() / 2];
   return r;
+}
+
+void evaluate_run(const std::string& run, const std::string& data, const RunEvalOptions& options) {
+  namespace fs = std::filesystem;
+  const std::string test_split = (fs::path(data) / "test").string();
+  if (!fs::exists(fs::path(test_split) / "manifest.json")) {
+    if (options.required)
+      throw InvalidInput(data, "has no test/manifest.json to evaluate on", "give the folder 'bareskin texgen faces' wrote");
+    return;
+  }
+  EvalOptions eo;
+  eo.lpips_trunk = options.lpips_trunk;
+  eo.device = options.device;
+  eo.max_samples = options.max_samples;
+  const std::string face_api = detect::default_face_api_folder();
+  if (fs::exists(fs::path(face_api) / detect::kFaceRecognitionManifest)) eo.face_api = face_api;
+  if (eo.lpips_trunk == "facenet" && eo.face_api.empty()) eo.lpips_trunk.clear();
+  const EvalResult r = evaluate_generator(load_generator(run, options.device), test_split, eo);
+  nlohmann::json j = r;
+  j["lpips_trunk"] = eo.lpips_trunk;
+  j["split"] = test_split;
+  write_file_atomic(run + "/eval.json", j.dump(2) + "\n");
+  if (!options.quiet)
+    std::cerr << fmt::format("test ({} faces): skin PSNR {:.2f} dB / SSIM {:.4f} vs bare (input {:.2f} / {:.4f}); vs before {:.2f} dB; G {:.1f} ms\n",
+                             r.samples, r.mean.at("psnr_bare"), r.mean.at("ssim_bare"), r.mean.at("psnr_input_bare"),
+                             r.mean.at("ssim_input_bare"), r.mean.at("psnr_before"), r.ms_per_image);
 }
 
 torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {

@@ -239,6 +239,15 @@ Manifest read_manifest(const std::string& dir) {
   return manifest;
 }
 
+Splits find_splits(const std::string& data, const std::string& hint) {
+  if (fs::exists(fs::path(data) / "manifest.json")) return {data, ""};
+  const fs::path train = fs::path(data) / "train", val = fs::path(data) / "val";
+  if (!fs::exists(train / "manifest.json")) throw InvalidInput(data, "has no train/manifest.json (nor manifest.json)", hint);
+  // An empty val/ (few subjects) means no validation.
+  const bool has_val = fs::exists(val / "manifest.json") && read_manifest(val.string()).samples() > 0;
+  return {train.string(), has_val ? val.string() : ""};
+}
+
 Manifest open_dataset(const std::string& path) {
   if (fs::is_regular_file(path) && lower_extension(path) == ".tar") {
     Manifest m;

@@ -84,6 +84,14 @@ Manifest read_manifest(const std::string& dir);
 Manifest open_dataset(const std::string& path);
 std::string shard_path(const std::string& dataset, const ShardInfo& shard);
 
+// The train and validation splits of a dataset folder: <data>/train and <data>/val (val "" when it is missing or holds
+// no samples), or <data> itself as the training split when it has its own manifest.json. InvalidInput naming `data`,
+// with `hint`, when there is neither.
+struct Splits {
+  std::string train, val;
+};
+Splits find_splits(const std::string& data, const std::string& hint);
+
 // CRC-32 of a file (for the manifest and `bareskin inspect`).
 uint32_t file_crc32(const std::string& path);
 

@@ -1,11 +1,15 @@
 #include "morphable/fit.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 
 #include "core/error.h"
+#include "core/files.h"
+#include "core/svg_chart.h"
 #include "morphable/levenberg_marquardt.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
@@ -200,6 +204,29 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
   for (int ch = 0; ch < 3; ++ch)
     for (int k = 0; k < 9; ++k) out.gamma[size_t(9 * ch + k)] = gamma(k, ch);
   return out;
+}
+
+void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const PhotometricFit& photo) {
+  std::string csv = "stage,iteration,milliseconds,value,unit\n";
+  const std::string stem = csv_path.size() > 4 && csv_path.substr(csv_path.size() - 4) == ".csv"
+                               ? csv_path.substr(0, csv_path.size() - 4) : csv_path;
+  const auto add = [&](const char* stage, const std::vector<FitTraceStep>& trace, const char* unit, const std::string& title,
+                       const std::string& y_label) {
+    if (trace.empty()) return;
+    ChartSeries series{stage, {}, {}};
+    for (const FitTraceStep& t : trace) {
+      csv += fmt::format("{},{},{:.3f},{:.6g},{}\n", stage, t.iteration, 1000 * t.seconds, t.value, unit);
+      series.x.push_back(1000 * t.seconds);
+      series.y.push_back(t.value);
+    }
+    Chart chart{title, "milliseconds (one marker per iteration)", y_label, {series}};
+    chart.log_y = std::string(stage) == "landmarks";
+    chart.y_from_zero = false;
+    write_file_atomic(stem + "_" + stage + ".svg", svg_line_chart(chart));
+  };
+  add("landmarks", fit.trace, "px", "Landmark fit (Levenberg-Marquardt)", "landmark RMS (px, log scale)");
+  add("photometric", photo.trace, "dB", "Photometric fit (Gauss-Newton on delta, gamma)", "render PSNR (dB)");
+  write_file_atomic(csv_path, csv);
 }
 
 }  // namespace bareskin

@@ -5,6 +5,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <array>
+#include <string>
 #include <vector>
 
 #include "core/image.h"
@@ -79,5 +80,9 @@ struct PhotometricFit {
 // `posed`: the model's topology at the fitted shape and pose; `image` linear RGB of the camera's size.
 PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, const Camera& camera, const Image& image,
                                const PhotometricFitOptions& options = {});
+
+// mm-fit --trace: the CSV (stage, iteration, milliseconds since the stage began, value, unit) and beside it one chart
+// per stage that ran, <stem>_landmarks.svg and <stem>_photometric.svg: accuracy against time, a marker per iteration.
+void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const PhotometricFit& photo);
 
 }  // namespace bareskin

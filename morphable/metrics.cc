@@ -1,12 +1,21 @@
 #include "morphable/metrics.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/parallel.h"
+#include "core/svg_chart.h"
+#include "morphable/build.h"
 
 namespace bareskin {
 namespace {
@@ -166,6 +175,79 @@ ModelMetrics model_metrics(const RowMatrixXf& X, const std::vector<uint8_t>& ver
     for (int r = 0; r < regions; ++r) out.generalization_region_mm[size_t(r)][q] = mean_of(by_region[q * size_t(regions) + size_t(r)]);
   }
   return out;
+}
+
+ModelMetrics evaluate_model(EvaluateModelOptions opt) {
+  namespace fs = std::filesystem;
+  if (opt.metrics.samples < 1 || opt.metrics.max_components < 1 || opt.metrics.max_held_out < 1) {
+    throw InvalidInput("", "--samples, --max-components and --max-held-out must be >= 1", "");
+  }
+  const MorphableModel model = read_model(opt.model);
+  if (opt.output.empty()) opt.output = (fs::path(opt.model).parent_path() / fs::path(opt.model).stem()).string() + "_metrics";
+  std::vector<std::string> dirs;
+  for (const std::string& s : model.subjects) {
+    const std::string d = opt.registered + "/" + s;
+    if (!fs::is_directory(d)) {
+      throw InvalidInput(d, "is missing: the model was trained on subject " + s,
+                         "give the registered folder the model was built from");
+    }
+    dirs.push_back(d);
+  }
+  TemplateFace face;
+  face.mesh = model.topology;
+  face.landmark_vertices = model.landmark_vertices;
+  RowMatrixXf X = read_shapes(face, dirs);
+  // Into the model frame with the model's own Procrustes transforms.
+  for (Eigen::Index i = 0; i < X.rows(); ++i) {
+    const Eigen::Matrix4d& T = model.procrustes.at(size_t(i));
+    Eigen::Map<Eigen::Matrix<float, 3, Eigen::Dynamic>> P(X.row(i).data(), 3, X.cols() / 3);
+    P = ((T.topLeftCorner<3, 3>() * P.cast<double>()).colwise() + T.topRightCorner<3, 1>()).cast<float>();
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const ModelMetrics m = model_metrics(X, model.vertex_region, model.region_names, opt.metrics);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  AtomicDirectory out(opt.output);
+  std::string csv = "components,compactness,generalization_mm,specificity_mm";
+  for (const std::string& r : m.regions) csv += ",generalization_" + r + "_mm";
+  csv += "\n";
+  for (size_t q = 0; q < m.components.size(); ++q) {
+    csv += fmt::format("{},{:.6f},{:.5f},{:.5f}", m.components[q], m.compactness[q], m.generalization_mm[q],
+                       m.specificity_mm[q]);
+    for (const auto& r : m.generalization_region_mm) csv += fmt::format(",{:.5f}", r[q]);
+    csv += "\n";
+  }
+  write_file_atomic(out.path() + "/metrics.csv", csv);
+  nlohmann::json j = {{"model", opt.model},
+                      {"subjects", m.subjects},
+                      {"held_out", m.held_out},
+                      {"samples", m.samples},
+                      {"distance", "RMS over vertices of the per-vertex Euclidean distance, mm, in the model frame"},
+                      {"components", m.components},
+                      {"compactness", m.compactness},
+                      {"generalization_mm", m.generalization_mm},
+                      {"specificity_mm", m.specificity_mm},
+                      {"seconds", seconds}};
+  for (size_t r = 0; r < m.regions.size(); ++r) j["generalization_region_mm"][m.regions[r]] = m.generalization_region_mm[r];
+  write_file_atomic(out.path() + "/metrics.json", j.dump(1) + "\n");
+  std::vector<double> k(m.components.begin(), m.components.end());
+  const auto chart = [&](const std::string& name, const std::string& title, const std::string& y,
+                         std::vector<ChartSeries> series) {
+    write_file_atomic(out.path() + "/" + name + ".svg", svg_line_chart({title, "components", y, std::move(series)}));
+  };
+  chart("compactness", "Compactness", "explained variance fraction", {{"shape", k, m.compactness}});
+  chart("generalization", "Generalisation (leave-one-out)", "RMS vertex error, mm", {{"all vertices", k, m.generalization_mm}});
+  chart("specificity", "Specificity", "RMS distance to nearest training shape, mm", {{"shape", k, m.specificity_mm}});
+  std::vector<ChartSeries> regions;
+  for (size_t r = 0; r < m.regions.size(); ++r) regions.push_back({m.regions[r], k, m.generalization_region_mm[r]});
+  chart("generalization_regions", "Generalisation per region", "RMS vertex error, mm", regions);
+  if (!opt.config.empty()) write_file_atomic(out.path() + "/config.json", opt.config);
+  out.commit();
+  spdlog::info("mm-eval: {} subjects; at {} components: compactness {:.3f}, generalisation {:.3f} mm, specificity "
+               "{:.3f} mm ({:.1f} s) -> {}",
+               m.subjects, m.components.back(), m.compactness.back(), m.generalization_mm.back(),
+               m.specificity_mm.back(), seconds, opt.output);
+  return m;
 }
 
 }  // namespace bareskin

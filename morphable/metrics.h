@@ -39,4 +39,18 @@ struct ModelMetrics {
 ModelMetrics model_metrics(const RowMatrixXf& X, const std::vector<uint8_t>& vertex_region,
                            const std::vector<std::string>& region_names, const MetricsOptions& options = {});
 
+struct EvaluateModelOptions {
+  std::string model;       // the model file (mm-build)
+  std::string registered;  // its registered subjects, one folder per model subject
+  std::string output;      // the report folder; "" = <model stem>_metrics beside the model
+  std::string config;      // written as config.json into the report when not empty (the command's resolved flags)
+  MetricsOptions metrics;
+};
+
+// `bareskin mm-eval`: the model's subjects read from `registered`, aligned into the model frame by its own Procrustes
+// transforms, and their metrics written to the report folder (atomically): metrics.csv, metrics.json, compactness.svg,
+// generalization.svg, specificity.svg, generalization_regions.svg. InvalidInput for a missing subject folder or a
+// count option below 1.
+ModelMetrics evaluate_model(EvaluateModelOptions options);
+
 }  // namespace bareskin

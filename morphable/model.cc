@@ -1,5 +1,6 @@
 #include "morphable/model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -172,6 +173,38 @@ MorphableModel read_model(const std::string& path) {
     throw InvalidInput(path, "the mean shape or appearance holds NaN or Inf", "rebuild the model");
   }
   return m;
+}
+
+void pose_blendshapes(Mesh& mesh, const std::string& blendshapes, const std::vector<std::string>& expression) {
+  if (!expression.empty() && blendshapes.empty()) {
+    throw InvalidInput("", "--expression needs --blendshapes FILE", "pass scans/blendshapes/blendshapes.safetensors");
+  }
+  if (blendshapes.empty()) return;
+  const SafeTensors st = SafeTensors::open(blendshapes);
+  const TensorView& deltas = st.tensor("deltas", DType::F32, {-1, mesh.V.rows(), 3});
+  const auto names = nlohmann::json::parse(st.metadata().count("names") ? st.metadata().at("names") : "", nullptr, false);
+  if (names.is_discarded() || !names.is_array() || int64_t(names.size()) != deltas.shape[0]) {
+    throw InvalidInput(blendshapes, "metadata 'names' does not list the blendshapes", "rewrite it with 'scan synth'");
+  }
+  const std::vector<float> d = deltas.to_vector<float>();
+  for (const std::string& item : expression) {
+    const size_t eq = item.find('=');
+    const std::string name = item.substr(0, eq);
+    double weight = 1.0;
+    if (eq != std::string::npos) {
+      try {
+        weight = std::stod(item.substr(eq + 1));
+      } catch (const std::exception&) {
+        throw InvalidInput("", "--expression '" + item + "': weight is not a number", "write NAME=WEIGHT");
+      }
+    }
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end()) throw InvalidInput(blendshapes, "has no blendshape '" + name + "'", "see its names.json");
+    const size_t k = size_t(it - names.begin()), n = size_t(mesh.V.rows());
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) mesh.V(Eigen::Index(i), c) += weight * d[(k * n + i) * 3 + size_t(c)];
+  }
+  mesh.N.resize(0, 3);  // recomputed for the posed shape
 }
 
 }  // namespace bareskin

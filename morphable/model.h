@@ -50,4 +50,9 @@ struct MorphableModel {
 MorphableModel read_model(const std::string& path);
 void write_model(const std::string& path, const MorphableModel& model);  // atomic
 
+// `render --blendshapes --expression NAME=WEIGHT,...`: `mesh` posed by the weighted deltas of a blendshape file
+// (safetensors "deltas" [K, V, 3], metadata "names"; `scan synth` writes it), its normals dropped. Nothing without a
+// file; InvalidInput for an expression without one, an unknown name or a weight that is not a number.
+void pose_blendshapes(Mesh& mesh, const std::string& blendshapes, const std::vector<std::string>& expression);
+
 }  // namespace bareskin

@@ -1,11 +1,21 @@
 #include "recon/recon_photo.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <memory>
 
 #include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/landmarks.h"
+#include "core/mesh_io.h"
+#include "detect/face_api.h"
 #include "morphable/fit.h"
+#include "training/checkpoint.h"
 
 namespace bareskin::recon {
 namespace {
@@ -157,6 +167,101 @@ std::pair<Image, detect::Landmarks68> photo_overlay(const TrainedRecon& net, con
   const torch::Tensor plm = f.landmarks[0].to(torch::kCPU, torch::kDouble).contiguous();
   for (int k = 0; k < 68; ++k) lm(k, 0) = plm[k][0].item<double>(), lm(k, 1) = plm[k][1].item<double>();
   return {to_image(over[0], ColorSpace::sRGB), lm};
+}
+
+std::string run_model_path(const std::string& run, const std::string& model) {
+  namespace fs = std::filesystem;
+  if (!model.empty()) return model;
+  // The run's config names the model it was trained with.
+  const std::string ckpt = fs::is_directory(run) ? train::checkpoint_path(run) : run;
+  if (!fs::exists(ckpt)) throw IoError(ckpt, "does not exist", "give --run the folder of 'bareskin train recon'");
+  const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
+  std::string path;
+  if (fs::exists(cfg)) path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
+  if (path.empty()) {
+    throw InvalidInput(cfg, "is missing or names no model file (the one the run was trained with)",
+                       "give --run the folder of 'bareskin train recon', or --model");
+  }
+  return path;
+}
+
+namespace {
+
+struct PhotoContext {
+  TrainedRecon net;
+  MorphableModel geometry;  // for the refinement and the OBJ
+  std::shared_ptr<const detect::FaceApi> detector;
+  PhotoReconOptions options;
+};
+
+// Everything about one photo, computed before anything is written: a failure leaves no output.
+void reconstruct_photo_file(const PhotoContext& ctx, const std::string& photo_path, const std::string& out_dir,
+                            bool quiet) {
+  const Image photo = read_image(photo_path);
+  if (photo.channels < 3) throw InvalidInput(photo_path, "is not an RGB image", "give a colour photo");
+  const std::vector<detect::Face> faces = ctx.detector->detect(detect::photo_tensor(photo, photo_path));
+  if (faces.empty()) throw InvalidInput(photo_path, "no face was found", "give a photo with a face of at least ~80 px");
+  PhotoReconstruction r = reconstruct_photo(ctx.net, ctx.geometry, photo, faces.front().points, ctx.options);
+  Coefficients& c = r.coefficients;
+  c.extra.update({{"source", "bareskin recon"}, {"photo", photo_path}, {"detector_score", faces.front().score}});
+  const auto [overlay, projected] = photo_overlay(ctx.net, c, r.similarity, photo);
+  Landmarks out_lm;
+  out_lm.units = "px";
+  out_lm.points = projected;
+  const Mesh mesh = posed_mesh(ctx.geometry, c);
+  // Written only now, each file atomically.
+  std::filesystem::create_directories(out_dir);
+  write_coefficients(out_dir + "/coefficients.json", c);
+  write_mesh(out_dir + "/mesh.obj", mesh);
+  write_image(out_dir + "/overlay.png", overlay);
+  write_image(out_dir + "/aligned.png", r.aligned);
+  write_landmarks(out_dir + "/landmarks.json", out_lm);
+  if (!quiet) {
+    std::cerr << photo_path << ": confidence " << r.answer.confidence << (r.answer.flagged ? " (FLAGGED)" : "")
+              << ", landmarks " << r.answer.landmark_residual_px << " px, PSNR " << r.answer.psnr_db << " dB → "
+              << out_dir << "\n";
+  }
+}
+
+bool is_image(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  for (char& ch : e) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff";
+}
+
+}  // namespace
+
+void reconstruct_photo_files(const PhotoFilesOptions& o) {
+  namespace fs = std::filesystem;
+  PhotoContext ctx;
+  ctx.net = load_recon(o.run, FaceModel::load(o.model), o.device);
+  ctx.geometry = read_model(o.model);
+  ctx.detector = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
+  ctx.options = o.recon;
+  if (!fs::is_directory(o.input)) {
+    reconstruct_photo_file(ctx, o.input, o.output, o.quiet);
+    return;
+  }
+  std::vector<fs::path> photos;
+  for (const auto& e : fs::directory_iterator(o.input)) {
+    if (e.is_regular_file() && is_image(e.path())) photos.push_back(e.path());
+  }
+  std::sort(photos.begin(), photos.end());
+  if (photos.empty()) throw InvalidInput(o.input, "holds no photos (.png, .jpg, .tif)", "give a folder of photos");
+  int failed = 0;
+  for (const fs::path& p : photos) {
+    try {
+      reconstruct_photo_file(ctx, p.string(), (fs::path(o.output) / p.stem()).string(), o.quiet);
+    } catch (const Error& e) {
+      if (!o.keep_going) throw;
+      ++failed;
+      std::cerr << "error: " << e.what() << "\n";
+    }
+  }
+  if (failed) {
+    throw InvalidInput(o.input, std::to_string(failed) + " of " + std::to_string(photos.size()) + " photos failed",
+                       "see the lines above");
+  }
 }
 
 }  // namespace bareskin::recon

@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <vector>
 #include <utility>
 
 #include "core/image.h"
@@ -46,6 +47,24 @@ PhotoReconstruction reconstruct_photo(const TrainedRecon& net, const MorphableMo
 // similarity) and the 68 projected landmarks in photo pixels.
 std::pair<Image, detect::Landmarks68> photo_overlay(const TrainedRecon& net, const Coefficients& c,
                                                     const detect::Similarity& similarity, const Image& photo);
+
+// The morphable model of a `bareskin train recon` run (its folder or checkpoint): `model` when given, else the one
+// the run's config.json names. IoError without the checkpoint, InvalidInput when the config names no model.
+std::string run_model_path(const std::string& run, const std::string& model = "");
+
+struct PhotoFilesOptions {
+  std::string input;   // a photo, or a folder of photos (.png, .jpg, .jpeg, .tif, .tiff)
+  std::string output;  // the output folder (per photo a subfolder when the input is a folder)
+  std::string run, model;  // the net's run and its morphable model file
+  torch::Device device = torch::kCPU;
+  PhotoReconOptions recon;
+  bool keep_going = false;  // with a folder: report a photo that fails on stderr and go on (InvalidInput at the end)
+  bool quiet = false;       // no line per photo on stderr
+};
+
+// `bareskin recon`: per photo face-api's 68 landmarks, reconstruct_photo, and coefficients.json, mesh.obj,
+// overlay.png, aligned.png, landmarks.json, written only once all are computed (a failure leaves no output).
+void reconstruct_photo_files(const PhotoFilesOptions& options);
 
 // A coefficient row of the net's layout (with γ) ↔ the coefficient file's struct.
 Coefficients to_coefficients(const torch::Tensor& row, const CoefficientLayout& layout);

@@ -1,6 +1,11 @@
 #include "render/shade.h"
 
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
+#include "core/files.h"
 #include "core/parallel.h"
 #include "render/rasterize.h"
 #include "render/sh.h"
@@ -59,6 +64,40 @@ Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& o
     }
   }, 4096);
   return out;
+}
+
+std::array<double, 27> read_sh_lighting(const std::string& sh) {
+  if (sh == "default") return default_lighting();
+  std::array<double, 27> g{};
+  if (sh == "none") {
+    for (int c = 0; c < 3; ++c) g[size_t(9 * c)] = kDeep3dAmbient;
+    return g;
+  }
+  const auto doc = nlohmann::json::parse(read_file(sh), nullptr, false);
+  if (doc.is_discarded() || !doc.is_array() || doc.size() != 27) {
+    throw InvalidInput(sh, "is not a JSON list of 27 numbers", "give 9 SH coefficients per RGB channel, channel-major");
+  }
+  for (size_t k = 0; k < 27; ++k) {
+    if (!doc[k].is_number() || !std::isfinite(doc[k].get<double>())) {
+      throw InvalidInput(sh, "coefficient " + std::to_string(k) + " is not a finite number", "");
+    }
+    g[k] = doc[k].get<double>();
+  }
+  return g;
+}
+
+Image pass_image(const Frame& frame, const std::string& pass, bool exr) {
+  Image img = pass == "colour" ? frame.colour : pass == "albedo" ? frame.albedo : pass == "normal" ? frame.normal
+                                                : pass == "mask" ? frame.mask : frame.depth;
+  if (pass == "depth" && !exr) {  // nearer brighter, over the covered range
+    float lo = 1e30f, hi = -1e30f;
+    for (size_t i = 0; i < img.pixels.size(); ++i)
+      if (frame.mask.pixels[i] > 0) lo = std::min(lo, img.pixels[i]), hi = std::max(hi, img.pixels[i]);
+    for (size_t i = 0; i < img.pixels.size(); ++i)
+      img.pixels[i] = frame.mask.pixels[i] > 0 ? 1 - 0.8f * (img.pixels[i] - lo) / std::max(hi - lo, 1e-6f) : 0;
+  }
+  if ((pass == "colour" || pass == "albedo") && !exr) img = to_srgb(img);
+  return img;
 }
 
 }  // namespace bareskin

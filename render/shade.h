@@ -3,6 +3,7 @@
 // the coverage mask. Linear light throughout; the caller encodes for display.
 #pragma once
 #include <array>
+#include <string>
 
 #include "core/image.h"
 #include "core/mesh.h"
@@ -19,6 +20,9 @@ struct ShadeOptions {
 
 // Deep3DFaceRecon's ambient (0.8 on each channel's first coefficient) plus a soft key light from above and the front.
 std::array<double, 27> default_lighting();
+// `render --sh`: "default" (default_lighting), "none" (Deep3DFaceRecon's ambient alone) or a JSON file of 27 finite
+// numbers, channel-major. InvalidInput naming the file otherwise.
+std::array<double, 27> read_sh_lighting(const std::string& sh);
 
 struct Frame {
   Image colour, albedo;  // linear RGB; background 0
@@ -30,5 +34,9 @@ struct Frame {
 
 // InvalidInput when the mesh is empty, has NaN vertices, or a texture but no UVs.
 Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& options);
+
+// One pass of a frame ("colour", "albedo", "normal", "mask", "depth") as the image to write: depth normalised over
+// the covered range (nearer brighter), colour and albedo sRGB-encoded, unless `exr` (the values as they are).
+Image pass_image(const Frame& frame, const std::string& pass, bool exr);
 
 }  // namespace bareskin

@@ -1,0 +1,126 @@
+#include "detect/landmark_files.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <nlohmann/json.hpp>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/landmarks.h"
+#include "core/scan_folder.h"
+#include "render/preview.h"
+#include "scan/capture.h"
+#include "scan/multiview.h"
+
+namespace bareskin::detect {
+
+void detect_photo_landmarks(const PhotoLandmarksOptions& opt) {
+  for (const std::string& out : {opt.output, opt.draw}) {
+    if (!out.empty() && out == opt.photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
+  }
+  if (lower_extension(opt.output) != ".json")
+    throw InvalidInput(opt.output, "landmarks are written as JSON", "name the output *.json");
+  FaceApi net(opt.weights.empty() ? default_face_api_folder() : opt.weights);
+  net.to(opt.device);
+  const Image image = read_image(opt.photo);
+  const torch::Tensor photo = photo_tensor(image, opt.photo);
+  const auto start = std::chrono::steady_clock::now();
+  const auto faces = net.detect(photo, opt.detect);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (faces.empty())
+    throw InvalidInput(opt.photo, "no face found with score above " + std::to_string(opt.detect.min_score),
+                       "try a lower --min-score or a larger --input-size, or crop the photo around the face");
+
+  auto points_json = [](const Eigen::Matrix<double, 68, 2>& p) {
+    auto a = nlohmann::json::array();
+    for (int i = 0; i < 68; ++i) a.push_back({p(i, 0), p(i, 1)});
+    return a;
+  };
+  nlohmann::json doc = {{"scheme", "ibug68"}, {"units", "px"}, {"image", opt.photo},
+                        {"width", image.width},  {"height", image.height}};
+  doc["points"] = points_json(faces[0].points);
+  doc["score"] = faces[0].score;
+  doc["faces"] = nlohmann::json::array();
+  for (const auto& f : faces)
+    doc["faces"].push_back({{"score", f.score},
+                            {"box", {f.box.x, f.box.y, f.box.width, f.box.height}},
+                            {"points", points_json(f.points)}});
+  doc["detector"] = {{"model", "face-api 1.7.15 tiny_face_detector + face_landmark_68"},
+                     {"input_size", opt.detect.input_size},
+                     {"min_score", opt.detect.min_score},
+                     {"device", opt.device_name}};
+
+  if (!opt.draw.empty()) {
+    Image canvas(image.width, image.height, 3, ColorSpace::sRGB);
+    const torch::Tensor rgb = photo.contiguous();
+    std::copy(rgb.data_ptr<float>(), rgb.data_ptr<float>() + rgb.numel(), canvas.pixels.begin());
+    for (const auto& f : faces) {
+      const int r = std::max(1, int(std::lround(f.box.width / 100)));
+      draw_box(canvas, f.box.x, f.box.y, f.box.width, f.box.height, {0.2f, 0.9f, 0.3f});
+      draw_landmarks(canvas, f.points, {1.f, 0.2f, 0.2f}, r);
+    }
+    write_image(opt.draw, canvas);
+  }
+  write_file_atomic(opt.output, doc.dump(1) + "\n");
+  spdlog::info("landmarks detect: {}: {} face(s), best score {:.3f}; {:.1f} ms on {} ({})", opt.photo, faces.size(),
+               faces[0].score, ms, opt.device_name, opt.output);
+}
+
+void scan_landmark_files(ScanLandmarkFilesOptions o) {
+  check_output_file(o.output);
+  if (!o.uncalibrated.empty() && o.calibration.empty())
+    throw InvalidInput("--uncalibrated", "needs --calibration (the points before it)", "pass --calibration FILE");
+  if (!o.uncalibrated.empty()) check_output_file(o.uncalibrated);
+  if (o.weights.empty()) o.weights = default_face_api_folder();
+  const TexturedScan scan = read_textured_scan(o.scan, o.texture);
+  const Mesh& mesh = scan.mesh;
+  const Image* diffuse = scan.diffuse ? &*scan.diffuse : nullptr;
+  const std::string& mesh_path = scan.mesh_path;
+  FaceApi net(o.weights);
+  if (o.multiview.views == 1 && !(o.calibration.empty() && o.save_views.empty() && o.capture.empty()))
+    throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
+  if (!o.sparse.empty() && o.capture.empty())
+    throw InvalidInput("--sparse", "needs --capture (the photos the model was made from)", "pass --capture DIR");
+  if (o.multiview.views > 1) {
+    o.multiview.triangulate.jaw = !o.no_jaw;
+    o.multiview.refinements = o.detect.refinements;
+    std::optional<LandmarkCalibration> calibration;
+    if (!o.calibration.empty()) calibration = read_landmark_calibration(o.calibration);
+    auto m = detect_multiview_landmarks(net, mesh, diffuse, o.multiview, !o.draw.empty() || !o.save_views.empty());
+    if (!o.save_views.empty()) {
+      std::vector<Camera> cameras;
+      for (const auto& v : m.views) cameras.push_back(v.camera);
+      write_capture_folder(o.save_views, "view", m.pictures, cameras);
+    }
+    nlohmann::json capture_info;
+    if (!o.capture.empty()) capture_info = capture_landmarks(net, mesh, m, {o.capture, o.sparse, o.colmap}, o.multiview);
+    if (!o.uncalibrated.empty()) write_file_atomic(o.uncalibrated, multiview_landmarks_json(m.result));
+    if (calibration) apply_calibration(mesh, *calibration, m.result);
+    if (!o.draw.empty() && !m.pictures.empty()) write_image(o.draw, draw_multiview(m));
+    nlohmann::json doc = nlohmann::json::parse(multiview_landmarks_json(m.result));
+    if (!capture_info.is_null()) doc["capture"] = capture_info;
+    write_file_atomic(o.output, doc.dump(1) + "\n");
+    int valid = 0;
+    for (const auto& p : m.result.points) valid += p.valid;
+    spdlog::info("landmarks scan: {}: {} of {} views with a face, {} of 68 points triangulated; render {:.1f} s, "
+                 "detect {:.1f} s, triangulate {:.2f} s -> {}", mesh_path, m.result.views_detected, m.result.views,
+                 valid, m.seconds_render, m.seconds_detect, m.seconds_triangulate, o.output);
+    return;
+  }
+  const auto r = detect_scan_landmarks(net, mesh, diffuse, o.detect);
+  if (!o.draw.empty()) {
+    Image canvas = r.picture;
+    draw_landmarks(canvas, r.px, {1.f, 0.2f, 0.2f}, std::max(1, o.detect.size / 256));
+    write_image(o.draw, canvas);
+  }
+  write_landmarks(o.output, r.landmarks);
+  spdlog::info("landmarks scan: {}: detector score {:.3f}{}, {} point(s) snapped onto the silhouette -> {}", mesh_path,
+               r.detector_score, r.detector_score == 0 ? " (none: coverage box used)" : "", r.off_surface, o.output);
+}
+
+}  // namespace bareskin::detect
