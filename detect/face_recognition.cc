@@ -55,10 +55,10 @@ std::map<std::string, torch::Tensor> read_manifest(const std::string& folder) {
 // One axis of tfjs's legacy bilinear resize of a `square`-long padded axis (the image occupies [before, before +
 // extent)) to `out` samples: source = i · square/out, neighbours floor and min(ceil, square − 1); weights are zero
 // where a neighbour falls on the padding.
-struct Axis {
+struct LegacyAxis {
   torch::Tensor lo, hi, w_lo, w_hi;
 };
-Axis legacy_axis(int64_t square, int64_t before, int64_t extent, int64_t out, const torch::TensorOptions& options) {
+LegacyAxis legacy_axis(int64_t square, int64_t before, int64_t extent, int64_t out, const torch::TensorOptions& options) {
   std::vector<int64_t> lo(out), hi(out);
   std::vector<double> w_lo(out), w_hi(out);
   const double ratio = double(square) / double(out);
@@ -123,8 +123,8 @@ torch::Tensor FaceRecognitionNetImpl::prepare(const torch::Tensor& images) {
     // face-api appends round(diff / 2) and prepends the rest.
     const int64_t before = diff - int64_t(std::floor(diff * 0.5 + 0.5));
     const auto options = images.options();
-    const Axis ys = legacy_axis(square, h < w ? before : 0, h, kInputSize, options);
-    const Axis xs = legacy_axis(square, w < h ? before : 0, w, kInputSize, options);
+    const LegacyAxis ys = legacy_axis(square, h < w ? before : 0, h, kInputSize, options);
+    const LegacyAxis xs = legacy_axis(square, w < h ? before : 0, w, kInputSize, options);
     auto horizontal = [&](const torch::Tensor& rows) {
       return rows.index_select(3, xs.lo) * xs.w_lo + rows.index_select(3, xs.hi) * xs.w_hi;
     };
