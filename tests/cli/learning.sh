@@ -24,7 +24,7 @@ model="$work/m/model.safetensors"
   --supervision truth || fail "train recon"
 "$bin" -q --threads 2 recon --eval "$work/faces/test" --run "$work/F" --model "$model" -o "$work/Feval" \
   || fail "recon --eval"
-"$py" - "$work/Feval/summary.json" <<'PY' || fail "F did not learn: $(cat "$work/Feval/summary.json")"
+"$py" - "$work/Feval/metrics.json" <<'PY' || fail "F did not learn: $(cat "$work/Feval/metrics.json")"
 import json, sys
 s = json.load(open(sys.argv[1]))["shape_mm"]
 print(f"F: shape error {s['median_per_face']:.3f} mm per face, the mean face {s['mean_face_median_per_face']:.3f} mm")
