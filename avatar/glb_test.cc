@@ -7,6 +7,9 @@
 #include <nlohmann/json.hpp>
 
 #include "avatar/glb.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/png.h"
 #include "core/test_util.h"
 
 namespace bareskin::texture {
@@ -78,6 +81,5 @@ TEST(Glb, AnIndependentReaderFindsTheMeshAndMaterial) {
   fs::remove_all(dir);
 }
 
-}  // namespace
 }  // namespace
 }  // namespace bareskin::texture
