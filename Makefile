@@ -5,6 +5,10 @@ LABEL      ?=
 JOBS       ?= $(shell nproc)
 # ccache must ignore the precompiled-header defines/timestamps, or PCH builds never hit the cache.
 export CCACHE_SLOPPINESS = pch_defines,time_macros,include_file_mtime,include_file_ctime
+# Paths below the checkout are hashed relative to it and the build folder's path not at all, so a second clone hits the
+# cache the first one filled (its debug info may then name the first clone's files).
+export CCACHE_BASEDIR  ?= $(CURDIR)
+export CCACHE_NOHASHDIR ?= 1
 export BARESKIN_ASSETS  ?= $(CURDIR)/assets
 # OpenMP threads that spin while waiting make LibTorch 2-25x slower when tests or jobs share the cores (measured with
 # nets_bench on the 2-core machine, where every network also stepped faster with passive waits).

@@ -7,12 +7,7 @@
 # A broken loss or a detached gradient leaves a net at its start (F: the mean face; G: the identity), which fails here.
 # Sizes are the smallest that learn within the time of a CI test on 2 cores.
 source "$(dirname "$0")/lib.sh" "$@"
-"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
-"$bin" scan synth -q --template "$work/t" --count 3 --vertices 6000 --res 64 --truth-res 64 -o "$work/s" || fail "synth"
-register_truth "$work/t" "$work/s" "$work/r" diffuse.png roughness.png specular.png
-"$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r" -o "$work/m/model.safetensors" \
-  || fail "mm-build"
-model="$work/m/model.safetensors"
+tiny_face_world
 # 3 registered subjects and 40 3DMM identities, 8 of them held out for test (none in train).
 "$bin" texgen faces -q --threads 2 --registered "$work/r" --model "$model" --mm-subjects 40 --val 0 --test 8 \
   --seed 5 --align truth --map-size 64 --layer-size 32 --backgrounds "" --count ${LEARNING_SAMPLES:-240} \

@@ -7,12 +7,7 @@
 # - bad input, one line each, exit 3/4, no output: a registered folder without maps, a model file of another format,
 #   --count 0, an unwritable output folder.
 source "$(dirname "$0")/lib.sh" "$@"
-"$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
-"$bin" scan synth -q --template "$work/t" --count 3 --vertices 6000 --res 64 --truth-res 64 -o "$work/s" || fail "synth"
-register_truth "$work/t" "$work/s" "$work/r" diffuse.png roughness.png specular.png
-"$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r" -o "$work/m/model.safetensors" \
-  || fail "mm-build"
-model="$work/m/model.safetensors"
+tiny_face_world
 args=(texgen faces -q --threads 2 --registered "$work/r" --model "$model" --mm-subjects 5 --val 1 --test 2 --seed 3
   --align truth --map-size 64 --layer-size 32 --backgrounds "")
 make() {  # make OUT [flags...]

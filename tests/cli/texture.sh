@@ -35,6 +35,8 @@ expect_failure 3 "another morphable model" "$work/avatar" -- run "$astronaut" --
   --texture "$work/tex" --no-bareskin
 expect_failure 3 "not a texture model" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
   --texture "$work/up" --no-bareskin
+expect_failure 3 "not an upscaler" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
+  --texture "$work/tex" --upscale "$work/tex" --no-bareskin
 expect_failure 3 "as another --upscale run" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
   --texture "$work/tex" --upscale "$work/up" "$work/up" --no-bareskin
 expect_failure 3 "not BareSkinNet" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" \
