@@ -22,7 +22,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     bsn::Options task;
     int64_t steps1 = 10000, steps2 = 30000;
     TrainerFlags t;
-    bool evaluate = false, paper_g = false;
+    bool evaluate = false;
     int64_t eval_samples = 0;
   };
   auto o = std::make_shared<Options>();
@@ -41,8 +41,9 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
       ->check(CLI::IsMember({"before", "bare"}))->capture_default_str();
   app->add_option("--ablation", o->ablation, "A row of the paper's Fig. 7: b (L1+GAN), c (+LPIPS), d (+frozen F), "
                   "e (+fine-tuned F), f (+E without L_light), g (full)")->check(CLI::IsMember({"b", "c", "d", "e", "f", "g"}));
-  app->add_flag("--paper-g", o->paper_g, "G outputs the image itself (the paper) instead of input + Δ with Δ starting "
-                "at zero (ours, the default: G starts as the identity)");
+  app->add_option("--head", o->task.head, "How G's image comes from its U-Net: residual (input + Δ), affine (input · "
+                  "gain + offset per pixel) or image (the paper); residual and affine start as the identity")
+      ->check(CLI::IsMember({"residual", "affine", "image"}))->capture_default_str();
   app->add_option("--lpips", o->task.lpips_trunk, "LPIPS trunk: vgg16-random or facenet (cheap on the CPU)")
       ->check(CLI::IsMember({"vgg16-random", "facenet"}))->capture_default_str();
   app->add_option("--g-options", o->g, "G (unet256) options over the defaults, JSON, e.g. '{\"ngf\": 16}'");
@@ -71,7 +72,6 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     const torch::Device device = parse_device(o->t.device);
     const shards::Splits data_splits = shards::find_splits(o->data, "give the folder 'bareskin texgen faces' wrote");
     bsn::Options task = o->task;
-    task.residual = !o->paper_g;
     task.g = json_flag(o->g, "--g-options", "{\"ngf\": 32}");
     task.d = json_flag(o->d, "--d-options", "{\"ngf\": 32}");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);

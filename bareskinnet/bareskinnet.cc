@@ -27,6 +27,8 @@ void Options::check() const {
   if (o.stage != 1 && o.stage != 2) throw InvalidInput("stage " + std::to_string(o.stage), "is not a stage", "use 1 or 2");
   if (o.target != "before" && o.target != "bare")
     throw InvalidInput("target '" + o.target + "'", "is not a target", "use before (the paper) or bare");
+  if (o.head != "image" && o.head != "residual" && o.head != "affine")
+    throw InvalidInput("head '" + o.head + "'", "is not a generator head", "use residual, affine or image (the paper)");
   if (o.recon != "E" && o.recon != "F")
     throw InvalidInput("recon '" + o.recon + "'", "is not a reconstruction network", "use E (the paper) or F");
   if (o.size < 32 || (o.size & (o.size - 1)) != 0)
@@ -49,7 +51,7 @@ namespace {
 const auto kOptionsFields = [](auto& v, auto& o) {
   v("stage", o.stage);
   v("target", o.target);
-  v("residual", o.residual);
+  v("head", o.head);
   v("size", o.size);
   v("g", o.g);
   v("d", o.d);
@@ -85,8 +87,11 @@ void from_json(const nlohmann::json& j, Options& o) { json_options::read(j, o, "
 
 Options options_of_run(const nlohmann::json& task) {
   nlohmann::json j = task;
-  // Runs written before `residual` existed trained the paper's G; every run since writes the key.
-  if (j.is_object() && !j.contains("residual")) j["residual"] = false;
+  // Runs written before `head` existed: `residual` true was the residual head; false or no key, the paper's G.
+  if (j.is_object() && !j.contains("head")) {
+    j["head"] = j.value("residual", false) ? "residual" : "image";
+    j.erase("residual");
+  }
   Options o;
   from_json(j, o);
   return o;
@@ -173,9 +178,14 @@ torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const 
   return (map * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
 }
 
-torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual) {
-  auto y = G.forward(images * 2 - 1);
-  return residual ? images + y : (y + 1) * 0.5;
+torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head) {
+  if (head == "residual") return images + y;
+  if (head == "affine") return images * y.narrow(1, 0, 3).exp() + y.narrow(1, 3, 3);
+  return (y + 1) * 0.5;
+}
+
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head) {
+  return apply_head(images, G.forward(images * 2 - 1), head);
 }
 
 void zero_last_layer(nets::UNetImpl& G) {
@@ -190,10 +200,14 @@ void zero_last_layer(nets::UNetImpl& G) {
   BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
 }
 
-nlohmann::json generator_options(const nlohmann::json& g, int64_t size) {
+nlohmann::json generator_options(const nlohmann::json& g, int64_t size, const std::string& head) {
   nlohmann::json o = nets::find_model("unet256").defaults;
   o["num_downs"] = std::max(5, int(std::lround(std::log2(double(size)))));
+  o["out_channels"] = head == "affine" ? 6 : 3;
   o.update(g);
+  if (o["out_channels"] != (head == "affine" ? 6 : 3))
+    throw InvalidInput("G's out_channels " + o["out_channels"].dump(), "does not fit the head '" + head + "'",
+                       "leave out_channels out of --g-options (the head sets it)");
   return o;
 }
 
@@ -215,19 +229,19 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
       nets_(std::make_shared<Nets>()) {
   options_.check();
   nets_->G = std::dynamic_pointer_cast<nets::UNetImpl>(
-      nets::find_model("unet256").make(generator_options(options_.g, options_.size)));
+      nets::find_model("unet256").make(generator_options(options_.g, options_.size, options_.head)));
   nlohmann::json d = nets::find_model("patchgan").defaults;
   d.update(options_.d);
   nets_->D = std::dynamic_pointer_cast<nets::PatchGANImpl>(nets::find_model("patchgan").make(d));
   BS_CHECK(nets_->G && nets_->D, "the zoo's unet256 / patchgan have unexpected types");
-  if (options_.residual) zero_last_layer(*nets_->G);
+  if (options_.head != "image") zero_last_layer(*nets_->G);
   if (options_.ema > 0) {
     // The average's net is made with the random stream put back afterwards, so that everything drawn later (the
     // LPIPS trunk, dropout) is the same with and without --ema-g: the average never changes how G trains.
     at::Generator rng = at::detail::getDefaultCPUGenerator();
     const at::Tensor rng_state = rng.get_state();
     nets_->G_ema = std::make_shared<GeneratorEmaImpl>(std::dynamic_pointer_cast<nets::UNetImpl>(
-        nets::find_model("unet256").make(generator_options(options_.g, options_.size))));
+        nets::find_model("unet256").make(generator_options(options_.g, options_.size, options_.head))));
     rng.set_state(rng_state);
     reset_ema();
   }
@@ -297,11 +311,11 @@ torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& 
 }
 
 torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
-  return generator_forward(*nets_->G, images, options_.residual);
+  return generator_forward(*nets_->G, images, options_.head);
 }
 
 torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
-  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.residual);
+  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.head);
 }
 
 torch::Tensor BareSkinTask::target(const data::Batch& batch) const {

@@ -56,11 +56,15 @@ struct Options {
   int stage = 1;                  // 1: G alone (L_DD); 2: + L_FR through the reconstruction
   std::string target = "before";  // G's supervision: "before" (the paper: lit, no makeup) or "bare" (albedo truth
                                   // on the face region, the input elsewhere)
-  // Ours, not the paper's: G predicts a change of its input (output = input + Δ, Δ = the U-Net's Tanh output in
-  // [0, 1] units) and its last layer starts at zero, so G starts as the identity and training is judged by what it
-  // adds. false: the paper's G (output = the U-Net's image). Checkpoints without the key were trained with false:
-  // options_of_run reads them so (from_json takes this default, like every other key's).
-  bool residual = true;
+  // How G's image comes from the U-Net's Tanh output y (generator_forward):
+  //  - "image": the paper's G, output = (y + 1) / 2;
+  //  - "residual" (ours): output = input + y, a change of the input;
+  //  - "affine" (ours, built for the job): y has 6 channels, output = input · exp(y₀…₂) + y₃…₅, a per-pixel gain
+  //    and offset per channel. Light multiplies the albedo and a makeup layer blends over it, so the gain carries
+  //    the shading and the offset the pigment while the input's skin detail passes through unchanged.
+  // With "residual" and "affine" the last layer starts at zero: G starts as the identity and training is judged by
+  // what it adds. options_of_run reads the configurations of older runs (their boolean `residual`).
+  std::string head = "residual";
   int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
   nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
   nlohmann::json d = nlohmann::json::object();  // patchgan options
@@ -91,8 +95,8 @@ struct Options {
 };
 void to_json(nlohmann::json& j, const Options& o);
 void from_json(const nlohmann::json& j, Options& o);  // InvalidInput: unknown key, wrong type, bad value
-// The task options of a trained run (its config.json's "task"), as load_generator reads them: a run written before
-// `residual` existed trained the paper's G (residual false).
+// The task options of a trained run (its config.json's "task"), as load_generator reads them. Runs written before
+// `head` existed say `residual` true (head "residual") or false, or nothing at all (both: the paper's G, "image").
 Options options_of_run(const nlohmann::json& task);
 
 // The paper's Fig. 7 rows as option changes: "b" L1 + GAN; "c" + LPIPS; "d" + frozen F; "e" + fine-tuned F;
@@ -241,7 +245,7 @@ struct Demakeup {
   // when set (load and load_generator set it), else G.
   std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
-  bool residual = false;                 // G's output is input + Δ (Options::residual of its run)
+  std::string head = "image";            // how G's image comes from the U-Net (Options::head of its run)
   bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
@@ -331,13 +335,15 @@ struct RunEvalOptions {
 // into <run>/eval.json, with the LPIPS trunk and the split recorded.
 void evaluate_run(const std::string& run, const std::string& data, const RunEvalOptions& options);
 
-// G's image from the U-Net's output: input + Δ (residual) or the U-Net's Tanh image, both in [0, 1] units; `images`
-// [B, 3, S, S] in [0, 1]. Not clamped (training sees the raw value; inference clamps).
-torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, bool residual);
-// Zeroes the U-Net's last layer (weights and bias): with `residual`, G is then exactly the identity.
+// G's image from the U-Net's output (Options::head), in [0, 1] units; `images` [B, 3, S, S] in [0, 1]. Not clamped
+// (training sees the raw value; inference clamps). apply_head: the same from the U-Net's Tanh output `y`.
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head);
+torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head);
+// Zeroes the U-Net's last layer (weights and bias): with the "residual" and "affine" heads G is then the identity.
 void zero_last_layer(nets::UNetImpl& G);
 
-// The U-Net options for a training size: the zoo's unet256 with num_downs = log2(size) (≥ 5), overridden by `g`.
-nlohmann::json generator_options(const nlohmann::json& g, int64_t size);
+// The U-Net options for a training size and head: the zoo's unet256 with num_downs = log2(size) (≥ 5) and the
+// head's output channels, overridden by `g`.
+nlohmann::json generator_options(const nlohmann::json& g, int64_t size, const std::string& head);
 
 }  // namespace bareskin::bsn

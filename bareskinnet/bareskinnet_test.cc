@@ -188,52 +188,64 @@ class FixedSource : public data::DataSource {
   data::Batch batch_;
 };
 
-TEST(BareSkinNet, ResidualGStartsAsTheIdentityAndLearns) {
-  torch::manual_seed(0);
-  Options o = small_options(1);
-  ASSERT_TRUE(o.residual);  // ours is the default
-  BareSkinTask task(o);
-  auto x = torch::rand({2, 3, kSize, kSize});
-  // Step 0: G's output is its input, bit for bit, in training (batch statistics) and in inference.
-  EXPECT_TRUE(torch::equal(task.generate(x), x));
-  Demakeup d;
-  d.G = task.generator();
-  d.size = kSize;
-  d.residual = true;
-  d.G->eval();
-  EXPECT_TRUE(torch::equal(run_generator(d, x), x));
-  d.G->train();
-  // ... and it is not stuck there: an L1 step towards another image reaches the last layer and moves the output.
-  auto target = (x * 0.5 + 0.2).detach();
-  torch::optim::Adam adam(task.generator()->parameters(), torch::optim::AdamOptions(1e-3));
-  for (int i = 0; i < 20; ++i) {
-    adam.zero_grad();
-    (task.generate(x) - target).abs().mean().backward();
-    adam.step();
+// Both of our heads: G starts as its input bit for bit, and learns from there.
+TEST(BareSkinNet, ResidualAndAffineGStartAsTheIdentityAndLearn) {
+  ASSERT_EQ(small_options(1).head, "residual");  // ours is the default
+  for (const std::string head : {"residual", "affine"}) {
+    SCOPED_TRACE(head);
+    torch::manual_seed(0);
+    Options o = small_options(1);
+    o.head = head;
+    BareSkinTask task(o);
+    auto x = torch::rand({2, 3, kSize, kSize});
+    // Step 0: G's output is its input, bit for bit, in training (batch statistics) and in inference.
+    EXPECT_TRUE(torch::equal(task.generate(x), x));
+    Demakeup d;
+    d.G = task.generator();
+    d.size = kSize;
+    d.head = head;
+    d.G->eval();
+    EXPECT_TRUE(torch::equal(run_generator(d, x), x));
+    d.G->train();
+    // ... and it is not stuck there: an L1 step towards another image reaches the last layer and moves the output.
+    auto target = (x * 0.5 + 0.2).detach();
+    torch::optim::Adam adam(task.generator()->parameters(), torch::optim::AdamOptions(1e-3));
+    for (int i = 0; i < 20; ++i) {
+      adam.zero_grad();
+      (task.generate(x) - target).abs().mean().backward();
+      adam.step();
+    }
+    const double before = (x - target).abs().mean().item<double>();
+    const double after = (task.generate(x) - target).abs().mean().item<double>();
+    EXPECT_LT(after, 0.9 * before) << before << " -> " << after;
   }
-  const double before = (x - target).abs().mean().item<double>();
-  const double after = (task.generate(x) - target).abs().mean().item<double>();
-  EXPECT_LT(after, 0.9 * before) << before << " -> " << after;
+  // The affine head is x · exp(gain) + offset, per pixel and channel.
+  auto x = torch::rand({1, 3, 4, 4}), y = torch::rand({1, 6, 4, 4}) - 0.5;
+  auto expected = x * y.slice(1, 0, 3).exp() + y.slice(1, 3, 6);
+  EXPECT_TRUE(torch::allclose(apply_head(x, y, "affine"), expected));
   // The paper's G (an image from the Tanh) starts far from its input.
-  o.residual = false;
+  Options o = small_options(1);
+  o.head = "image";
   torch::manual_seed(0);
   BareSkinTask paper(o);
-  EXPECT_GT((paper.generate(x) - x).abs().mean().item<double>(), 0.05);
-  // Runs written before the option are the paper's G (options_of_run, which load_generator reads them with); a
-  // residual run keeps its flag through the configuration; options without the key take the struct's default.
-  EXPECT_FALSE(options_of_run(nlohmann::json::object()).residual);
-  EXPECT_TRUE(options_of_run(nlohmann::json(small_options(1))).residual);
-  Options paper_g = small_options(1);
-  paper_g.residual = false;
-  EXPECT_FALSE(options_of_run(nlohmann::json(paper_g)).residual);
-  EXPECT_TRUE(nlohmann::json::object().get<Options>().residual);
+  auto x2 = torch::rand({2, 3, kSize, kSize});
+  EXPECT_GT((paper.generate(x2) - x2).abs().mean().item<double>(), 0.05);
+  // Runs written before `head` existed (options_of_run, which load_generator reads them with): no key is the paper's
+  // G, `residual` true the residual head; a run's head survives its configuration.
+  EXPECT_EQ(options_of_run(nlohmann::json::object()).head, "image");
+  EXPECT_EQ(options_of_run({{"residual", true}}).head, "residual");
+  EXPECT_EQ(options_of_run({{"residual", false}}).head, "image");
+  Options affine = small_options(1);
+  affine.head = "affine";
+  EXPECT_EQ(options_of_run(nlohmann::json(affine)).head, "affine");
+  EXPECT_THROW(options_of_run({{"head", "gain"}}), InvalidInput);
 }
 
 // The options through core/json_options.h: the default configuration is written as it always was (same keys, values
 // and JSON types: config.json's bytes), non-default values round-trip, unknown keys are refused.
 TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
   const nlohmann::json expected = {
-      {"stage", 1},         {"target", "before"},    {"residual", true},      {"size", 256},
+      {"stage", 1},         {"target", "before"},    {"head", "residual"},    {"size", 256},
       {"g", nlohmann::json::object()},               {"d", nlohmann::json::object()},
       {"gan", "vanilla"},   {"lpips_trunk", "vgg16-random"},                  {"w1", 100.0},
       {"w2", 1.0},          {"w3", 40.0},            {"w_coeff", 0.1},        {"w_land", 0.08},
@@ -243,7 +255,7 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
   EXPECT_EQ(nlohmann::json(Options{}).dump(), expected.dump());
   testing::expect_options_json<Options>({{"stage", 2},
                                          {"target", "bare"},
-                                         {"residual", false},
+                                         {"head", "affine"},
                                          {"size", 128},
                                          {"g", {{"ngf", 8}}},
                                          {"d", {{"ndf", 8}}},
@@ -615,6 +627,7 @@ TEST(BareSkinNet, InferenceFormOfGEqualsTheModuleInEvalMode) {
       uo.num_downs = 5;
       uo.norm = norm;
       uo.upsample = up;
+      uo.out_channels = std::string(up) == "transpose" ? 6 : 3;  // the affine head's six channels, too
       nets::UNet net(uo);
       {
         torch::NoGradGuard no_grad;
@@ -658,7 +671,7 @@ TEST(BareSkinNet, InferenceFormOfGEqualsTheModuleInEvalMode) {
   Demakeup d;
   d.G = G;
   d.size = kSize;
-  d.residual = true;
+  d.head = "residual";
   const auto plain = run_generator(d, x);
   d.G_inference = std::make_shared<nets::UNetInference>(*G);
   const auto fast = run_generator(d, x);

@@ -74,8 +74,8 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   Demakeup d;
   d.device = device;
   d.size = o.size;
-  d.residual = o.residual;
-  d.G = nets::find_model("unet256").make(generator_options(o.g, o.size));
+  d.head = o.head;
+  d.G = nets::find_model("unet256").make(generator_options(o.g, o.size, o.head));
   if (o.ema > 0) {  // the moving average the run kept
     GeneratorEmaImpl average(std::dynamic_pointer_cast<nets::UNetImpl>(d.G));
     BS_CHECK(average.G, "the zoo's unet256 has an unexpected type");
@@ -132,14 +132,14 @@ torch::Tensor generator_image(const Demakeup& d, const torch::Tensor& x) {
   if (!d.G_inference) {
     auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
     BS_CHECK(G, "Demakeup::G is not a U-Net");
-    return generator_forward(*G, x, d.residual);
+    return generator_forward(*G, x, d.head);
   }
   torch::Tensor y;  // as generator_forward
   {
     c10::InferenceMode guard;
     y = d.G_inference->forward(x * 2 - 1);
   }
-  return d.residual ? x + y : (y + 1) * 0.5;
+  return apply_head(x, y, d.head);
 }
 
 }  // namespace

@@ -49,7 +49,8 @@ def main():
     w, meta = read_g(ck)
     task = meta["config"]["task"]
     size, g = task["size"], dict(task["g"])
-    net = UnetGenerator(ngf=g.get("ngf", 64), num_downs=g.get("num_downs", max(5, int(round(np.log2(size))))),
+    head = task.get("head", "residual" if task.get("residual", False) else "image")
+    net = UnetGenerator(out_channels=6 if head == "affine" else 3, ngf=g.get("ngf", 64), num_downs=g.get("num_downs", max(5, int(round(np.log2(size))))),
                         norm=g.get("norm", "batch"), dropout=g.get("dropout", True))
     prefix = "module.G_ema.G." if not raw and any(k.startswith("module.G_ema.") for k in w) else "module.G."
     net.load_state_dict({k[len(prefix):]: v for k, v in w.items() if k.startswith(prefix) and not k.endswith("updates")})
@@ -65,7 +66,8 @@ def main():
         with torch.no_grad():
             xs = Fn.interpolate(x, size=(size, size), mode="area")
             y = net(xs * 2 - 1)
-            y = xs + y if task.get("residual", False) else (y + 1) * 0.5
+            y = {"residual": lambda: xs + y, "affine": lambda: xs * y[:, :3].exp() + y[:, 3:],
+                 "image": lambda: (y + 1) * 0.5}[head]()
             y = Fn.interpolate(y, size=(256, 256), mode="bilinear", align_corners=False).clamp(0, 1)
         y8 = np.round(y.permute(0, 2, 3, 1).numpy() * 255)
         rows.append((s, y8.std(0).mean(-1)[face].mean(), y8[:, face].mean(1).std(0).mean()))
