@@ -124,6 +124,35 @@ void add_trainer_flags(CLI::App& app, TrainerFlags& f, bool steps) {
   app.add_flag("--resume", f.resume, "Continue the run in the output folder from its checkpoint");
 }
 
+void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles) {
+  chosen = profiles.front().name;
+  std::string help = "Sizes and recipe to start from (flags given win):";
+  for (const Profile& p : profiles) help += "\n  " + p.name + ": " + p.summary;
+  app.add_option("--profile", chosen, help)->capture_default_str();
+}
+
+nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std::vector<Profile>& profiles) {
+  const auto found = std::find_if(profiles.begin(), profiles.end(), [&](const Profile& p) { return p.name == chosen; });
+  if (found == profiles.end()) {
+    std::string names;
+    for (const Profile& p : profiles) names += (names.empty() ? "" : ", ") + p.name;
+    throw InvalidInput("--profile " + chosen, "is not a profile of '" + app.get_name() + "'", "use one of " + names);
+  }
+  nlohmann::json overrides = nlohmann::json::object();
+  for (const auto& [flag, value] : found->flags) {
+    CLI::Option* option = app.get_option(flag);
+    if (option->count() > 0) {
+      const auto given = option->results();
+      overrides[flag] = given.size() == 1 ? given.front() : CLI::detail::join(given, " ");
+      continue;
+    }
+    option->clear();
+    option->add_result(value);
+    option->run_callback();
+  }
+  return {{"name", found->name}, {"overrides", overrides}};
+}
+
 int run(int argc, char** argv) {
   // Page faults are expensive on our VMs: keep large allocations in the heap instead of fresh mmaps (docs/environment.md).
   mallopt(M_MMAP_MAX, 0);

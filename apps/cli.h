@@ -74,6 +74,19 @@ struct TrainerFlags {
 // --checkpoint-every, --eval-every, --sample-every, --resume.
 void add_trainer_flags(CLI::App& app, TrainerFlags& flags, bool steps = true);
 
+// A profile: a named set of flag values a training command starts from (--profile), e.g. the network sizes a 2-core
+// CPU trains in hours or the paper's for a GPU. Flags given on the command line (or in --config) win over it.
+struct Profile {
+  std::string name, summary;
+  std::vector<std::pair<std::string, std::string>> flags;  // {"--size", "64"}, {"--g-options", "{\"ngf\": 16}"}
+};
+// Registers --profile NAME on `app`; `profiles` lists them, the first is the default.
+void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles);
+// After parsing: sets each flag of the chosen profile that was not given. InvalidInput (before anything is written)
+// for an unknown profile. Returns what a run's configuration records: {"name": ..., "overrides": {flag: value given}}
+// for the profile's flags that the command line set otherwise.
+nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std::vector<Profile>& profiles);
+
 // Parses argv, runs the chosen command, and turns exceptions into one line + exit code.
 int run(int argc, char** argv);
 

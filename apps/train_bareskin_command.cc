@@ -16,9 +16,36 @@
 namespace bareskin::cli {
 namespace fs = std::filesystem;
 
+namespace {
+// --profile: "paper" keeps the paper's sizes and recipe (the defaults of every flag); "cpu" is what a 2-core CPU
+// trains in minutes to hours and still learns its task (docs/training.md, "Profiles", gives the chart it was chosen
+// from).
+const std::vector<Profile>& bareskin_profiles() {
+  static const std::vector<Profile> profiles = {
+      {"paper", "G ngf 64 at 256², 10k + 30k steps of 4, lr 2e-5 (a GPU's days)", {}},
+      {"cpu", "G ngf 16 with the affine head at 64², D ndf 16, E width 16, 1500 + 300 steps of 8, lr 2e-4, the bare "
+              "target, LPIPS on face-api's net",
+       {{"--size", "64"},
+        {"--head", "affine"},
+        {"--target", "bare"},
+        {"--g-options", R"({"ngf": 16})"},
+        {"--d-options", R"({"ndf": 16, "n_layers": 2})"},
+        {"--student-options", R"({"width": 16})"},
+        {"--lpips", "facenet"},
+        {"--lr-g", "2e-4"},
+        {"--lr-d", "2e-4"},
+        {"--ema-g", "0.99"},
+        {"--batch", "8"},
+        {"--steps1", "1500"},
+        {"--steps2", "300"}}},
+  };
+  return profiles;
+}
+}  // namespace
+
 std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globals) {
   struct Options {
-    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, weights;
+    std::string data, teacher, model, output = "runs/bsn", ablation, g, d, student, weights, profile;
     bsn::Options task;
     int64_t steps1 = 10000, steps2 = 30000;
     TrainerFlags t;
@@ -61,6 +88,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, e.g. '{\"w2\": 0.5}'");
   add_trainer_flags(*app, o->t, false);
+  add_profile_flag(*app, o->profile, bareskin_profiles());
   app->get_option("--batch")->description("Batch size (the paper: 4)");
   app->get_option("--resume")->description("Continue the run in the output folder (finished stages are kept)");
   app->add_flag("--evaluate", o->evaluate, "Only evaluate the run in the output folder on the test split (eval.json)");
@@ -68,15 +96,16 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->footer("Example:\n  bareskin train bareskin --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
               "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
   return [o, app, &globals] {
+    const nlohmann::json profile = apply_profile(*app, o->profile, bareskin_profiles());
     set_torch_threads(globals);
     const torch::Device device = parse_device(o->t.device);
     const shards::Splits data_splits = shards::find_splits(o->data, "give the folder 'bareskin texgen faces' wrote");
     bsn::Options task = o->task;
     task.g = json_flag(o->g, "--g-options", "{\"ngf\": 32}");
-    task.d = json_flag(o->d, "--d-options", "{\"ngf\": 32}");
+    task.d = json_flag(o->d, "--d-options", "{\"ndf\": 32}");
     if (!o->ablation.empty()) bsn::ablation_preset(o->ablation, task);
     nlohmann::json check = task;
-    const nlohmann::json weights = json_flag(o->weights, "--loss-weights", "{\"ngf\": 32}");  // named: items() of a temporary dangles
+    const nlohmann::json weights = json_flag(o->weights, "--loss-weights", "{\"w2\": 0.5}");  // named: items() of a temporary dangles
     for (auto& [key, value] : weights.items()) {
       static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
       if (!kWeights.count(key) || !value.is_number())
@@ -87,7 +116,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     bsn::from_json(check, task);  // validates size, target, ...
     if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
     if (!o->ablation.empty() && !bsn::ablation_has_stage2(o->ablation)) o->steps2 = 0;
-    const nlohmann::json student_options = json_flag(o->student, "--student-options", "{\"ngf\": 32}");
+    const nlohmann::json student_options = json_flag(o->student, "--student-options", "{\"width\": 16}");
     if (o->steps2 > 0 && !o->evaluate) {
       if (o->teacher.empty())
         throw InvalidInput("--teacher", "is needed by stage 2", "give a 'bareskin train recon' run, or --steps2 0");
@@ -105,6 +134,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
     ro.steps2 = o->steps2;
     ro.batch = o->t.batch;
     ro.seed = o->t.seed;
+    ro.profile = profile;
     if (!o->teacher.empty()) ro.teacher = fs::absolute(o->teacher).string();
     if (!o->model.empty()) ro.model = fs::absolute(o->model).string();
     ro.trainer.resume = o->t.resume;

@@ -16,10 +16,30 @@ namespace bareskin::cli {
 
 namespace fs = std::filesystem;
 
+namespace {
+// --profile: "paper" is Deep3DFaceRecon's F (ResNet-50 at the samples' 256², lr 1e-4, 20k steps); "cpu" a
+// ResNet-18 of width 16 at 128² that a 2-core CPU trains in minutes (docs/training.md, "Profiles").
+const std::vector<Profile>& recon_profiles() {
+  static const std::vector<Profile> profiles = {
+      {"paper", "ResNet-50 width 64 at the samples' size, lr 1e-4, 20k steps of 8 (a GPU's hours)", {}},
+      {"cpu", "ResNet-18 width 16 with light at 128², truth + landmark terms, lr 1e-3, 3000 steps of 8",
+       {{"--arch", "resnet18"},
+        {"--width", "16"},
+        {"--gamma", "on"},
+        {"--image-size", "128"},
+        {"--supervision", "both"},
+        {"--loss", R"({"photo": 0, "identity": 0})"},
+        {"--lr", "1e-3"},
+        {"--steps", "3000"}}},
+  };
+  return profiles;
+}
+}  // namespace
+
 std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals) {
   struct Options {
     std::string data, model, output = "runs/F", arch = "resnet50", supervision = "both", input = "before", loss,
-                gamma = "auto";
+                gamma = "auto", profile;
     int width = 64, image_size = 0;
     int64_t decay_every = 0, eval_batches = 8;
     double lr = 1e-4;
@@ -48,6 +68,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
                                                  "theirs, 256²; 128 is 4× cheaper on the CPU)")->capture_default_str();
   app->add_option("--loss", o->loss, "Loss weights over the defaults, JSON (docs/training.md), e.g. '{\"identity\": 0}'");
   add_trainer_flags(*app, o->t);
+  add_profile_flag(*app, o->profile, recon_profiles());
   app->add_option("--lr", o->lr, "Adam's learning rate (Deep3DFaceRecon: 1e-4)")->capture_default_str();
   app->add_option("--decay-every", o->decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
@@ -56,6 +77,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
               "docs/training.md, \"Face reconstruction (F / E)\", describes the heads, losses and metrics.");
   return [o, app, &globals] {
     if (!app->parsed()) return false;
+    const nlohmann::json profile = apply_profile(*app, o->profile, recon_profiles());
     const torch::Device device = parse_device(o->t.device);
     if (!fs::exists(o->model)) throw IoError(o->model, "does not exist", "give the morphable model file (mm-build)");
     recon::ReconTaskOptions to;
@@ -122,6 +144,8 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
                    {"seed", o->t.seed}, {"steps", o->t.steps}, {"log_every", o->t.log_every},
                    {"checkpoint_every", o->t.checkpoint_every}, {"eval_every", topt.eval_every},
                    {"eval_batches", o->eval_batches}, {"sample_every", o->t.sample_every}, {"device", o->t.device}};
+    topt.config["profile"] = profile;
+    topt.resumable_keys = {"profile"};  // runs made before profiles existed have none
     train::Trainer trainer(topt, task, loader, val.get());
     const train::TrainResult result = trainer.run();
     if (!globals.quiet()) {

@@ -382,6 +382,7 @@ std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
     if (!batch.tensors.count(truth)) continue;
     auto t = member(batch, truth);
     m[std::string("psnr_") + truth] = masked_psnr(out, t, skin).mean().item<double>();
+    m[std::string("psnr_input_") + truth] = masked_psnr(member(batch, "makeup"), t, skin).mean().item<double>();
     m[std::string("ssim_") + truth] = masked_ssim(out, t, skin).mean().item<double>();
   }
   return m;
@@ -507,6 +508,7 @@ const auto kRunFields = [](auto& v, auto& o) {
   v("seed", o.seed);
   v("teacher", o.teacher);
   v("model", o.model);
+  v.unless_default("profile", o.profile);  // older runs have none
 };
 }  // namespace
 
@@ -538,7 +540,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   to.steps = steps;
   to.config = ro;
   to.config["stage"] = task.options().stage;
-  for (const char* key : {"steps1", "steps2", "val_data"}) to.resumable_keys.push_back(key);
+  for (const char* key : {"steps1", "steps2", "val_data", "profile"}) to.resumable_keys.push_back(key);
   task.set_stage_steps(steps);
   train::Trainer trainer(to, task, train_loader, val.get());
   return trainer.run();

@@ -212,6 +212,7 @@ struct RunOptions {
   int decode_threads = 2;
   train::TrainerOptions trainer;   // intervals, device, progress, resume (run_dir, steps, config are set here)
   std::string teacher, model;      // recorded in the run's configuration (demakeup's defaults)
+  nlohmann::json profile = nlohmann::json::object();  // the command's --profile and the flags given over it
 };
 void to_json(nlohmann::json& j, const RunOptions& o);
 

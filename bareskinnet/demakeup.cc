@@ -2,6 +2,7 @@
 // runs, a photo or an aligned face to bare skin, its fit and its UV unwrap, the written result files, and G's
 // held-out evaluation (`evaluate_run`: a run's eval.json).
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -148,6 +149,47 @@ void to_json(nlohmann::json& j, const EvalResult& r) {
   j = {{"samples", r.samples}, {"ms_per_image", r.ms_per_image}, {"mean", r.mean}, {"by_style", r.by_style}};
 }
 
+namespace {
+
+// A region's PSNR per image, NaN where the image has fewer than 16 of its pixels.
+torch::Tensor region_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& region) {
+  const auto p = masked_psnr(a, b, region);
+  return torch::where(region.sum({1, 2, 3}) >= 16, p, torch::full_like(p, std::nan("")));
+}
+
+// The metrics beyond the skin mask, against the bare truth, for G's output and the input (the do-nothing baseline):
+//  - face_*: the whole face region (face.png), lips, eyes and brows included;
+//  - makeup_*: where the makeup changed the face (mean |makeup − before| over the channels > 0.02), the region the
+//    skin mask leaves out; NaN for faces without makeup;
+//  - albedo_*: the albedo F fits to G's output (to the input for the baseline), rendered unlit, on the face region
+//    F's render covers: what stage 2 trains G for (only when the run names its teacher F and model).
+template <class Take>
+void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Batch& batch, int64_t n,
+                        const Demakeup& d, const torch::Tensor& makeup, const torch::Tensor& out, const Take& take) {
+  if (!batch.tensors.count("face")) return;
+  auto bare = take("bare");
+  auto face = (take("face") >= 0.5).to(makeup.dtype());
+  auto changed = ((makeup - take("before")).abs().mean(1, true) > 0.02).to(makeup.dtype()) * face;
+  for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
+    m["psnr_face_" + name + "bare"] = masked_psnr(x, bare, face);
+    m["ssim_face_" + name + "bare"] = masked_ssim(x, bare, face);
+    m["psnr_makeup_" + name + "bare"] = region_psnr(x, bare, changed);
+  }
+  if (!d.F.module || !d.model) return;
+  // F and the render at the shards' size (256²), as demakeup runs them.
+  auto full = [&](const std::string& key) { return batch.at(key).narrow(0, 0, n).to(d.device); };
+  auto bare_full = full("bare");
+  auto face_full = (full("face") >= 0.5).to(bare_full.dtype());
+  for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", run_generator(d, full("makeup"))},
+                         {"input_", full("makeup")}}) {
+    auto render = d.model->render(d.F.forward(x), recon::canonical_camera(int(x.size(-1))));
+    auto region = face_full * (render.mask >= 0.5).to(x.dtype());
+    m["psnr_albedo_" + name + "bare"] = masked_psnr(recon::linear_to_srgb(render.albedo), bare_full, region);
+  }
+}
+
+}  // namespace
+
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& eo) {
   torch::NoGradGuard no_grad;
   data::LoaderOptions lo;
@@ -165,7 +207,8 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   if (face) face->to(eo.device);
   std::map<std::string, double> sums;
   std::map<std::string, std::map<std::string, double>> style_sums;
-  std::map<std::string, int64_t> style_counts;
+  std::map<std::string, int64_t> style_counts, counts;
+  std::map<std::string, std::map<std::string, int64_t>> style_name_counts;
   EvalResult r;
   while (r.samples < total) {
     data::Batch batch = loader.next();
@@ -175,7 +218,7 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
     auto makeup = take("makeup");
     auto skin = (take("skin") >= 0.5).to(makeup.dtype());
     auto out = run_generator(d, makeup);
-    std::map<std::string, torch::Tensor> m;  // per image [n]
+    std::map<std::string, torch::Tensor> m;  // per image [n]; NaN where an image has none of a region
     for (const char* truth : {"bare", "before"}) {
       auto t = take(truth);
       for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
@@ -189,20 +232,24 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
         }
       }
     }
+    add_region_metrics(m, batch, n, d, makeup, out, take);
     for (int64_t i = 0; i < n; ++i) {
       const std::string style = batch.meta[size_t(i)].value("style", "unknown");
       ++style_counts[style];
       for (auto& [name, v] : m) {
         const double x = v[i].item<double>();
+        if (std::isnan(x)) continue;
         sums[name] += x;
+        ++counts[name];
         style_sums[style][name] += x;
+        ++style_name_counts[style][name];
       }
     }
     r.samples += n;
   }
-  for (auto& [name, v] : sums) r.mean[name] = v / double(std::max<int64_t>(1, r.samples));
+  for (auto& [name, v] : sums) r.mean[name] = v / double(counts[name]);
   for (auto& [style, ms] : style_sums)
-    for (auto& [name, v] : ms) r.by_style[style][name] = v / double(style_counts[style]);
+    for (auto& [name, v] : ms) r.by_style[style][name] = v / double(style_name_counts[style][name]);
   r.by_style["count"] = {};
   for (auto& [style, c] : style_counts) r.by_style["count"][style] = double(c);
   // Inference time of G alone (batch 1, at its training size), median of 5 after a warm-up.
@@ -235,7 +282,11 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
   const std::string face_api = detect::default_face_api_folder();
   if (fs::exists(fs::path(face_api) / detect::kFaceRecognitionManifest)) eo.face_api = face_api;
   if (eo.lpips_trunk == "facenet" && eo.face_api.empty()) eo.lpips_trunk.clear();
-  const EvalResult r = evaluate_generator(load_generator(run, options.device), test_split, eo);
+  // With the run's teacher F and model (stage 2 runs name them), the albedo metrics too.
+  const nlohmann::json config = checkpoint_config(bareskin_checkpoint(run));
+  const bool with_f = fs::exists(config.value("teacher", "")) && fs::exists(config.value("model", ""));
+  const Demakeup d = with_f ? Demakeup::load(run, "", "", options.device) : load_generator(run, options.device);
+  const EvalResult r = evaluate_generator(d, test_split, eo);
   nlohmann::json j = r;
   j["lpips_trunk"] = eo.lpips_trunk;
   j["split"] = test_split;

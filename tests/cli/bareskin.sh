@@ -59,6 +59,11 @@ t = json.load(open('$work/bsnw/stage1/config.json'))['task']
 assert t['w2'] == 0.5 and t['w_diff'] == 250 and t['w1'] == 100, t" || fail "--loss-weights not in the configuration"
 expect_failure 3 "not a loss weight" "$work/bsnw2" -- "$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnw2" \
   "${small[@]}" --loss-weights '{"lr": 1}'
+# An unknown profile: one line naming the profiles, nothing written (train recon's too).
+expect_failure 3 "use one of paper, cpu" "$work/bsnw2" -- "$bin" train bareskin --profile gpu --data "$work/faces" \
+  -o "$work/bsnw2"
+expect_failure 3 "use one of paper, cpu" "$work/Fbad" -- "$bin" train recon --profile laptop --data "$work/faces" \
+  --model "$work/none.safetensors" -o "$work/Fbad"
 # A second run into the same folder without --resume is refused; --resume of a finished run trains nothing more.
 expect_failure 3 "already holds a run" "" -- "$bin" train bareskin --data "$work/faces" --steps1 2 -o "$work/bsn" "${small[@]}"
 

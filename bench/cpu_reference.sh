@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The CPU reference training: what `--profile cpu` reaches on a 2-core machine in about two hours, scored on
+# held-out subjects and a held-out makeup family, with its learning curves.
+#   1. its own `texgen faces` world from the demo's registered subjects and model (run `make demo` first):
+#      4,000 samples of 10 registered + 110 3DMM identities, 256²; 10% of the subjects for val, 10% for test, the
+#      `dramatic` makeup family in test only;
+#   2. F: `train recon --profile cpu`, scored by `recon --eval` on the test split (against the mean face);
+#   3. G + E: `train bareskin --profile cpu` with that F, three seeds, each scored on the test split after stage 1
+#      and after stage 2 (eval_stage1.json, eval_stage2.json: against the unchanged input and each other);
+#   4. curves.html: the validation PSNR of G against steps and against CPU-minutes, seeds' spread, the input's line.
+# Every stage is skipped when its output exists and trainings continue with --resume, so a killed run resumes.
+#   bash bench/cpu_reference.sh <bin/> <demo out/> <out/> [samples]
+set -euo pipefail
+bin=$1 demo=$2 out=$3 samples=${4:-4000}
+bareskin="$bin/bareskin"
+py=/usr/bin/python3
+model="$demo/model/model.safetensors"
+[ -f "$model" ] || { echo "cpu_reference: $model is missing; run 'make demo' first (it builds the model)" >&2; exit 3; }
+mkdir -p "$out"
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE}
+cpu() {  # cpu NAME command...: runs it, appends NAME and its CPU seconds (user + system) to $out/cpu.txt
+  local name=$1
+  shift
+  /usr/bin/time -f "$name %U %S %e" -a -o "$out/cpu.txt" "$@"
+}
+
+if [ ! -f "$out/faces/test/manifest.json" ]; then
+  echo "cpu_reference: texgen faces ($samples samples)" >&2
+  cpu faces "$bareskin" -q --threads 2 texgen faces --registered "$demo/registered" --model "$model" \
+    --count "$samples" --mm-subjects 110 --val 0.1 --test 0.1 --exclude-styles dramatic --seed 11 --align truth \
+    -o "$out/faces"
+fi
+
+if [ ! -f "$out/F/eval/metrics.json" ]; then
+  echo "cpu_reference: train recon --profile cpu" >&2
+  resume=()
+  [ -f "$out/F/checkpoint.safetensors" ] && resume=(--resume)
+  cpu F "$bareskin" -q --threads 2 train recon --profile cpu --data "$out/faces" --model "$model" -o "$out/F" \
+    "${resume[@]}" --eval-every 250 --sample-every 0 --checkpoint-every 250 --log-every 50
+  "$bareskin" -q --threads 2 recon --eval "$out/faces/test" --run "$out/F" -o "$out/F/eval"
+fi
+
+# G + E: stage 1 alone first (its held-out score kept as eval_stage1.json), then stage 2 continued from it, each
+# under its own CPU clock.
+for seed in 0 1 2; do
+  run="$out/G_seed$seed"
+  common=(-q --threads 2 train bareskin --profile cpu --data "$out/faces" --teacher "$out/F" --model "$model" -o "$run"
+    --seed "$seed" --eval-every 100 --sample-every 0 --checkpoint-every 100 --log-every 50)
+  if [ ! -f "$run/eval_stage1.json" ]; then
+    echo "cpu_reference: train bareskin --profile cpu, seed $seed, stage 1" >&2
+    resume=()
+    [ -f "$run/stage1/checkpoint.safetensors" ] && resume=(--resume)
+    cpu "G${seed}_stage1" "$bareskin" "${common[@]}" --steps2 0 "${resume[@]}"
+    cp "$run/eval.json" "$run/eval_stage1.json"
+  fi
+  if [ ! -f "$run/eval_stage2.json" ]; then
+    echo "cpu_reference: train bareskin --profile cpu, seed $seed, stage 2" >&2
+    cpu "G${seed}_stage2" "$bareskin" "${common[@]}" --resume
+    cp "$run/eval.json" "$run/eval_stage2.json"
+  fi
+done
+
+$py "$(dirname "$0")/cpu_reference.py" "$out"
