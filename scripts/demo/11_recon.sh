@@ -7,10 +7,11 @@ source "$(dirname "$0")/lib.sh"
 dir="$out/recon"
 mkdir -p "$dir"
 model="$out/model/model.safetensors"
-# Sizes (2 cores, 150 s for the section): F is a ResNet-18 of width 16 (the paper's F: ResNet-50, width 64) trained at
-# 128² (the samples are 256²; the canonical camera scales with the size) for 300 steps of 8, supervised by the
-# samples' coefficients and Deep3DFaceRecon's landmark, regularisation and light terms (the photometric and identity
-# terms render every face and cost ~4x a step on the CPU; they are on by default). Held-out: 40 new 3DMM identities.
+# Sizes (2 cores, 150 s for the section): `--profile cpu` (docs/training.md, "Profiles"): F is a ResNet-18 of width 16
+# (the paper's F: ResNet-50, width 64) trained at 128² (the samples are 256²; the canonical camera scales with the
+# size), supervised by the samples' coefficients and Deep3DFaceRecon's landmark, regularisation and light terms (the
+# photometric and identity terms render every face and cost ~4x a step on the CPU), here for 300 steps of 8 instead of
+# the profile's 3000. Held-out: 40 new 3DMM identities.
 STEPS=${DEMO_RECON_STEPS:-300}
 SIZE=${DEMO_RECON_SIZE:-128}
 faces="$out/faces"
@@ -29,9 +30,8 @@ if [ ! -f "$dir/heldout/train/manifest.json" ]; then
 fi
 if [ ! -f "$dir/F/checkpoint.safetensors" ]; then
   echo "demo §11: bareskin train recon (resnet18 width 16 at ${SIZE}², $STEPS steps)" >&2
-  timed "recon train" "$bareskin" -q train recon --arch resnet18 --width 16 --gamma on --image-size "$SIZE" \
-    --supervision both --loss '{"photo": 0, "identity": 0}' --data "$faces" --model "$model" -o "$dir/F" \
-    --steps "$STEPS" --batch 8 --lr 1e-3 --log-every 25 --eval-every 0 --sample-every "$STEPS" --checkpoint-every "$STEPS"
+  timed "recon train" "$bareskin" -q train recon --profile cpu --image-size "$SIZE" --data "$faces" --model "$model" \
+    -o "$dir/F" --steps "$STEPS" --log-every 25 --eval-every 0 --sample-every "$STEPS" --checkpoint-every "$STEPS"
 fi
 if [ ! -f "$dir/eval/metrics.json" ]; then
   echo "demo §11: bareskin recon --eval on the held-out faces" >&2

@@ -6,25 +6,13 @@
 source "$(dirname "$0")/lib.sh"
 dir="$out/bareskinnet"
 mkdir -p "$dir"
-# Sizes (2 cores, ≤ 150 s for both stages, the evaluation and the photo): G at 64² (the 256² samples area-resized),
-# ngf 16 (the paper: 64 at 256²), PatchGAN ndf 16, student E a ResNet-18 of width 16, batch 4 (the paper's), LPIPS on
-# the vgg16-random trunk at 64²; stage 1 STEPS1 and stage 2 STEPS2 iterations (the paper: 10k + 30k). These show the
-# pipeline and its trends, not the paper's quality: bench/BENCHMARKS.md has the paper-size costs.
-SIZE=${DEMO_BSN_SIZE:-64}
-NGF=${DEMO_BSN_NGF:-16}
-STEPS1=${DEMO_BSN_STEPS1:-240}
-STEPS2=${DEMO_BSN_STEPS2:-80}
-# G's and D's learning rate: pix2pix's 2e-4 (the paper's 2e-5 is for 10k + 30k steps; in 320 steps it barely moves
-# G; 1e-3 was worse than 2e-4 on the held-out faces: bench/BENCHMARKS.md). G is ours: input + Δ, starting as the
-# identity (docs/training.md), so the table below shows what training adds to the unchanged input.
-LR=${DEMO_BSN_LR:-2e-4}
-# G's target: the bare albedo on the face region (ours; `before`, the paper's lit image, left the light in G's output:
-# +1.7 dB vs the bare truth on held-out faces and about twice the stability gain at the same steps, bench/BENCHMARKS.md).
-TARGET=${DEMO_BSN_TARGET:-bare}
-# G's weights as seen by the evaluation, demakeup and §14: their moving average (`--ema-g`, decay 0.99), which at these
-# steps lowered the UV spread over makeup × light from −37% to −45% and lifted SSIM above the input's, for 1.4 dB of
-# PSNR (bench/BENCHMARKS.md); DEMO_BSN_EMA=0 uses the last G instead.
-EMA=${DEMO_BSN_EMA:-0.99}
+# Sizes (2 cores, ≈ 3 min for both stages, the evaluation and the photo): `--profile cpu` (docs/training.md,
+# "Profiles": G a U-Net of width 16 with the affine head at 64², the 256² samples area-resized; PatchGAN ndf 16 with 2
+# layers; student E a ResNet-18 of width 16; batch 8; LPIPS on face-api's recognition net; G and D at pix2pix's 2e-4;
+# the bare albedo as G's target; the moving average of G's weights for evaluation and inference), shortened to STEPS1
+# + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
+STEPS1=${DEMO_BSN_STEPS1:-300}
+STEPS2=${DEMO_BSN_STEPS2:-60}
 faces=${DEMO_BSN_FACES:-$out/faces}
 model="$out/model/model.safetensors"
 # The teacher F: the first recon run under <out> whose checkpoint holds F (§11 writes it).
@@ -51,15 +39,16 @@ if [ -z "$teacher" ]; then
   stage2=(--steps2 0)
 fi
 if [ ! -f "$run/eval.json" ]; then
-  echo "demo §12: train bareskin (${SIZE}², ngf $NGF, $STEPS1 + $STEPS2 steps)" >&2
-  timed "bareskinnet" "$bareskin" -q train bareskin --data "$faces" -o "$run" --resume --size "$SIZE" \
-    --g-options "{\"ngf\": $NGF}" --d-options "{\"ndf\": $NGF}" --student-options '{"width": 16}' \
-    --steps1 "$STEPS1" "${stage2[@]}" --lr-g "$LR" --lr-d "$LR" --target "$TARGET" --ema-g "$EMA" --log-every 10 --checkpoint-every 40 --eval-every 0 --sample-every 40 \
+  echo "demo §12: train bareskin (--profile cpu, $STEPS1 + $STEPS2 steps)" >&2
+  resume=()
+  [ -f "$run/stage1/checkpoint.safetensors" ] && resume=(--resume)
+  timed "bareskinnet" "$bareskin" -q train bareskin --profile cpu --data "$faces" -o "$run" "${resume[@]}" \
+    --steps1 "$STEPS1" "${stage2[@]}" --log-every 10 --checkpoint-every 60 --eval-every 0 --sample-every 60 \
     --eval-samples 48
 fi
 if [ "${DEMO_BSN_ABLATION:-0}" = 1 ] && [ -n "$teacher" ] && [ ! -f "$dir/ablation.md" ]; then
   timed "bsn ablation" bash "$(dirname "$0")/../../bench/bareskinnet_ablation.sh" "$bin" "$faces" "$teacher" "$model" \
-    "$dir/ablation" "$SIZE" 120 40 > "$dir/ablation.md.tmp"
+    "$dir/ablation" 64 120 40 > "$dir/ablation.md.tmp"
   mv "$dir/ablation.md.tmp" "$dir/ablation.md"
 fi
 photo=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
@@ -67,22 +56,25 @@ if [ -n "$teacher" ] && [ -f "$photo" ] && [ ! -f "$dir/astronaut/coefficients.j
   timed "demakeup" "$bareskin" -q demakeup "$photo" --run "$run" -o "$dir/astronaut" --uv-size 512
 fi
 
-$py - "$dir" "$out" "$SIZE" "$NGF" "$STEPS1" "$STEPS2" "${teacher:-none}" "$LR" "$TARGET" "$EMA" > "$out/sections/12_bareskinnet.html" <<'PY'
+$py - "$dir" "$out" "$STEPS1" "$STEPS2" "${teacher:-none}" > "$out/sections/12_bareskinnet.html" <<'PY'
 import glob, json, os, shutil, sys
 import numpy as np
 from skimage import io as skio
-d, out, size, ngf, steps1, steps2, teacher, lr, target, ema = sys.argv[1], sys.argv[2], *map(int, sys.argv[3:7]), *sys.argv[7:11]
+d, out, steps1, steps2, teacher = sys.argv[1], sys.argv[2], *map(int, sys.argv[3:5]), sys.argv[5]
+task = json.load(open(os.path.join(d, "run", "stage1", "config.json")))["task"]
+size, ngf, lr, target, ema = task["size"], task["g"].get("ngf", 64), task["lr_g"], task["target"], task["ema"]
 img = os.path.join(out, "img")
 run = os.path.join(d, "run")
 ev = json.load(open(os.path.join(run, "eval.json")))
 print("<h2>12. BareSkinNet: de-makeup and de-lighting</h2>")
-print(f"<p><code>bareskin train bareskin</code> at demo size: G (pix2pix U-Net) at {size}² with ngf {ngf}, PatchGAN "
-      f"ndf {ngf}, batch 4, stage 1 (L<sub>DD</sub> = 100·L1 + GAN + 40·LPIPS, vgg16-random trunk) for {steps1} steps, "
+print(f"<p><code>bareskin train bareskin --profile cpu</code>: G (pix2pix U-Net, {task['head']} head) at {size}² with "
+      f"ngf {ngf}, PatchGAN ndf {task['d'].get('ndf', 64)}, batch 8, stage 1 (L<sub>DD</sub> = 100·L1 + GAN + 40·LPIPS, "
+      f"{task['lpips_trunk']} trunk) for {steps1} steps (the profile: 1500), "
       f"then stage 2 (+ 0.1·L<sub>coeff</sub> + 0.08·L<sub>land</sub> + 100·L<sub>diff</sub> + 100·L<sub>light</sub> "
       f"+ 1e-3·L<sub>reg</sub> through the 3DMM render, student E a ResNet-18 of width 16, teacher F: {teacher}) for "
-      f"{steps2} steps, G and D at learning rate {lr} (pix2pix's; the paper's 2e-5 suits its 40k steps). G outputs its "
-      "input plus a change that starts at zero (ours, not the paper's: step 0 is the unchanged input, so the table "
-      "below shows what training adds). " +
+      f"{steps2} steps (the profile: 300), G and D at learning rate {lr} (pix2pix's; the paper's 2e-5 suits its 40k "
+      "steps). G outputs its input times a gain plus an offset per pixel, both starting at the identity (ours, not the "
+      "paper's: step 0 is the unchanged input, so the table below shows what training adds). " +
       ("G's target is the bare albedo truth on the face region and the input elsewhere (<code>--target bare</code>, "
        "ours: our world has the truth the paper lacked; the paper's <code>--target before</code>, the lit image "
        "without makeup, leaves the de-lighting to stage 2 alone and scored 1.7 dB lower against the bare truth at "
@@ -90,8 +82,8 @@ print(f"<p><code>bareskin train bareskin</code> at demo size: G (pix2pix U-Net) 
        "G's target is the before image (the paper's: lit, no makeup). ") +
       (f"Evaluation, grids and <code>demakeup</code> use the moving average of G's weights (<code>--ema-g {ema}</code>, "
        "ours: steadier across makeup and light at these steps, bench/BENCHMARKS.md). " if float(ema) > 0 else "") +
-      "The paper trains 10k + 30k steps at 256² with ngf 64: these sizes fit the "
-      "demo's 2 cores and 150 s, and show the pipeline and its trends, not the paper's quality.</p>")
+      "The paper trains 10k + 30k steps at 256² with ngf 64 on a GPU; the demo trains the CPU profile for a fifth "
+      "of its steps to fit 2 cores and about 3 minutes (bench/cpu_reference.sh trains it whole).</p>")
 figs = []
 for stage in ("stage1", "stage2"):
     svg = os.path.join(run, stage, "losses.svg")
@@ -125,6 +117,15 @@ print(f"<p>Held-out test split ({ev['samples']} faces: subjects never trained on
 print("<table><tr><th></th><th>PSNR vs bare</th><th>SSIM vs bare</th><th>LPIPS vs bare</th><th>PSNR vs before</th>"
       "<th>SSIM vs before</th><th>LPIPS vs before</th><th>identity</th></tr>")
 print(row("G's output", "") + row("the input (do nothing)", "input_"))
+print("</table>")
+mean = ev["mean"]
+regions = [("skin (the table above)", "psnr_bare", "psnr_input_bare"), ("the whole face", "psnr_face_bare", "psnr_face_input_bare"),
+           ("where the makeup is", "psnr_makeup_bare", "psnr_makeup_input_bare"),
+           ("F's unlit albedo of it", "psnr_albedo_bare", "psnr_albedo_input_bare")]
+print("<table><tr><th>region, PSNR vs bare</th><th>G's output</th><th>the input</th><th>gain</th></tr>")
+for name, g, i in regions:
+    if g in mean and i in mean:
+        print(f"<tr><td>{name}</td><td>{mean[g]:.2f} dB</td><td>{mean[i]:.2f} dB</td><td>{mean[g] - mean[i]:+.2f} dB</td></tr>")
 print("</table>")
 styles = {k: v for k, v in ev["by_style"].items() if k != "count"}
 if styles:
