@@ -1,0 +1,141 @@
+#include "makeup/avatar_folder.h"
+
+#include <filesystem>
+
+#include "avatar/glb.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "core/png.h"
+#include "morphable/coefficients.h"
+#include "texgen/texture_sample.h"
+
+namespace fs = std::filesystem;
+
+namespace bareskin::avatar_folder {
+namespace {
+
+constexpr uint64_t kPreviewLightSeed = 2022;  // as avatar/avatar.cc
+
+Image read_map(const std::string& path, const std::string& name, int channels) {
+  if (!fs::exists(path))
+    throw InvalidInput(path, "is missing: an avatar folder holds the four maps (diffuse, normal, roughness, specular)",
+                       "give a folder written by bareskin run");
+  Image m = read_image(path, name == "diffuse" ? ColorSpace::sRGB : ColorSpace::Data);
+  if (m.channels < channels)
+    throw InvalidInput(path, "has " + std::to_string(m.channels) + " channels, " + std::to_string(channels) + " needed",
+                       "give the map bareskin run wrote");
+  if (name == "diffuse") {
+    if (m.color_space != ColorSpace::sRGB) m.color_space = ColorSpace::sRGB;
+    m = to_linear(m);
+  } else {
+    m.color_space = ColorSpace::Data;
+  }
+  return m;
+}
+
+MapSet read_set(const std::string& dir, const std::string& suffix) {
+  MapSet s;
+  s.diffuse = read_map(dir + "/maps/diffuse" + suffix + ".png", "diffuse", 3);
+  s.normal = read_map(dir + "/maps/normal" + suffix + ".png", "normal", 3);
+  s.roughness = read_map(dir + "/maps/roughness" + suffix + ".png", "roughness", 1);
+  s.specular = read_map(dir + "/maps/specular" + suffix + ".png", "specular", 1);
+  for (const Image* m : {&s.normal, &s.roughness, &s.specular})
+    if (m->width != s.diffuse.width || m->height != s.diffuse.height)
+      throw InvalidInput(dir + "/maps", "the" + suffix + " maps differ in size", "give the maps bareskin run wrote");
+  return s;
+}
+
+Image grey(const Image& m) {
+  Image g(m.width, m.height, 1, ColorSpace::Data);
+  for (size_t i = 0; i < size_t(m.width) * m.height; ++i) g.pixels[i] = m.pixels[i * size_t(m.channels)];
+  return g;
+}
+
+}  // namespace
+
+Folder read(const std::string& dir) {
+  if (!fs::is_directory(dir)) throw InvalidInput(dir, "is not a folder", "give an avatar folder written by bareskin run");
+  Folder f;
+  f.dir = dir;
+  const std::string mesh = dir + "/mesh.obj";
+  if (!fs::exists(mesh)) throw InvalidInput(mesh, "is missing", "give an avatar folder written by bareskin run");
+  f.mesh = read_mesh(mesh);
+  if (!f.mesh.has_uv()) throw InvalidInput(mesh, "has no UVs", "give the mesh.obj bareskin run wrote");
+  if (!f.mesh.has_normals()) f.mesh.N = vertex_normals(f.mesh.V, f.mesh.F);
+  f.maps = read_set(dir, "");
+  int hr = 0;
+  for (const char* m : kMapNames) hr += fs::exists(dir + "/maps/" + m + "_hr.png");
+  if (hr == 4) f.maps_hr = read_set(dir, "_hr");
+  else if (hr > 0)
+    throw InvalidInput(dir + "/maps", "holds only " + std::to_string(hr) + " of the four _hr maps",
+                       "give all four ×4 maps or none");
+  f.maps.roughness = grey(f.maps.roughness);
+  f.maps.specular = grey(f.maps.specular);
+  if (f.maps_hr) {
+    f.maps_hr->roughness = grey(f.maps_hr->roughness);
+    f.maps_hr->specular = grey(f.maps_hr->specular);
+  }
+  return f;
+}
+
+std::vector<ShLight> preview_lights() {
+  std::vector<ShLight> lights;
+  for (int l = 0; l < 3; ++l) lights.push_back(texgen::sample_light(l, kPreviewLightSeed));
+  return lights;
+}
+
+std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& lights, int size) {
+  const Camera camera = orbit_camera(size, 0, 0, Eigen::Vector3d::Zero());
+  std::vector<Image> out;
+  for (const ShLight& l : lights) {
+    PbrLight light;
+    light.sh = l;
+    out.push_back(to_srgb(render_pbr(folder.mesh, camera, folder.best().view(), light).colour));
+  }
+  return out;
+}
+
+void write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra, int preview_size) {
+  // Everything else of the source folder, as it is.
+  const std::string src = f.dir;
+  for (const auto& entry : fs::directory_iterator(src)) {
+    const std::string name = entry.path().filename().string();
+    if (name == "maps" || name == "avatar.glb" || name == kOutputMarker || name.rfind("preview_light", 0) == 0 ||
+        extra.count(name))
+      continue;
+    fs::copy(entry.path(), fs::path(out) / name, fs::copy_options::recursive);
+  }
+  make_directories(out + "/maps");
+  std::map<std::string, std::string> png;
+  auto encode = [&](const MapSet& s, const std::string& suffix) {
+    png["diffuse" + suffix] = encode_png(to_srgb(s.diffuse), 8);
+    png["normal" + suffix] = encode_png(s.normal, 8);
+    png["roughness" + suffix] = encode_png(s.roughness, 8);
+    png["specular" + suffix] = encode_png(s.specular, 8);
+  };
+  encode(f.maps, "");
+  if (f.maps_hr) encode(*f.maps_hr, "_hr");
+  for (const auto& [name, bytes] : png) write_file_atomic(out + "/maps/" + name + ".png", bytes);
+  const std::string sfx = f.maps_hr ? "_hr" : "";
+  const std::string specular_glb = encode_png(texture::specular_texture(f.best().specular), 8);
+  texture::write_glb(out + "/avatar.glb", f.mesh,
+                     texture::PbrPngs{png.at("diffuse" + sfx), png.at("normal" + sfx), png.at("roughness" + sfx), specular_glb});
+  const auto shots = previews(f, preview_lights(), preview_size);
+  for (size_t i = 0; i < shots.size(); ++i) write_image(out + "/preview_light" + std::to_string(i + 1) + ".png", shots[i]);
+  for (const auto& [name, bytes] : extra) {
+    make_directories(fs::path(out + "/" + name).parent_path().string());
+    write_file_atomic(out + "/" + name, bytes);
+  }
+}
+
+ShLight photo_light(const std::string& dir) {
+  const std::string path = dir + "/coefficients.json";
+  if (!fs::exists(path)) throw InvalidInput(path, "is missing", "give an avatar folder written by bareskin run");
+  const Coefficients c = read_coefficients(path);
+  if (!c.gamma) throw InvalidInput(path, "holds no fitted light (gamma)", "give --light, --env or --direction");
+  return *c.gamma;
+}
+
+}  // namespace bareskin::avatar_folder
