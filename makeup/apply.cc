@@ -39,13 +39,40 @@ std::vector<Look> resolve_looks(const std::string& list) {
   return looks;
 }
 
-// The template's landmark vertices on the avatar's own mesh (its shape, in mm, measures the regions).
+// Vertices of an OBJ file: its "v " lines, counted without parsing the rest.
+int64_t obj_vertex_count(const std::string& path) {
+  const std::string text = read_file(path);
+  int64_t n = 0;
+  for (size_t at = 0; at < text.size(); at = text.find('\n', at) + 1) {
+    if (text.compare(at, 2, "v ") == 0) ++n;
+    if (text.find('\n', at) == std::string::npos) break;
+  }
+  return n;
+}
+
+// The template's landmark vertices on the avatar's own mesh (its shape, in mm, measures the regions). Only the
+// template's landmarks.json is parsed (its vertex_ids) and its face.obj's vertices counted, to check that the avatar
+// has the template's topology; a landmarks.json of 3D points is snapped through the whole template.
 TemplateFace avatar_face(const avatar_folder::Folder& f, const std::string& template_dir) {
-  TemplateFace face = read_template_folder(template_dir);
-  if (face.mesh.V.rows() != f.mesh.V.rows() || face.mesh.F.rows() != f.mesh.F.rows())
+  const std::string dir = find_template_folder(template_dir);
+  TemplateFace face;
+  const auto doc = nlohmann::json::parse(read_file(dir + "/landmarks.json"), nullptr, false);
+  int64_t vertices = 0;
+  if (!doc.is_discarded() && doc.is_object() && doc.contains("vertex_ids")) {
+    vertices = obj_vertex_count(dir + "/face.obj");
+    if (vertices == f.mesh.V.rows())
+      for (const auto& id : doc["vertex_ids"]) {
+        if (!id.is_number_integer() || id.get<int64_t>() < 0 || id.get<int64_t>() >= vertices)
+          throw InvalidInput(dir + "/landmarks.json", "vertex_ids holds an entry that is not a vertex", "");
+        face.landmark_vertices.push_back(id.get<int>());
+      }
+  } else {
+    face = read_template_folder(dir);
+    vertices = face.mesh.V.rows();
+  }
+  if (vertices != f.mesh.V.rows())
     throw InvalidInput(f.dir + "/mesh.obj",
-                       "has " + std::to_string(f.mesh.V.rows()) + " vertices, the template " +
-                           std::to_string(face.mesh.V.rows()),
+                       "has " + std::to_string(f.mesh.V.rows()) + " vertices, the template " + std::to_string(vertices),
                        "give --template the template folder the avatar's model was built on");
   face.mesh = f.mesh;
   return face;
@@ -100,7 +127,10 @@ nlohmann::json apply_command(const ApplyOptions& o) {
   const TemplateFace face = avatar_face(bare, o.template_dir);
   const double t_read = since(t0);
   const int layer_size = std::min(bare.maps.diffuse.width, o.max_layer_size);
-  const makeup::MakeupRegions regions = makeup::makeup_regions(face, layer_size);
+  std::set<makeup::Region> used;
+  for (const auto& look : layers)
+    for (const auto& l : look.layers) used.insert(l.region);
+  const makeup::MakeupRegions regions = makeup::makeup_regions(face, layer_size, used);
   const double t_regions = since(t0) - t_read;
 
   nlohmann::json report = {{"avatar", o.avatar}, {"layer_size", layer_size},
@@ -120,12 +150,12 @@ nlohmann::json apply_command(const ApplyOptions& o) {
     if (!keep.empty()) look_json["layers"] = nlohmann::json::array();
     for (size_t k = 0, j = 0; !keep.empty() && k < looks[i].layers.layers.size(); ++k)
       if (keep.count(looks[i].layers.layers[k].region)) look_json["layers"][j++] = looks[i].source["layers"][k];
-    const Image sheet = before_after_sheet(before, avatar_folder::previews(m.folder, lights, o.preview_size));
+    const std::vector<Image> after = avatar_folder::previews(m.folder, lights, o.preview_size);
     avatar_folder::write(dir, m.folder,
                          {{"look.json", look_json.dump(2) + "\n"},
                           {"makeup_layer.png", encode_png(makeup::layer_png_image(m.layer), 8)},
-                          {"before_after.png", encode_png(sheet, 8)}},
-                         o.preview_size);
+                          {"before_after.png", encode_png(before_after_sheet(before, after), 8)}},
+                         after);
     report["looks"].push_back({{"name", looks[i].name}, {"layers", layers[i].layers.size()},
                                {"folder", looks.size() == 1 ? o.output : o.output + "/" + looks[i].name},
                                {"seconds_apply", t_apply}, {"seconds_total", since(t)}});

@@ -97,7 +97,8 @@ std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& li
   return out;
 }
 
-void write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra, int preview_size) {
+void write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra,
+           const std::vector<Image>& given_previews) {
   // Everything else of the source folder, as it is.
   const std::string src = f.dir;
   for (const auto& entry : fs::directory_iterator(src)) {
@@ -122,7 +123,7 @@ void write(const std::string& out, const Folder& f, const std::map<std::string, 
   const std::string specular_glb = encode_png(texture::specular_texture(f.best().specular), 8);
   texture::write_glb(out + "/avatar.glb", f.mesh,
                      texture::PbrPngs{png.at("diffuse" + sfx), png.at("normal" + sfx), png.at("roughness" + sfx), specular_glb});
-  const auto shots = previews(f, preview_lights(), preview_size);
+  const auto shots = given_previews.empty() ? previews(f, preview_lights(), 512) : given_previews;
   for (size_t i = 0; i < shots.size(); ++i) write_image(out + "/preview_light" + std::to_string(i + 1) + ".png", shots[i]);
   for (const auto& [name, bytes] : extra) {
     make_directories(fs::path(out + "/" + name).parent_path().string());

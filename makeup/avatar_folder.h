@@ -39,8 +39,9 @@ Folder read(const std::string& dir);
 // Writes `folder`'s maps, the GLB from them (the ×4 maps where present), the three relit previews and `extra` files
 // (relative path -> bytes) into `out` (an existing, empty folder being built, e.g. an AtomicDirectory's path), with
 // every other file of the source folder `folder.dir` copied beside them (the aligned photo, coefficients, unwrap, ...).
+// `previews`: the folder's previews(preview_lights()) when the caller has them, else empty (made at 512²).
 void write(const std::string& out, const Folder& folder, const std::map<std::string, std::string>& extra,
-           int preview_size = 512);
+           const std::vector<Image>& previews = {});
 
 // The three preview lights of `bareskin run` (texgen's lights 0–2 of seed 2022: the default, then two random ones).
 std::vector<ShLight> preview_lights();
