@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "apps/cli.h"
+#include "core/parallel.h"
 #include "makeup/apply.h"
 
 namespace bareskin::cli {
@@ -48,6 +49,7 @@ std::function<void()> setup_makeup_command(CLI::App& app, const Globals& globals
       return;
     }
     if (!apply->parsed()) return;
+    keep_freed_memory();  // 4K maps: many large buffers on two threads
     const nlohmann::json report = looks::apply_command(*opt);
     for (const auto& l : report["looks"])
       spdlog::info("makeup apply: {} ({} layers) -> {} in {:.2f} s", l["name"].get<std::string>(),

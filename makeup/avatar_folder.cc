@@ -1,13 +1,16 @@
 #include "makeup/avatar_folder.h"
 
 #include <filesystem>
+#include <tuple>
 
 #include "avatar/glb.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
+#include "core/parallel.h"
 #include "core/png.h"
+#include "core/png_encoding.h"
 #include "morphable/coefficients.h"
 #include "texgen/texture_sample.h"
 
@@ -35,12 +38,15 @@ Image read_map(const std::string& path, const std::string& name, int channels) {
   return m;
 }
 
+// The four maps, decoded in parallel.
 MapSet read_set(const std::string& dir, const std::string& suffix) {
   MapSet s;
-  s.diffuse = read_map(dir + "/maps/diffuse" + suffix + ".png", "diffuse", 3);
-  s.normal = read_map(dir + "/maps/normal" + suffix + ".png", "normal", 3);
-  s.roughness = read_map(dir + "/maps/roughness" + suffix + ".png", "roughness", 1);
-  s.specular = read_map(dir + "/maps/specular" + suffix + ".png", "specular", 1);
+  Image* maps[4] = {&s.diffuse, &s.normal, &s.roughness, &s.specular};
+  const int channels[4] = {3, 3, 1, 1};
+  parallel_for(0, 4, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i)
+      *maps[i] = read_map(dir + "/maps/" + kMapNames[size_t(i)] + suffix + ".png", kMapNames[size_t(i)], channels[i]);
+  });
   for (const Image* m : {&s.normal, &s.roughness, &s.specular})
     if (m->width != s.diffuse.width || m->height != s.diffuse.height)
       throw InvalidInput(dir + "/maps", "the" + suffix + " maps differ in size", "give the maps bareskin run wrote");
@@ -109,18 +115,30 @@ void write(const std::string& out, const Folder& f, const std::map<std::string, 
     fs::copy(entry.path(), fs::path(out) / name, fs::copy_options::recursive);
   }
   make_directories(out + "/maps");
+  // Every map encoded once, in parallel, the 2K-and-larger ones with the fast encoding (as bareskin run does).
   std::map<std::string, std::string> png;
-  auto encode = [&](const MapSet& s, const std::string& suffix) {
-    png["diffuse" + suffix] = encode_png(to_srgb(s.diffuse), 8);
-    png["normal" + suffix] = encode_png(s.normal, 8);
-    png["roughness" + suffix] = encode_png(s.roughness, 8);
-    png["specular" + suffix] = encode_png(s.specular, 8);
-  };
-  encode(f.maps, "");
-  if (f.maps_hr) encode(*f.maps_hr, "_hr");
+  std::vector<std::pair<std::string, const Image*>> jobs;
+  const Image diffuse = to_srgb(f.maps.diffuse), diffuse_hr = f.maps_hr ? to_srgb(f.maps_hr->diffuse) : Image();
+  const Image specular_glb_map = texture::specular_texture(f.best().specular);
+  for (const auto& [set, sfx, d] : {std::tuple{&f.maps, std::string(), &diffuse},
+                                    std::tuple{f.maps_hr ? &*f.maps_hr : nullptr, std::string("_hr"), &diffuse_hr}}) {
+    if (!set) continue;
+    jobs.insert(jobs.end(), {{"diffuse" + sfx, d}, {"normal" + sfx, &set->normal}, {"roughness" + sfx, &set->roughness},
+                             {"specular" + sfx, &set->specular}});
+  }
+  jobs.push_back({"glb_specular", &specular_glb_map});
+  for (const auto& j : jobs) png[j.first];  // the map's nodes exist before the threads fill them
+  parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      PngEncoding encoding;
+      encoding.fast = jobs[size_t(i)].second->width >= 2048;
+      png.at(jobs[size_t(i)].first) = encode_png(*jobs[size_t(i)].second, 8, encoding);
+    }
+  });
+  const std::string specular_glb = png.at("glb_specular");
+  png.erase("glb_specular");
   for (const auto& [name, bytes] : png) write_file_atomic(out + "/maps/" + name + ".png", bytes);
   const std::string sfx = f.maps_hr ? "_hr" : "";
-  const std::string specular_glb = encode_png(texture::specular_texture(f.best().specular), 8);
   texture::write_glb(out + "/avatar.glb", f.mesh,
                      texture::PbrPngs{png.at("diffuse" + sfx), png.at("normal" + sfx), png.at("roughness" + sfx), specular_glb});
   const auto shots = given_previews.empty() ? previews(f, preview_lights(), 512) : given_previews;
