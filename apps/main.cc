@@ -14,6 +14,7 @@ std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
 std::function<void()> setup_texgen_command(CLI::App&, const Globals&);
 std::function<void()> setup_makeup_command(CLI::App&, const Globals&);
 std::function<void()> setup_relight_command(CLI::App&, const Globals&);
+std::function<void()> setup_viewer_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
@@ -62,6 +63,8 @@ const std::vector<Command>& commands() {
        setup_makeup_command},
       {"relight", "Avatar", "Render an avatar folder with its four maps under an SH, HDR or key light; export the photo's light",
        setup_relight_command},
+      {"viewer", "Avatar", "An avatar folder's offline viewer.html: the GLB, a light to turn, bare / made-up / photo unwrap",
+       setup_viewer_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };
   return table;

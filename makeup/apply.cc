@@ -2,10 +2,15 @@
 
 #include <chrono>
 #include <filesystem>
+#include <optional>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "core/png.h"
+#include "core/assets.h"
+#include "core/image_io.h"
+#include "core/log.h"
+#include "makeup/viewer.h"
 #include "template/template_face.h"
 
 namespace fs = std::filesystem;
@@ -78,6 +83,17 @@ TemplateFace avatar_face(const avatar_folder::Folder& f, const std::string& temp
   return face;
 }
 
+// Whether the viewer's three.js is there (scripts/fetch_assets.sh); a warning when not.
+bool viewer_assets() {
+  try {
+    find_data_dir(DataKind::Assets, "", "three/three.module.min.js");
+    return true;
+  } catch (const IoError& e) {
+    spdlog::warn("viewer.html not written: {}", e.what());
+    return false;
+  }
+}
+
 void check_look(const makeup::MakeupLook& look, const Look& source, const std::string& regions) {
   if (look.layers.empty())
     throw InvalidInput("--region", "'" + regions + "' keeps no layer of the look '" + source.name + "'",
@@ -139,6 +155,12 @@ nlohmann::json apply_command(const ApplyOptions& o) {
                            {"regions", o.regions.empty() ? "all" : o.regions}, {"looks", nlohmann::json::array()}};
   const auto lights = avatar_folder::preview_lights();
   const std::vector<Image> before = avatar_folder::previews(bare, lights, o.preview_size);
+  const bool viewer = viewer_assets();
+  Image unwrap;
+  if (viewer && fs::exists(bare.dir + "/unwrap.png")) unwrap = read_image(bare.dir + "/unwrap.png", ColorSpace::sRGB);
+  std::optional<ShLight> photo;
+  if (fs::exists(bare.dir + "/coefficients.json")) photo = avatar_folder::photo_light(bare.dir);
+  std::vector<avatar_folder::MapSet> made_up;  // for the page of all looks
   AtomicDirectory out(o.output);
   for (size_t i = 0; i < looks.size(); ++i) {
     const auto t = Clock::now();
@@ -156,9 +178,21 @@ nlohmann::json apply_command(const ApplyOptions& o) {
                           {"makeup_layer.png", encode_png(makeup::layer_png_image(m.layer), 8)},
                           {"before_after.png", encode_png(before_after_sheet(before, after), 8)}},
                          after);
+    if (viewer) {  // this look first, then the bare maps and the photo's unwrap
+      ViewerInputs in{&bare, {{looks[i].name, &m.folder.maps, nullptr}, {"bare", &bare.maps, nullptr}}, photo};
+      if (!unwrap.empty()) in.variants.push_back({"photo unwrap", nullptr, &unwrap});
+      write_file_atomic(dir + "/viewer.html", viewer_html(in));
+      if (looks.size() > 1) made_up.push_back(m.folder.maps);
+    }
     report["looks"].push_back({{"name", looks[i].name}, {"layers", layers[i].layers.size()},
                                {"folder", looks.size() == 1 ? o.output : o.output + "/" + looks[i].name},
                                {"seconds_apply", t_apply}, {"seconds_total", since(t)}});
+  }
+  if (viewer && looks.size() > 1) {  // every look on one page
+    ViewerInputs in{&bare, {{"bare", &bare.maps, nullptr}}, photo};
+    for (size_t i = 0; i < looks.size(); ++i) in.variants.push_back({looks[i].name, &made_up[i], nullptr});
+    if (!unwrap.empty()) in.variants.push_back({"photo unwrap", nullptr, &unwrap});
+    write_file_atomic(out.path() + "/viewer.html", viewer_html(in));
   }
   report["seconds"] = {{"read", t_read}, {"regions", t_regions}, {"total", since(t0)}};
   write_file_atomic(out.path() + "/makeup_report.json", report.dump(2) + "\n");
