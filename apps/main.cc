@@ -12,6 +12,9 @@ std::function<void()> setup_mm_eval_command(CLI::App&, const Globals&);
 std::function<void()> setup_mm_fit_command(CLI::App&, const Globals&);
 std::function<void()> setup_uvtools_command(CLI::App&, const Globals&);
 std::function<void()> setup_texgen_command(CLI::App&, const Globals&);
+std::function<void()> setup_makeup_command(CLI::App&, const Globals&);
+std::function<void()> setup_relight_command(CLI::App&, const Globals&);
+std::function<void()> setup_viewer_command(CLI::App&, const Globals&);
 #ifdef BARESKIN_WITH_DETECT
 std::function<void()> setup_landmarks_command(CLI::App&, const Globals&);
 std::function<void()> setup_train_command(CLI::App&, const Globals&);
@@ -56,6 +59,12 @@ const std::vector<Command>& commands() {
 #endif
       {"render", "Rendering", "Draw a mesh or the model: previews with landmarks, UV layout, camera passes (colour, depth...)",
        setup_render_command},
+      {"makeup", "Avatar", "Makeup looks on an avatar folder: list, show, apply (one look, several, all)",
+       setup_makeup_command},
+      {"relight", "Avatar", "Render an avatar folder with its four maps under an SH, HDR or key light; export the photo's light",
+       setup_relight_command},
+      {"viewer", "Avatar", "An avatar folder's offline viewer.html: the GLB, a light to turn, bare / made-up / photo unwrap",
+       setup_viewer_command},
       {"inspect", "Files", "Describe meshes, images, safetensors and landmark files", setup_inspect_command},
   };
   return table;

@@ -59,6 +59,16 @@ NOTICE
         package/model/face_recognition_model.bin package/model/face_recognition_model-weights_manifest.json
       tar -xzf "$tarball" -C "$out" --strip-components=1 package/LICENSE package/dist/face-api.esm.js
       ;;
+    three@*)
+      # three.js for the avatar's offline viewer (viewer.html): the core module, the glTF loader and its one helper,
+      # inlined into each page by makeup/viewer.cc.
+      out="$assets/three"
+      mkdir -p "$out"
+      tar -xzf "$tarball" -C "$out" --strip-components=2 package/build/three.module.min.js
+      tar -xzf "$tarball" -C "$out" --strip-components=4 package/examples/jsm/loaders/GLTFLoader.js \
+        package/examples/jsm/utils/BufferGeometryUtils.js
+      tar -xzf "$tarball" -C "$out" --strip-components=1 package/LICENSE
+      ;;
   esac
   echo "assets: $spec ok"
 done < "$root/scripts/assets.lock"

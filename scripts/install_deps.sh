@@ -11,6 +11,7 @@ packages=("$@"
   libgtest-dev libgmock-dev libbenchmark-dev
   libarchive-dev libprotobuf-dev protobuf-compiler libgloo-dev
   python3-numpy python3-skimage python3-torch python3-torchvision
+  chromium  # the offline viewer's browser test (tests/cli/viewer.sh), headless
 )
 missing=()
 # npm fetches the pinned assets; the machine may already have Node.js from elsewhere, so test for the command.

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/hash.h"
 
 namespace bareskin::makeup {
@@ -160,27 +161,31 @@ void apply_makeup(const MakeupLayer& layer, Image& diffuse, Image* roughness, Im
   for (size_t i = 0; i < size_t(n) * n; ++i)
     for (int k = 0; k < 3; ++k) premultiplied.pixels[4 * i + k] *= premultiplied.pixels[4 * i + 3];
   const bool same = diffuse.width == n && diffuse.height == n;
-  for (int y = 0; y < diffuse.height; ++y)
-    for (int x = 0; x < diffuse.width; ++x) {
-      const float lx = (float(x) + 0.5f) * float(n) / float(diffuse.width),
-                  ly = (float(y) + 0.5f) * float(n) / float(diffuse.height);
-      const float A = same ? premultiplied.at(x, y, 3) : bilinear(premultiplied, lx, ly, 3);
-      if (A <= 0) continue;
-      for (int k = 0; k < 3; ++k) {
-        const float C = same ? premultiplied.at(x, y, k) : bilinear(premultiplied, lx, ly, k);
-        diffuse.at(x, y, k) = diffuse.at(x, y, k) * (1 - A) + C;
+  parallel_for(0, diffuse.height, [&](int64_t y0, int64_t y1) {  // rows are independent: the same bytes on any pool
+    for (int y = int(y0); y < int(y1); ++y)
+      for (int x = 0; x < diffuse.width; ++x) {
+        const float lx = (float(x) + 0.5f) * float(n) / float(diffuse.width),
+                    ly = (float(y) + 0.5f) * float(n) / float(diffuse.height);
+        const float A = same ? premultiplied.at(x, y, 3) : bilinear(premultiplied, lx, ly, 3);
+        if (A <= 0) continue;
+        for (int k = 0; k < 3; ++k) {
+          const float C = same ? premultiplied.at(x, y, k) : bilinear(premultiplied, lx, ly, k);
+          diffuse.at(x, y, k) = diffuse.at(x, y, k) * (1 - A) + C;
+        }
       }
-    }
+  }, 16);
   const auto apply_delta = [&](Image* map, int channel) {
     if (!map) return;
     const bool same_map = map->width == n && map->height == n;
-    for (int y = 0; y < map->height; ++y)
-      for (int x = 0; x < map->width; ++x) {
-        const float d = same_map ? layer.finish.at(x, y, channel)
-                                 : bilinear(layer.finish, (float(x) + 0.5f) * float(n) / float(map->width),
-                                            (float(y) + 0.5f) * float(n) / float(map->height), channel);
-        map->at(x, y, 0) = std::clamp(map->at(x, y, 0) + d, 0.0f, 1.0f);
-      }
+    parallel_for(0, map->height, [&](int64_t y0, int64_t y1) {
+      for (int y = int(y0); y < int(y1); ++y)
+        for (int x = 0; x < map->width; ++x) {
+          const float d = same_map ? layer.finish.at(x, y, channel)
+                                   : bilinear(layer.finish, (float(x) + 0.5f) * float(n) / float(map->width),
+                                              (float(y) + 0.5f) * float(n) / float(map->height), channel);
+          map->at(x, y, 0) = std::clamp(map->at(x, y, 0) + d, 0.0f, 1.0f);
+        }
+    }, 16);
   };
   apply_delta(roughness, 0);
   apply_delta(specular, 1);

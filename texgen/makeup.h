@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -75,8 +76,9 @@ struct MakeupRegions {
 constexpr double kMaxReachMm = 12;  // a layer's offset + feather/2 never exceeds this
 
 // InvalidInput when the template lacks the 68 landmark vertices, UVs or is not seamless, or uv_size is not in
-// [32, 8192].
-MakeupRegions makeup_regions(const TemplateFace& face, int uv_size);
+// [32, 8192]. `only`: the regions to build (Face always, for skin_tone; empty: all); the others are left empty with
+// an empty box, so paint() skips them. The regions are built in parallel (core/parallel.h).
+MakeupRegions makeup_regions(const TemplateFace& face, int uv_size, const std::set<Region>& only = {});
 
 // Landmark UVs of a template as texel coordinates at uv_size (x right, y down): for tests and overlays.
 std::vector<Eigen::Vector2d> landmark_texels(const TemplateFace& face, int uv_size);

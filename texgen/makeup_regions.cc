@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/mesh.h"
+#include "core/parallel.h"
 #include "texgen/makeup.h"
 #include "texgen/polygon.h"
 
@@ -149,35 +150,54 @@ void edt_1d(const std::vector<double>& f, std::vector<double>& d, std::vector<in
   }
 }
 
-// Euclidean distance (texels) from every texel to the nearest texel whose mask equals `target`.
-std::vector<double> distance_to(const Mask& mask, uint8_t target) {
-  const int n = mask.n;
-  std::vector<double> grid(size_t(n) * n), f(n), d(n), z(n + 1);
+// Euclidean distance (texels) from every texel of a w x h mask (row-major) to the nearest texel whose mask equals
+// `target`.
+std::vector<double> distance_to(const std::vector<uint8_t>& mask, int w, int h, uint8_t target) {
+  const int n = std::max(w, h);
+  std::vector<double> grid(size_t(w) * h), f(n), d(n), z(n + 1);
   std::vector<int> v(n);
-  for (size_t i = 0; i < grid.size(); ++i) grid[i] = (mask.m[i] != 0) == (target != 0) ? 0 : kFar;
-  for (int x = 0; x < n; ++x) {
-    for (int y = 0; y < n; ++y) f[size_t(y)] = grid[size_t(y) * n + x];
+  for (size_t i = 0; i < grid.size(); ++i) grid[i] = (mask[i] != 0) == (target != 0) ? 0 : kFar;
+  f.resize(size_t(h)), d.resize(size_t(h));
+  for (int x = 0; x < w; ++x) {
+    for (int y = 0; y < h; ++y) f[size_t(y)] = grid[size_t(y) * w + x];
     edt_1d(f, d, v, z);
-    for (int y = 0; y < n; ++y) grid[size_t(y) * n + x] = d[size_t(y)];
+    for (int y = 0; y < h; ++y) grid[size_t(y) * w + x] = d[size_t(y)];
   }
-  for (int y = 0; y < n; ++y) {
-    for (int x = 0; x < n; ++x) f[size_t(x)] = grid[size_t(y) * n + x];
+  f.resize(size_t(w)), d.resize(size_t(w));
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) f[size_t(x)] = grid[size_t(y) * w + x];
     edt_1d(f, d, v, z);
-    for (int x = 0; x < n; ++x) grid[size_t(y) * n + x] = std::sqrt(d[size_t(x)]);
+    for (int x = 0; x < w; ++x) grid[size_t(y) * w + x] = std::sqrt(d[size_t(x)]);
   }
   return grid;
 }
 
 // Signed distance in mm (negative inside), the boundary half way between an inside and an outside texel centre. An
-// empty mask is everywhere far outside.
+// empty mask is everywhere far outside. Only distances up to kMaxReachMm matter (paint, reach_box), so the transform
+// runs on the mask's bounding box grown by a margin beyond that reach; it is exact there (an inside texel's nearest
+// outside texel is at most the margin away, and no texel outside the window is nearer to the mask than the window's
+// own outside ring), and the texels beyond the window are far (1e3 mm) as for an empty mask.
 Image signed_distance(const Mask& mask, double mm_per_texel) {
   Image out(mask.n, mask.n, 1, ColorSpace::Data, float(1e3));
-  if (std::none_of(mask.m.begin(), mask.m.end(), [](uint8_t b) { return b != 0; })) return out;
-  const std::vector<double> to_in = distance_to(mask, 1), to_out = distance_to(mask, 0);
-  for (size_t i = 0; i < mask.m.size(); ++i) {
-    const double d = mask.m[i] ? -(std::min(to_out[i], 1e6) - 0.5) : to_in[i] - 0.5;
-    out.pixels[i] = float(d * mm_per_texel);
-  }
+  int x0 = mask.n, x1 = -1, y0 = mask.n, y1 = -1;
+  for (int y = 0; y < mask.n; ++y)
+    for (int x = 0; x < mask.n; ++x)
+      if (mask.m[size_t(y) * mask.n + x]) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  if (x1 < 0) return out;
+  const int margin = int(std::ceil((kMaxReachMm + 2) / mm_per_texel)) + 2;
+  x0 = std::max(0, x0 - margin), y0 = std::max(0, y0 - margin);
+  x1 = std::min(mask.n - 1, x1 + margin), y1 = std::min(mask.n - 1, y1 + margin);
+  const int w = x1 - x0 + 1, h = y1 - y0 + 1;
+  std::vector<uint8_t> window(size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) window[size_t(y) * w + x] = mask.m[size_t(y + y0) * mask.n + x + x0];
+  const std::vector<double> to_in = distance_to(window, w, h, 1), to_out = distance_to(window, w, h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      const double d = window[i] ? -(std::min(to_out[i], 1e6) - 0.5) : to_in[i] - 0.5;
+      out.at(x + x0, y + y0) = float(d * mm_per_texel);
+    }
   return out;
 }
 
@@ -416,7 +436,7 @@ std::vector<Eigen::Vector2d> landmark_texels(const TemplateFace& face, int uv_si
   return out;
 }
 
-MakeupRegions makeup_regions(const TemplateFace& face, int uv_size) {
+MakeupRegions makeup_regions(const TemplateFace& face, int uv_size, const std::set<Region>& only) {
   if (uv_size < 32 || uv_size > 8192) {
     throw InvalidInput("makeup", "UV size " + std::to_string(uv_size) + " is out of range", "use 32..8192 texels");
   }
@@ -449,12 +469,18 @@ MakeupRegions makeup_regions(const TemplateFace& face, int uv_size) {
     const float t = std::clamp((0.3f - eye_distance.pixels[i]) / 0.6f, 0.0f, 1.0f);
     out.exclusion.pixels[i] = t * t * (3 - 2 * t);
   }
-  for (int r = 0; r < kRegionCount; ++r) {
-    Mask m(uv_size);
-    draw_region(Region(r), f, coverage, m);
-    out.distance[size_t(r)] = signed_distance(m, out.mm_per_texel);
-    out.box[size_t(r)] = reach_box(out.distance[size_t(r)]);
-  }
+  std::vector<int> wanted;  // Face always (skin_tone); the others when asked for, or all
+  for (int r = 0; r < kRegionCount; ++r)
+    if (only.empty() || only.count(Region(r)) || Region(r) == Region::Face) wanted.push_back(r);
+  parallel_for(0, int64_t(wanted.size()), [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const int r = wanted[size_t(i)];
+      Mask m(uv_size);
+      draw_region(Region(r), f, coverage, m);
+      out.distance[size_t(r)] = signed_distance(m, out.mm_per_texel);
+      out.box[size_t(r)] = reach_box(out.distance[size_t(r)]);
+    }
+  });
   return out;
 }
 

@@ -1,0 +1,160 @@
+#include "makeup/avatar_folder.h"
+
+#include <filesystem>
+#include <tuple>
+
+#include "avatar/glb.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/image_io.h"
+#include "core/mesh_io.h"
+#include "core/parallel.h"
+#include "core/png.h"
+#include "core/png_encoding.h"
+#include "morphable/coefficients.h"
+#include "texgen/texture_sample.h"
+
+namespace fs = std::filesystem;
+
+namespace bareskin::avatar_folder {
+namespace {
+
+constexpr uint64_t kPreviewLightSeed = 2022;  // as avatar/avatar.cc
+
+Image read_map(const std::string& path, const std::string& name, int channels) {
+  if (!fs::exists(path))
+    throw InvalidInput(path, "is missing: an avatar folder holds the four maps (diffuse, normal, roughness, specular)",
+                       "give a folder written by bareskin run");
+  Image m = read_image(path, name == "diffuse" ? ColorSpace::sRGB : ColorSpace::Data);
+  if (m.channels < channels)
+    throw InvalidInput(path, "has " + std::to_string(m.channels) + " channels, " + std::to_string(channels) + " needed",
+                       "give the map bareskin run wrote");
+  if (name == "diffuse") {
+    if (m.color_space != ColorSpace::sRGB) m.color_space = ColorSpace::sRGB;
+    m = to_linear(m);
+  } else {
+    m.color_space = ColorSpace::Data;
+  }
+  return m;
+}
+
+// The four maps, decoded in parallel.
+MapSet read_set(const std::string& dir, const std::string& suffix) {
+  MapSet s;
+  Image* maps[4] = {&s.diffuse, &s.normal, &s.roughness, &s.specular};
+  const int channels[4] = {3, 3, 1, 1};
+  parallel_for(0, 4, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i)
+      *maps[i] = read_map(dir + "/maps/" + kMapNames[size_t(i)] + suffix + ".png", kMapNames[size_t(i)], channels[i]);
+  });
+  for (const Image* m : {&s.normal, &s.roughness, &s.specular})
+    if (m->width != s.diffuse.width || m->height != s.diffuse.height)
+      throw InvalidInput(dir + "/maps", "the" + suffix + " maps differ in size", "give the maps bareskin run wrote");
+  return s;
+}
+
+Image grey(const Image& m) {
+  Image g(m.width, m.height, 1, ColorSpace::Data);
+  for (size_t i = 0; i < size_t(m.width) * m.height; ++i) g.pixels[i] = m.pixels[i * size_t(m.channels)];
+  return g;
+}
+
+}  // namespace
+
+Folder read(const std::string& dir) {
+  if (!fs::is_directory(dir)) throw InvalidInput(dir, "is not a folder", "give an avatar folder written by bareskin run");
+  Folder f;
+  f.dir = dir;
+  const std::string mesh = dir + "/mesh.obj";
+  if (!fs::exists(mesh)) throw InvalidInput(mesh, "is missing", "give an avatar folder written by bareskin run");
+  f.mesh = read_mesh(mesh);
+  if (!f.mesh.has_uv()) throw InvalidInput(mesh, "has no UVs", "give the mesh.obj bareskin run wrote");
+  if (!f.mesh.has_normals()) f.mesh.N = vertex_normals(f.mesh.V, f.mesh.F);
+  f.maps = read_set(dir, "");
+  int hr = 0;
+  for (const char* m : kMapNames) hr += fs::exists(dir + "/maps/" + m + "_hr.png");
+  if (hr == 4) f.maps_hr = read_set(dir, "_hr");
+  else if (hr > 0)
+    throw InvalidInput(dir + "/maps", "holds only " + std::to_string(hr) + " of the four _hr maps",
+                       "give all four ×4 maps or none");
+  f.maps.roughness = grey(f.maps.roughness);
+  f.maps.specular = grey(f.maps.specular);
+  if (f.maps_hr) {
+    f.maps_hr->roughness = grey(f.maps_hr->roughness);
+    f.maps_hr->specular = grey(f.maps_hr->specular);
+  }
+  return f;
+}
+
+std::vector<ShLight> preview_lights() {
+  std::vector<ShLight> lights;
+  for (int l = 0; l < 3; ++l) lights.push_back(texgen::sample_light(l, kPreviewLightSeed));
+  return lights;
+}
+
+std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& lights, int size) {
+  const Camera camera = orbit_camera(size, 0, 0, Eigen::Vector3d::Zero());
+  std::vector<Image> out;
+  for (const ShLight& l : lights) {
+    PbrLight light;
+    light.sh = l;
+    out.push_back(to_srgb(render_pbr(folder.mesh, camera, folder.best().view(), light).colour));
+  }
+  return out;
+}
+
+void write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra,
+           const std::vector<Image>& given_previews) {
+  // Everything else of the source folder, as it is.
+  const std::string src = f.dir;
+  for (const auto& entry : fs::directory_iterator(src)) {
+    const std::string name = entry.path().filename().string();
+    if (name == "maps" || name == "avatar.glb" || name == kOutputMarker || name.rfind("preview_light", 0) == 0 ||
+        extra.count(name))
+      continue;
+    fs::copy(entry.path(), fs::path(out) / name, fs::copy_options::recursive);
+  }
+  make_directories(out + "/maps");
+  // Every map encoded once, in parallel, the 2K-and-larger ones with the fast encoding (as bareskin run does).
+  std::map<std::string, std::string> png;
+  std::vector<std::pair<std::string, const Image*>> jobs;
+  const Image diffuse = to_srgb(f.maps.diffuse), diffuse_hr = f.maps_hr ? to_srgb(f.maps_hr->diffuse) : Image();
+  const Image specular_glb_map = texture::specular_texture(f.best().specular);
+  for (const auto& [set, sfx, d] : {std::tuple{&f.maps, std::string(), &diffuse},
+                                    std::tuple{f.maps_hr ? &*f.maps_hr : nullptr, std::string("_hr"), &diffuse_hr}}) {
+    if (!set) continue;
+    jobs.insert(jobs.end(), {{"diffuse" + sfx, d}, {"normal" + sfx, &set->normal}, {"roughness" + sfx, &set->roughness},
+                             {"specular" + sfx, &set->specular}});
+  }
+  jobs.push_back({"glb_specular", &specular_glb_map});
+  for (const auto& j : jobs) png[j.first];  // the map's nodes exist before the threads fill them
+  parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      PngEncoding encoding;
+      encoding.fast = jobs[size_t(i)].second->width >= 2048;
+      png.at(jobs[size_t(i)].first) = encode_png(*jobs[size_t(i)].second, 8, encoding);
+    }
+  });
+  const std::string specular_glb = png.at("glb_specular");
+  png.erase("glb_specular");
+  for (const auto& [name, bytes] : png) write_file_atomic(out + "/maps/" + name + ".png", bytes);
+  const std::string sfx = f.maps_hr ? "_hr" : "";
+  texture::write_glb(out + "/avatar.glb", f.mesh,
+                     texture::PbrPngs{png.at("diffuse" + sfx), png.at("normal" + sfx), png.at("roughness" + sfx), specular_glb});
+  const auto shots = given_previews.empty() ? previews(f, preview_lights(), 512) : given_previews;
+  for (size_t i = 0; i < shots.size(); ++i) write_image(out + "/preview_light" + std::to_string(i + 1) + ".png", shots[i]);
+  for (const auto& [name, bytes] : extra) {
+    make_directories(fs::path(out + "/" + name).parent_path().string());
+    write_file_atomic(out + "/" + name, bytes);
+  }
+}
+
+ShLight photo_light(const std::string& dir) {
+  const std::string path = dir + "/coefficients.json";
+  if (!fs::exists(path)) throw InvalidInput(path, "is missing", "give an avatar folder written by bareskin run");
+  const Coefficients c = read_coefficients(path);
+  if (!c.gamma) throw InvalidInput(path, "holds no fitted light (gamma)", "give --light, --env or --direction");
+  return *c.gamma;
+}
+
+}  // namespace bareskin::avatar_folder
