@@ -9,7 +9,7 @@ tests/python/reference_nets.py (the same layouts as ours, checked by tests/pytho
      then G's (L1 ×100 + GAN, D frozen); Adam 2e-4, β 0.5 / 0.999. No LPIPS.
 Each optimizer's phase is the Trainer's (training/trainer.cc): zero the gradients, the losses, their values read
 and checked for NaN, backward of their sum, Adam's step. A step's time is the time between the starts of two
-consecutive steps; one JSON line: the parameters per module and the median (the upper one of an even count, as
+consecutive steps, in wall time ("ms") and the process's CPU time ("cpu_ms"); one JSON line: the parameters per module and the median (the upper one of an even count, as
 bench/bench_util.h) of --steps steps after --warmup.
 """
 import argparse
@@ -108,15 +108,18 @@ def main():
     task = FStep(a) if a.net == "F" else GStep(a)
     for m in task.modules().values():
         m.train()
-    starts = []
+    starts, cpu_starts = [], []
     for _ in range(a.warmup + a.steps + 1):
         starts.append(time.perf_counter())
+        cpu_starts.append(time.process_time())
         task.step()
     ms = [1000 * (t1 - t0) for t0, t1 in zip(starts, starts[1:])][a.warmup:]
+    cpu_ms = [1000 * (t1 - t0) for t0, t1 in zip(cpu_starts, cpu_starts[1:])][a.warmup:]
     print(json.dumps({"side": "pytorch", "net": a.net, "width": a.width, "size": a.size, "batch": a.batch,
                       "threads": torch.get_num_threads(),
                       "params": {k: parameter_count(m) for k, m in sorted(task.modules().items())},
                       "ms": ms, "median_ms": sorted(ms)[len(ms) // 2],
+                      "cpu_ms": cpu_ms, "median_cpu_ms": sorted(cpu_ms)[len(cpu_ms) // 2],
                       "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY", ""), "torch": torch.__version__}))
 
 

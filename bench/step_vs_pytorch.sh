@@ -2,7 +2,8 @@
 # Training speed side by side: the C++ Trainer's step (train_step_bench) against the same step in PyTorch eager
 # (step_vs_pytorch.py, Debian's /usr/bin/python3 with its torch 1.13) for each net and size of the CPU profile, with the
 # same thread count and OMP_WAIT_POLICY=PASSIVE for both. The two sides run alternately per config (C++ first in odd
-# rounds, Python first in even ones) so that both see the same load; each side's median is over all its timed steps.
+# rounds, Python first in even ones) so that both see the same load; each side's median is over all its timed steps,
+# in wall time and in the process's CPU time (all threads; what other jobs on the machine inflate least).
 # The parameter counts of the two sides must match (exit 1 otherwise). Prints a Markdown table.
 # --same-malloc gives Python the C++ side's allocator settings (apps/cli.cc's mallopt: no mmap for large blocks, no
 # trimming) through GLIBC_TUNABLES, to tell how much of a difference is the allocator's.
@@ -63,21 +64,24 @@ first = rows[0]
 print(f"{first['threads']} threads, batch {first['batch']}, OMP_WAIT_POLICY {first['omp_wait_policy']}, "
       f"{len(rows) // (2 * len(by))} round(s) per side; {sys.argv[4]} CPUs; load average at start {sys.argv[2]}, "
       f"at end {sys.argv[3]}; Python's malloc: {sys.argv[5]}\n")
-print("| net | config | params | C++ ms/step | PyTorch ms/step | ratio | load (1 min) |\n|---|---|---|---|---|---|---|")
+print("| net | config | params | C++ ms/step | PyTorch ms/step | ratio | C++ CPU ms/step | PyTorch CPU ms/step | "
+      "CPU ratio | load (1 min) |\n|---|---|---|---|---|---|---|---|---|---|")
 bad = []
 def median(v):
     return sorted(v)[len(v) // 2]
 for (net, width, size), sides in by.items():
     cpp, py = sides["c++"], sides["pytorch"]
-    pc, pp = cpp[0]["params"], py[0]["params"]
-    if pc != pp:
-        bad.append(f"{net} width {width} {size}²: C++ {pc}, PyTorch {pp}")
+    params_c, params_p = cpp[0]["params"], py[0]["params"]
+    if params_c != params_p:
+        bad.append(f"{net} width {width} {size}²: C++ {params_c}, PyTorch {params_p}")
     c = median([m for r in cpp for m in r["ms"]])
     p = median([m for r in py for m in r["ms"]])
+    cc = median([m for r in cpp for m in r["cpu_ms"]])
+    pcpu = median([m for r in py for m in r["cpu_ms"]])
     loads = sorted(r["load"] for r in cpp + py)
-    params = " + ".join(f"{k} {v:,}" for k, v in sorted(pc.items()))
+    params = " + ".join(f"{k} {v:,}" for k, v in sorted(params_c.items()))
     label = f"width {width}" if net == "F" else f"ngf {width}"
-    print(f"| {net} | {label}, {size}² | {params} | {c:.1f} | {p:.1f} | {c / p:.2f} | {loads[0]:.2f}–{loads[-1]:.2f} |")
+    print(f"| {net} | {label}, {size}² | {params} | {c:.1f} | {p:.1f} | {c / p:.2f} | {cc:.1f} | {pcpu:.1f} | {cc / pcpu:.2f} | {loads[0]:.2f}–{loads[-1]:.2f} |")
 if bad:
     sys.exit("step_vs_pytorch.sh: the parameter counts differ: " + "; ".join(bad))
 PY

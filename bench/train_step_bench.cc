@@ -7,8 +7,9 @@
 //      residual, and the PatchGAN of --ndf / --n-layers; D's step (vanilla GAN), then G's (L1 ×100 + GAN); Adam
 //      2e-4, β 0.5 / 0.999. LPIPS is off (w3 0).
 // A step's time is the time between the starts of two consecutive steps (the Task's first phase), so it holds
-// everything the Trainer does per step. Prints one JSON line: the parameters per module and the median of --steps
-// steps after --warmup.
+// everything the Trainer does per step; wall time ("ms") and the process's CPU time ("cpu_ms", all threads: what a
+// loaded machine does not inflate). Prints one JSON line: the parameters per module, the step times and the median
+// of --steps steps after --warmup.
 //   train_step_bench --net F|G --width W --size S [--batch 8] [--steps 20] [--warmup 5] [--threads 2]
 //                    [--ndf 16] [--n-layers 2] [--coeffs 80,64,80]
 #include <CLI/CLI.hpp>
@@ -18,6 +19,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
@@ -65,7 +67,13 @@ data::Batch random_batch(int64_t n, const std::map<std::string, torch::Tensor>& 
   return b;
 }
 
-// Forwards to a task and notes when each step starts (its first phase).
+double cpu_ms_now() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+// Forwards to a task and notes when each step starts (its first phase): wall clock and process CPU time.
 class ClockedTask : public train::Task {
  public:
   explicit ClockedTask(train::Task& inner) : inner_(inner) {}
@@ -73,7 +81,10 @@ class ClockedTask : public train::Task {
   std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override { return inner_.modules(); }
   std::vector<train::OptimizerSpec> optimizers() override { return inner_.optimizers(); }
   train::Losses loss(size_t phase, const data::Batch& batch) override {
-    if (phase == 0) starts_.push_back(Clock::now());
+    if (phase == 0) {
+      starts_.push_back(Clock::now());
+      cpu_starts_.push_back(cpu_ms_now());
+    }
     return inner_.loss(phase, batch);
   }
   std::vector<double> step_ms() const {
@@ -82,10 +93,16 @@ class ClockedTask : public train::Task {
       ms.push_back(std::chrono::duration<double, std::milli>(starts_[i] - starts_[i - 1]).count());
     return ms;
   }
+  std::vector<double> step_cpu_ms() const {
+    std::vector<double> ms;
+    for (size_t i = 1; i < cpu_starts_.size(); ++i) ms.push_back(cpu_starts_[i] - cpu_starts_[i - 1]);
+    return ms;
+  }
 
  private:
   train::Task& inner_;
   std::vector<Clock::time_point> starts_;
+  std::vector<double> cpu_starts_;
 };
 
 // F with a step-bench loss: MSE of its coefficients to fixed targets.
@@ -126,8 +143,12 @@ std::unique_ptr<bsn::BareSkinTask> bareskin_stage1(const Args& a) {
   return std::make_unique<bsn::BareSkinTask>(o);
 }
 
+struct StepTimes {
+  std::vector<double> wall, cpu;
+};
+
 // The Trainer on `task` for warmup + steps + 1 steps; the step times after the warm-up.
-std::vector<double> train_steps(train::Task& task, data::DataSource& source, const Args& a) {
+StepTimes train_steps(train::Task& task, data::DataSource& source, const Args& a) {
   ClockedTask clocked(task);
   train::TrainerOptions o;
   o.run_dir = (fs::temp_directory_path() / ("bareskin_step_bench_" + std::to_string(::getpid()))).string();
@@ -137,15 +158,16 @@ std::vector<double> train_steps(train::Task& task, data::DataSource& source, con
   o.progress = false;
   train::Trainer(o, clocked, source, nullptr).run();
   fs::remove_all(o.run_dir);
-  std::vector<double> ms = clocked.step_ms();
-  ms.erase(ms.begin(), ms.begin() + a.warmup);
-  return ms;
+  StepTimes t{clocked.step_ms(), clocked.step_cpu_ms()};
+  t.wall.erase(t.wall.begin(), t.wall.begin() + a.warmup);
+  t.cpu.erase(t.cpu.begin(), t.cpu.begin() + a.warmup);
+  return t;
 }
 
 nlohmann::json run(const Args& a) {
   torch::manual_seed(1);
   std::map<std::string, int64_t> params;
-  std::vector<double> ms;
+  StepTimes ms;
   const int64_t b = a.batch, s = a.size;
   if (a.net == "F") {
     ReconStepTask task(a);
@@ -160,7 +182,8 @@ nlohmann::json run(const Args& a) {
   }
   return {{"side", "c++"},        {"net", a.net},         {"width", a.width},
           {"size", a.size},       {"batch", a.batch},     {"threads", torch::get_num_threads()},
-          {"params", params},     {"ms", ms},             {"median_ms", bench::median(ms)},
+          {"params", params},     {"ms", ms.wall},        {"median_ms", bench::median(ms.wall)},
+          {"cpu_ms", ms.cpu},     {"median_cpu_ms", bench::median(ms.cpu)},
           {"omp_wait_policy", std::getenv("OMP_WAIT_POLICY") ? std::getenv("OMP_WAIT_POLICY") : ""}};
 }
 
