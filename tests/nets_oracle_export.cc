@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   export_case(dir, "resnet18", "resnet18", J::object(), {2, 3, 64, 64});
   export_case(dir, "resnet50", "resnet50", J::object(), {2, 3, 64, 64});
   export_case(dir, "resnet34_headless", "resnet18", J{{"depth", 34}, {"num_classes", 0}}, {2, 3, 64, 64});
+  export_case(dir, "resnet18_width8", "resnet18", J{{"width", 8}, {"num_classes", 16}}, {2, 3, 64, 64});
   export_case(dir, "unet_ngf8", "unet256", J{{"ngf", 8}}, {2, 3, 256, 256});
   export_case(dir, "unet_instance", "unet256",
               J{{"ngf", 8}, {"num_downs", 6}, {"norm", "instance"}, {"in_channels", 4}}, {2, 4, 64, 64});
