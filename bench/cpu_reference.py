@@ -127,9 +127,10 @@ def main():
         f_line = (f"F (`train recon --profile cpu`, {fmt(cpu.get('F', 0) / 60, 1)} CPU-min): shape error "
                   f"{fmt(s['median_per_face'], 3)} mm per face (median), the mean face {fmt(s['mean_face_median_per_face'], 3)}"
                   f" mm: {ratio:.2f}× the mean face's")
-        lm = m.get("landmarks_px", {})
+        lm = m.get("landmark_px", {})
         if lm:
-            f_line += f"; landmarks {fmt(lm.get('median'))} px"
+            f_line += f"; landmarks {fmt(lm.get('median'))} px (median, at {m.get('image_size', '?')}²)"
+        f_line += f"; identity coefficients {fmt(m['alpha_sigma'])} σ (the mean face: 1)"
     table = "\n".join(md)
     print(table)
     if f_line:
