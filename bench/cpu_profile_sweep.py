@@ -43,7 +43,7 @@ def main():
     ax.set_xlabel("CPU-minutes of training (2 cores)")
     ax.set_ylabel("held-out PSNR vs bare truth, skin (dB)")
     ax.set_title("G variants, the same stage-1 steps (--profile cpu otherwise)", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "cpu_profile_sweep.png"))
