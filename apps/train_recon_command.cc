@@ -145,7 +145,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
                    {"checkpoint_every", o->t.checkpoint_every}, {"eval_every", topt.eval_every},
                    {"eval_batches", o->eval_batches}, {"sample_every", o->t.sample_every}, {"device", o->t.device}};
     topt.config["profile"] = profile;
-    topt.resumable_keys = {"profile"};  // runs made before profiles existed have none
+    topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
     train::Trainer trainer(topt, task, loader, val.get());
     const train::TrainResult result = trainer.run();
     if (!globals.quiet()) {
