@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "core/memory_limit.h"
 
 namespace bareskin {
 namespace {
@@ -68,6 +69,13 @@ Image decode_png(const std::string& bytes, const std::string& source) {
   image.channels = int(png_get_channels(png, info));
   image.color_space = ColorSpace::Data;
   const size_t stride = png_get_rowbytes(png, info);
+  try {  // the header's promise, checked before anything is allocated (core/memory_limit.h)
+    check_memory(source, double(stride) * image.height + 4.0 * image.width * image.height * image.channels,
+                 std::to_string(image.width) + "x" + std::to_string(image.height) + " PNG");
+  } catch (...) {
+    png_destroy_read_struct(&png, &info, nullptr);
+    throw;
+  }
   data.resize(stride * image.height);
   rows.resize(image.height);
   for (int y = 0; y < image.height; ++y) rows[y] = data.data() + y * stride;
