@@ -15,9 +15,10 @@ cd "$root"
 bash scripts/install_deps.sh clang libclang-rt-14-dev >/dev/null || exit 1
 start=$(date +%s)
 if [ ! -f "$build/build.ninja" ]; then
+  mkdir -p "$build"
   cmake -S . -B "$build" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DBARESKIN_FUZZ=ON -DBARESKIN_WITH_TORCH=OFF \
-    -DBARESKIN_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >"$build.configure.log" 2>&1 ||
-    { cat "$build.configure.log"; echo "fuzz: configure failed"; exit 1; }
+    -DBARESKIN_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >"$build/configure.log" 2>&1 ||
+    { cat "$build/configure.log"; echo "fuzz: configure failed"; exit 1; }
 fi
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
