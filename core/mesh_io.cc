@@ -137,6 +137,47 @@ std::string first_problem(const std::string& log) {
 
 // OpenMesh's PLY reader loops forever on some malformed headers (no end_header; an element line without its count,
 // found by tests/fuzz/fuzz_mesh), so the header is checked here first, line by line, against the PLY grammar.
+struct PlyElement {
+  std::string name;
+  unsigned long long count;
+  std::vector<bool> lists;  // per property: a list (length, then that many values) or one value
+};
+
+// An ASCII PLY body against its header: one line per item, each with exactly its properties' values, list lengths
+// below 65536. OpenMesh reads on through a malformed body (a length taken from a vertex's coordinate), so it is checked
+// here first.
+void check_ply_ascii_body(const std::string& path, const std::string& body, const std::vector<PlyElement>& elements) {
+  std::istringstream lines(body);
+  std::string line;
+  size_t number = 0;
+  const auto bad = [&](const std::string& what) {
+    throw InvalidInput(path, "PLY body line " + std::to_string(number) + ": " + what, "the file is truncated or corrupt");
+  };
+  for (const PlyElement& e : elements)
+    for (unsigned long long item = 0; item < e.count; ++item) {
+      do {
+        if (!std::getline(lines, line)) bad("the file ends inside element '" + e.name + "'");
+        ++number;
+      } while (line.find_first_not_of(" \t\r") == std::string::npos);
+      std::istringstream words(line);
+      std::vector<std::string> w;
+      for (std::string x; words >> x;) w.push_back(x);
+      size_t at = 0;
+      for (bool list : e.lists) {
+        if (at >= w.size()) bad("too few values for element '" + e.name + "'");
+        if (!list) {
+          ++at;
+          continue;
+        }
+        char* stop = nullptr;
+        const long length = std::strtol(w[at].c_str(), &stop, 10);
+        if (*stop != '\0' || length < 0 || length > 65535) bad("list length '" + w[at] + "' is not a length");
+        at += size_t(length) + 1;
+      }
+      if (at != w.size()) bad(std::to_string(w.size()) + " values where element '" + e.name + "' has " + std::to_string(at));
+    }
+}
+
 void check_ply_header(const std::string& path, const std::string& bytes) {
   if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) {
     throw InvalidInput(path, "does not start with 'ply'", "the file is not a PLY mesh");
@@ -147,6 +188,8 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
   if (end == std::string::npos || end > (1u << 20)) {
     throw InvalidInput(path, "PLY header has no end_header line", "the file is truncated or corrupt");
   }
+  static const std::set<std::string> kWideTypes = {"int", "uint", "int32", "uint32", "float", "double", "float32",
+                                                   "float64"};
   static const std::set<std::string> kTypes = {"char",  "uchar",  "short",   "ushort",  "int",   "uint",
                                                "float", "double", "int8",    "uint8",   "int16", "uint16",
                                                "int32", "uint32", "float32", "float64"};
@@ -154,6 +197,8 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
   std::string line;
   std::getline(header, line);  // "ply"
   bool in_element = false;     // a property belongs to the element above it
+  bool ascii = false;
+  std::vector<PlyElement> elements;
   for (int number = 2; std::getline(header, line); ++number) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream words(line);
@@ -173,12 +218,23 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
         (w[0] == "property" && in_element && w.size() == 5 && w[1] == "list" && kTypes.count(w[2]) &&
          kTypes.count(w[3]));
     in_element = in_element || (!w.empty() && w[0] == "element");
+    if (ok && !w.empty() && w[0] == "format") ascii = w[1] == "ascii";
+    if (ok && !w.empty() && w[0] == "element") elements.push_back({w[1], std::stoull(w[2]), {}});
+    if (ok && !w.empty() && w[0] == "property") {
+      // A list's length type bounds its lengths (OpenMesh reads an ASCII length as int: "8248305321" asked for
+      // billions of corners; a wide binary length the same): up to 16 bits.
+      if (w[1] == "list" && kWideTypes.count(w[2]))
+        throw InvalidInput(path, "PLY header line " + std::to_string(number) + ": list length type '" + w[2] +
+                                     "' is wider than 16 bits", "write face lists with 'uchar' lengths");
+      elements.back().lists.push_back(w[1] == "list");
+    }
     if (ok && !w.empty() && w[0] == "element")  // what the reader will reserve, roughly 64 bytes an item
       check_memory(path, 64.0 * std::stod(w[2]), "PLY element '" + w[1] + "' of " + w[2] + " items");
     if (!ok)
       throw InvalidInput(path, "PLY header line " + std::to_string(number) + " ('" + line.substr(0, 60) +
                                    "') is not a PLY header line", "the file is corrupt or not a PLY mesh");
   }
+  if (ascii) check_ply_ascii_body(path, bytes.substr(bytes.find('\n', end + 1) + 1), elements);
 }
 
 // A face corner "v", "v/vt", "v//vn" or "v/vt/vn": each index must name an element defined before it (1-based, or
