@@ -63,7 +63,8 @@ void check_landmarks_on_scan(const Mesh& scan, const Landmarks& landmarks, const
   const double margin = 0.1 * (hi - lo).norm();
   for (Eigen::Index k = 0; k < landmarks.points.rows(); ++k) {
     const Eigen::RowVector3d p = landmarks.points.row(k);
-    const Eigen::RowVector3d inside = p.cwiseMax(lo.array() - margin).cwiseMin(hi.array() + margin);
+    const Eigen::RowVector3d inside =
+        p.cwiseMax((lo.array() - margin).matrix()).cwiseMin((hi.array() + margin).matrix());
     if ((p - inside).norm() > 0) {
       char what[200];
       std::snprintf(what, sizeof what, "landmark %d lies %.3g mm outside the scan's bounding box (grown by %.3g mm)",
