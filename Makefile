@@ -21,7 +21,7 @@ all: build
 
 help:
 	@echo "make demo    run the pipeline on the built-in synthetic data; writes out/demo/report.html"
-	@echo "make test    install what is missing, build, run all tests (LABEL=unit|cli|torch to select)"
+	@echo "make test    install what is missing, build, run all tests, then the fuzzers 15 s each (LABEL=unit|cli|torch|fuzz)"
 	@echo "make deps    Debian packages + pinned npm assets (idempotent)"
 	@echo "make build   configure and build into $(BUILD)/"
 	@echo "make install PREFIX=/usr/local   bareskin on PATH, assets + template + docs in PREFIX/share/bareskin"
@@ -39,8 +39,13 @@ $(BUILD)/build.ninja:
 build: deps $(BUILD)/build.ninja
 	cmake --build $(BUILD) -j $(JOBS)
 
+# After the tests, every fuzz target runs FUZZ_TEST_SECONDS on its corpus (LABEL=fuzz: only that; FUZZ_TEST_SECONDS=0:
+# none). A crash fails `make test` and its input is kept under tests/fuzz/regressions/ (docs/reliability.md).
+FUZZ_TEST_SECONDS ?= 15
 test: build
-	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) $(if $(LABEL),-L $(LABEL))
+	$(if $(filter fuzz,$(LABEL)),,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) $(if $(LABEL),-L $(LABEL)))
+	@if [ "$(FUZZ_TEST_SECONDS)" != 0 ] && { [ -z "$(LABEL)" ] || [ "$(LABEL)" = fuzz ]; }; then \
+	  JOBS=$(JOBS) bash scripts/fuzz.sh $(FUZZ_TEST_SECONDS); fi
 
 demo: build
 	@bash scripts/demo.sh $(BUILD)/bin out/demo
@@ -71,17 +76,10 @@ gpu-bench: gpu
 gpu-vendor:
 	@bash scripts/gpu_vendor.sh
 
+# The long runs (BENCHMARKS "Reliability": 600 s per target). Exits non-zero on a crash, whose input it keeps.
 FUZZ_SECONDS ?= 60
 fuzz:
-	@bash scripts/install_deps.sh clang libclang-rt-14-dev
-	cmake -S . -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DBARESKIN_FUZZ=ON -DBARESKIN_WITH_TORCH=OFF \
-	  -DBARESKIN_TESTS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
-	cmake --build build-fuzz --target fuzz_safetensors fuzz_landmarks fuzz_canonical_face
-	@for t in safetensors landmarks canonical_face; do \
-	  mkdir -p build-fuzz/corpus_$$t; \
-	  build-fuzz/bin/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 build-fuzz/corpus_$$t \
-	    tests/fuzz/seeds/$$t 2>&1 | grep -E "stat::number_of_executed_units|stat::peak_rss|ERROR|SUMMARY" ; \
-	done
+	JOBS=$(JOBS) bash scripts/fuzz.sh $(FUZZ_SECONDS)
 
 clean:
 	rm -rf $(BUILD) $(GPU_BUILD) build-fuzz out

@@ -11,6 +11,7 @@
 #include "apps/device_flag.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/memory_limit.h"
 #include "core/parallel.h"
 
 #ifndef BARESKIN_VERSION
@@ -99,6 +100,7 @@ std::vector<CLI::ConfigItem> JsonConfig::from_config(std::istream& input) const 
 void Globals::apply() const {
   init_logging(quiet_flag ? Verbosity::Quiet : verbose ? Verbosity::Verbose : Verbosity::Normal);
   set_num_threads(threads > 0 ? threads : 0);
+  if (!max_memory.empty()) set_max_memory(max_memory);
 }
 
 std::string Globals::resolved_config() const { return root->config_to_str(true, false); }
@@ -185,9 +187,12 @@ int run(int argc, char** argv) {
   app.add_flag("-v,--verbose", globals.verbose, "More log output")->group("Global");
   app.add_flag("-q,--quiet", globals.quiet_flag, "Only warnings and errors; no progress bars")->group("Global");
   app.add_option("--threads", globals.threads, "Worker threads (0: all cores)")->check(CLI::Range(0, 4096))->group("Global");
+  app.add_option("--max-memory", globals.max_memory,
+                 "Most memory a file's header may ask for before it is read, e.g. 8G (default: BARESKIN_MAX_MEMORY, else 8G)")
+      ->group("Global");
   for (const Command& c : commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.summary)->group(c.group);
-    sub->footer("Global flags (before or after the command): -v, -q, --threads N, --config FILE.json; "
+    sub->footer("Global flags (before or after the command): -v, -q, --threads N, --max-memory 8G, --config FILE.json; "
                 "see 'bareskin --help' and docs/cli.md.");
     sub->callback([&globals, run_command = c.setup(*sub, globals)] {
       globals.apply();

@@ -25,10 +25,11 @@ enum ExitCode : int {
 struct Globals {
   bool verbose = false, quiet_flag = false;
   int threads = 0;  // 0: all cores
+  std::string max_memory;  // --max-memory: what a file's header may ask for (core/memory_limit.h); "": the default
   CLI::App* root = nullptr;
 
   bool quiet() const { return quiet_flag; }
-  // Applies -v/-q and --threads (logging level, thread pool): runs before every command.
+  // Applies -v/-q, --threads and --max-memory (logging level, thread pool, memory limit): runs before every command.
   void apply() const;
   // A progress bar unless -q.
   ProgressBar progress(const std::string& label) const { return ProgressBar(label, !quiet()); }

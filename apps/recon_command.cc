@@ -10,6 +10,8 @@
 #include "training/device.h"
 #include "recon/recon_eval.h"
 #include "core/error.h"
+#include "core/image_io.h"
+#include "detect/align.h"
 #include "recon/recon_photo.h"
 
 namespace bareskin::cli {
@@ -54,6 +56,8 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     if (o->eval.data.empty() && !fs::exists(o->input)) {
       throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
     }
+    if (o->eval.data.empty() && fs::is_regular_file(o->input))
+      detect::check_photo(read_image(o->input), o->input);  // a thumbnail is refused before the run is looked for
     const std::string model_path = recon::run_model_path(o->run, o->model);
     if (!o->eval.data.empty()) {
       recon::EvalOptions e = o->eval;

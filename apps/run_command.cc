@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "core/image_io.h"
 #include "core/landmarks.h"
+#include "detect/align.h"
 #include "detect/face_api.h"
 #include "avatar/avatar.h"
 #include "training/device.h"
@@ -72,6 +73,8 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     inputs.insert(inputs.end(), opt->upscale.begin(), opt->upscale.end());
     check_output_apart(opt->output, inputs);
     opt->avatar.sr_maps = texture::parse_map_list(opt->sr_maps, "--sr-maps");
+    const Image photo = read_image(opt->photo);
+    detect::check_photo(photo, opt->photo);  // before the nets load
     const auto t0 = std::chrono::steady_clock::now();
     nlohmann::json load;  // wall seconds per part of the loading
     auto lap = [&load, t = t0](const char* part) mutable {
@@ -85,7 +88,6 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     lap("nets");
     const texture::Demakeup G = opt->no_bareskin ? texture::Demakeup{} : texture::load_demakeup(opt->bareskin, opt->device);
     lap("bareskin");
-    const Image photo = read_image(opt->photo);
     texture::FaceFinder detector;
     if (!opt->landmarks.empty()) {
       const detect::Landmarks68 points = read_image_landmarks(opt->landmarks, photo.width, photo.height).points;

@@ -42,6 +42,8 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                                                    "then the installed one; docs/cli.md)");
   app->add_flag("--keep-going", f.keep_going, "Go on after a scan fails; list the failures at the end");
   app->add_flag("--no-landmarks", f.no_landmarks, "Ignore landmarks: fallback alignment (centroid + similarity ICP)");
+  app->add_option("--scale", f.scale, "Multiply every scan and its landmarks by this on reading (1000: scans in metres)")
+      ->capture_default_str()->check(CLI::PositiveNumber);
   RegisterOptions& n = f.nicp;
   app->add_option("--stiffness", n.stiffness, "NICP stiffness schedule")->capture_default_str()->group("NICP");
   app->add_option("--landmark-weight", n.landmark_weight, "Landmark weight per step")->capture_default_str()->group("NICP");

@@ -208,6 +208,7 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
                          const AvatarOptions& options) {
   const auto t = Clock::now();
   const double cpu = cpu_now();
+  detect::check_photo(photo, source);
   const Image srgb = as_srgb(photo);
   const auto faces = detector(srgb);
   if (faces.empty()) throw InvalidInput(source, "has no face the detector finds", "give a photo with a visible face");

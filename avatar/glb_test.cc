@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "avatar/glb.h"
+#include "avatar/glb_read.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/png.h"
@@ -65,6 +66,20 @@ TEST(Glb, AnIndependentReaderFindsTheMeshAndMaterial) {
   const PbrPngs pngs{encode_png(to_srgb(maps.diffuse), 8), encode_png(maps.normal, 8), encode_png(maps.roughness, 8),
                      encode_png(specular_texture(maps.specular), 8)};
   EXPECT_EQ(glb_bytes(mesh, pngs), read_file(dir + "/a.glb"));
+  // Our own reader (read_glb, fuzzed) agrees with the oracle, and refuses the damaged copies below.
+  const GlbSummary summary = read_glb(read_file(dir + "/a.glb"), "a.glb");
+  EXPECT_EQ(summary.vertices, 5);
+  EXPECT_EQ(summary.triangles, 2);
+  EXPECT_EQ(summary.images, (std::vector<std::string>{"diffuse", "normal", "metallicRoughness", "specular"}));
+  EXPECT_EQ(summary.generator, "bareskin run");
+  const std::string good = read_file(dir + "/a.glb");
+  for (size_t cut : {size_t(0), size_t(19), good.size() / 2, good.size() - 1})
+    EXPECT_THROW(read_glb(good.substr(0, cut), "cut.glb"), InvalidInput) << cut;
+  std::string lying = good;  // the POSITION accessor claims 9 vertices in a view of 5
+  const size_t at = lying.find("\"count\":5,");
+  ASSERT_NE(at, std::string::npos);
+  lying.replace(at, 10, "\"count\":9,");  // same length: the chunk sizes stay right
+  EXPECT_THROW(read_glb(lying, "lying.glb"), InvalidInput);
   PbrPngs broken = pngs;
   broken.specular = "not a png";
   EXPECT_THROW(glb_bytes(mesh, broken), InvalidInput);

@@ -12,6 +12,7 @@
 
 #include "core/files.h"
 #include "core/error.h"
+#include "core/memory_limit.h"
 
 namespace bareskin {
 namespace {
@@ -157,11 +158,9 @@ Image read_image(const std::string& path, std::optional<ColorSpace> assume) {
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
     throw InvalidInput(path, "image has no pixels", "the file is corrupt");
   }
-  if (int64_t(spec.width) * spec.height * spec.nchannels > (int64_t(1) << 34)) {
-    throw InvalidInput(path, "image too large to hold in memory (" + std::to_string(spec.width) + "x" +
-                                 std::to_string(spec.height) + ")",
-                       "use the tiled/out-of-core tools (uvtools bake) for such images");
-  }
+  // The header's promise (float pixels), checked before allocating: core/memory_limit.h.
+  check_memory(path, 4.0 * spec.width * spec.height * spec.nchannels,
+               std::to_string(spec.width) + "x" + std::to_string(spec.height) + " " + in->format_name() + " image");
   Image image(spec.width, spec.height, spec.nchannels, assume ? *assume : color_space_of(spec));
   bool decoded;
   {

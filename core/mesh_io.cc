@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <streambuf>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -19,6 +20,7 @@
 #include "core/files.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/memory_limit.h"
 
 namespace bareskin {
 namespace {
@@ -30,29 +32,60 @@ struct DoubleTraits : public OpenMesh::DefaultTraits {
 };
 using OmMesh = OpenMesh::PolyMesh_ArrayKernelT<DoubleTraits>;
 
-// OpenMesh reports problems (non-manifold faces it drops, unreadable lines) on its own log streams and carries on.
-// We capture them so that a dropped face becomes an error instead of a silently different mesh.
+// OpenMesh reports problems (non-manifold faces it drops, unreadable lines) on its own log streams (omerr, omlog,
+// omout) and carries on. We capture them so that a dropped face becomes an error instead of a silently different mesh.
+// Each stream's buffer is replaced once per process by a router that passes text on to the stream's own buffer (and so
+// to the terminal), or, while a CapturedOpenMeshLog exists, into the capture. (OpenMesh's own connect/disconnect of
+// targets, done per read, leaked every target: its disconnect never deletes; found by tests/fuzz/fuzz_mesh.)
+class LogRouter : public std::streambuf {
+ public:
+  explicit LogRouter(std::streambuf* original) : original_(original) {}
+  void capture(std::string* into) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    into_ = into;
+  }
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (into_) {
+      into_->push_back(traits_type::to_char_type(c));
+      return c;
+    }
+    return original_ ? original_->sputc(traits_type::to_char_type(c)) : c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (into_) {
+      into_->append(s, size_t(n));
+      return n;
+    }
+    return original_ ? original_->sputn(s, n) : n;
+  }
+  int sync() override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return into_ || !original_ ? 0 : original_->pubsync();
+  }
+
+ private:
+  std::streambuf* original_;
+  std::string* into_ = nullptr;
+  std::mutex mutex_;
+};
+
 class CapturedOpenMeshLog {
  public:
   CapturedOpenMeshLog() : lock_(mutex()) {
-    for (OpenMesh::mostream* s : streams()) {
-      std::vector<bool> had;
-      for (std::ostream* o : defaults()) had.push_back(s->disconnect(*o));
-      had_.push_back(had);
-      s->connect(buffer_);
-    }
+    for (LogRouter* r : routers()) r->capture(&text_);
   }
   ~CapturedOpenMeshLog() {
-    for (size_t i = 0; i < streams().size(); ++i) {
-      streams()[i]->disconnect(buffer_);
-      for (size_t k = 0; k < defaults().size(); ++k) {
-        if (had_[i][k]) streams()[i]->connect(*defaults()[k]);
-      }
-    }
+    flush();
+    for (LogRouter* r : routers()) r->capture(nullptr);
   }
   std::string text() {
-    for (OpenMesh::mostream* s : streams()) s->flush();
-    return buffer_.str();
+    flush();
+    return text_;
   }
 
  private:
@@ -64,15 +97,24 @@ class CapturedOpenMeshLog {
     static const std::vector<OpenMesh::mostream*> s{&omerr(), &omlog(), &omout()};
     return s;
   }
-  static const std::vector<std::ostream*>& defaults() {
-    static const std::vector<std::ostream*> d{&std::cerr, &std::clog, &std::cout};
-    return d;
+  // Installed once; never freed, as the streams keep using them until the process ends.
+  static const std::vector<LogRouter*>& routers() {
+    static const std::vector<LogRouter*> r = [] {
+      std::vector<LogRouter*> out;
+      for (OpenMesh::mostream* s : streams()) {
+        out.push_back(new LogRouter(s->rdbuf()));
+        s->rdbuf(out.back());
+      }
+      return out;
+    }();
+    return r;
+  }
+  void flush() {
+    for (OpenMesh::mostream* s : streams()) s->flush();
   }
   std::unique_lock<std::mutex> lock_;
-  std::ostringstream buffer_;
-  std::vector<std::vector<bool>> had_;
+  std::string text_;
 };
-
 
 void check_extension(const std::string& path) {
   const std::string ext = lower_extension(path);
@@ -93,14 +135,128 @@ std::string first_problem(const std::string& log) {
   return {};
 }
 
-// OpenMesh's PLY reader loops forever on a header without end_header, so the header is checked here first.
+// OpenMesh's PLY reader loops forever on some malformed headers (no end_header; an element line without its count,
+// found by tests/fuzz/fuzz_mesh), so the header is checked here first, line by line, against the PLY grammar.
+struct PlyElement {
+  std::string name;
+  unsigned long long count;
+  std::vector<bool> lists;  // per property: a list (length, then that many values) or one value
+};
+
+// An ASCII PLY body against its header: one line per item, each with exactly its properties' values, list lengths
+// below 65536. OpenMesh reads on through a malformed body (a length taken from a vertex's coordinate), so it is checked
+// here first.
+void check_ply_ascii_body(const std::string& path, const std::string& body, const std::vector<PlyElement>& elements) {
+  std::istringstream lines(body);
+  std::string line;
+  size_t number = 0;
+  const auto bad = [&](const std::string& what) {
+    throw InvalidInput(path, "PLY body line " + std::to_string(number) + ": " + what, "the file is truncated or corrupt");
+  };
+  for (const PlyElement& e : elements)
+    for (unsigned long long item = 0; item < e.count; ++item) {
+      do {
+        if (!std::getline(lines, line)) bad("the file ends inside element '" + e.name + "'");
+        ++number;
+      } while (line.find_first_not_of(" \t\r") == std::string::npos);
+      std::istringstream words(line);
+      std::vector<std::string> w;
+      for (std::string x; words >> x;) w.push_back(x);
+      size_t at = 0;
+      for (bool list : e.lists) {
+        if (at >= w.size()) bad("too few values for element '" + e.name + "'");
+        if (!list) {
+          ++at;
+          continue;
+        }
+        char* stop = nullptr;
+        const long length = std::strtol(w[at].c_str(), &stop, 10);
+        if (*stop != '\0' || length < 0 || length > 65535) bad("list length '" + w[at] + "' is not a length");
+        at += size_t(length) + 1;
+      }
+      if (at != w.size()) bad(std::to_string(w.size()) + " values where element '" + e.name + "' has " + std::to_string(at));
+    }
+}
+
 void check_ply_header(const std::string& path, const std::string& bytes) {
   if (bytes.compare(0, 4, "ply\n") != 0 && bytes.compare(0, 5, "ply\r\n") != 0) {
     throw InvalidInput(path, "does not start with 'ply'", "the file is not a PLY mesh");
   }
-  const size_t end = bytes.find("end_header");
+  size_t end = bytes.find("\nend_header");  // a line of its own
+  while (end != std::string::npos && bytes.compare(end + 11, 1, "\n") != 0 && bytes.compare(end + 11, 2, "\r\n") != 0)
+    end = bytes.find("\nend_header", end + 1);
   if (end == std::string::npos || end > (1u << 20)) {
     throw InvalidInput(path, "PLY header has no end_header line", "the file is truncated or corrupt");
+  }
+  static const std::set<std::string> kWideTypes = {"int", "uint", "int32", "uint32", "float", "double", "float32",
+                                                   "float64"};
+  static const std::set<std::string> kTypes = {"char",  "uchar",  "short",   "ushort",  "int",   "uint",
+                                               "float", "double", "int8",    "uint8",   "int16", "uint16",
+                                               "int32", "uint32", "float32", "float64"};
+  std::istringstream header(bytes.substr(0, end));
+  std::string line;
+  std::getline(header, line);  // "ply"
+  bool in_element = false;     // a property belongs to the element above it
+  bool ascii = false;
+  std::vector<PlyElement> elements;
+  for (int number = 2; std::getline(header, line); ++number) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::vector<std::string> w;
+    for (std::string x; words >> x;) w.push_back(x);
+    const auto count = [](const std::string& t) {
+      return !t.empty() && t.size() < 19 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+    };
+    if (number == 2 && (w.empty() || w[0] != "format"))
+      throw InvalidInput(path, "PLY header line 2 is not its format line", "the file is corrupt or not a PLY mesh");
+    const bool ok =
+        w.empty() || w[0] == "comment" || w[0] == "obj_info" ||
+        (w[0] == "format" && w.size() == 3 && number == 2 && w[2] == "1.0" &&
+         (w[1] == "ascii" || w[1] == "binary_little_endian" || w[1] == "binary_big_endian")) ||
+        (w[0] == "element" && w.size() == 3 && count(w[2])) ||
+        (w[0] == "property" && in_element && w.size() == 3 && kTypes.count(w[1])) ||
+        (w[0] == "property" && in_element && w.size() == 5 && w[1] == "list" && kTypes.count(w[2]) &&
+         kTypes.count(w[3]));
+    in_element = in_element || (!w.empty() && w[0] == "element");
+    if (ok && !w.empty() && w[0] == "format") ascii = w[1] == "ascii";
+    if (ok && !w.empty() && w[0] == "element") elements.push_back({w[1], std::stoull(w[2]), {}});
+    if (ok && !w.empty() && w[0] == "property") {
+      // A list's length type bounds its lengths (OpenMesh reads an ASCII length as int: "8248305321" asked for
+      // billions of corners; a wide binary length the same): up to 16 bits.
+      if (w[1] == "list" && kWideTypes.count(w[2]))
+        throw InvalidInput(path, "PLY header line " + std::to_string(number) + ": list length type '" + w[2] +
+                                     "' is wider than 16 bits", "write face lists with 'uchar' lengths");
+      elements.back().lists.push_back(w[1] == "list");
+    }
+    if (ok && !w.empty() && w[0] == "element")  // what the reader will reserve, roughly 64 bytes an item
+      check_memory(path, 64.0 * std::stod(w[2]), "PLY element '" + w[1] + "' of " + w[2] + " items");
+    if (!ok)
+      throw InvalidInput(path, "PLY header line " + std::to_string(number) + " ('" + line.substr(0, 60) +
+                                   "') is not a PLY header line", "the file is corrupt or not a PLY mesh");
+  }
+  if (ascii) check_ply_ascii_body(path, bytes.substr(bytes.find('\n', end + 1) + 1), elements);
+}
+
+// A face corner "v", "v/vt", "v//vn" or "v/vt/vn": each index must name an element defined before it (1-based, or
+// negative: counted back from the last). OpenMesh writes through an index past its arrays (found by
+// tests/fuzz/fuzz_mesh), so the text is checked first.
+template <typename Bad>
+void check_corner(const std::string& corner, const std::array<long, 3>& defined, const Bad& bad) {
+  static const char* const kWhat[] = {"vertex", "texture coordinate", "normal"};
+  size_t begin = 0;
+  for (int k = 0; k < 3 && begin <= corner.size(); ++k) {
+    const size_t slash = corner.find('/', begin);
+    const std::string field = corner.substr(begin, slash == std::string::npos ? std::string::npos : slash - begin);
+    if (!field.empty() || k == 0) {
+      char* stop = nullptr;
+      const long index = std::strtol(field.c_str(), &stop, 10);
+      if (field.empty() || *stop != '\0' || index == 0 || index > defined[size_t(k)] || index < -defined[size_t(k)])
+        bad("face corner '" + corner + "' names " + kWhat[k] + " " + field + " of the " +
+                std::to_string(defined[size_t(k)]) + " defined before it",
+            "the file is truncated or corrupt");
+    }
+    if (slash == std::string::npos) break;
+    begin = slash + 1;
   }
 }
 
@@ -109,6 +265,7 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
 // those with more than 3 corners.
 size_t check_obj_text(const std::string& path, const std::string& bytes, size_t& polygons) {
   size_t line = 1, faces = 0;
+  std::array<long, 3> defined{0, 0, 0};  // vertices, texture coordinates and normals so far
   polygons = 0;
   const auto bad = [&](const std::string& what, const std::string& hint) {
     throw InvalidInput(path, "line " + std::to_string(line) + ": " + what, hint);
@@ -145,14 +302,20 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
       ++faces;
       if (n < 4) bad("face has " + std::to_string(n - 1) + " corners", "the file is truncated or corrupt");
       polygons += n > 4;
-      for (int i = 1; i < n; ++i) {
-        const char first = *tokens[i].first, last = *(tokens[i].second - 1);
+      std::istringstream corners(std::string(tokens[1].first, eol));  // every corner, however many
+      for (std::string corner; corners >> corner;) {
+        const char first = corner.front(), last = corner.back();
         if (last == '/' || !(std::isdigit(static_cast<unsigned char>(first)) || first == '-')) {
-          bad("malformed face corner '" + std::string(tokens[i].first, tokens[i].second) + "'",
-              "the file is truncated or corrupt");
+          bad("malformed face corner '" + corner + "'", "the file is truncated or corrupt");
         }
+        check_corner(corner, defined, bad);
       }
+    } else if (is("vt")) {
+      ++defined[1];
+    } else if (is("vn")) {
+      ++defined[2];
     }
+    if (is("v")) ++defined[0];
     p = eol + 1;
     ++line;
   }

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/memory_limit.h"
 
 namespace bareskin::shards {
 namespace fs = std::filesystem;
@@ -18,6 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kFormat = "bareskin-shards/1";
+constexpr const char* kHostile = "the shard was not written by a dataset generator; do not use it, regenerate it";
 constexpr const char* kRegenerate = "regenerate the dataset (its generator resumes) or remove the shard from manifest.json";
 
 // Member "dir/000123.makeup.png" -> key "dir/000123", suffix "makeup.png". False when the file name has no dot.
@@ -28,6 +30,17 @@ bool split_member(const std::string& name, std::string& key, std::string& suffix
   key = name.substr(0, dot);
   suffix = name.substr(dot + 1);
   return true;
+}
+
+// True when a '/'-separated name has a ".." part.
+bool has_parent_part(const std::string& name) {
+  size_t begin = 0;
+  for (;;) {
+    const size_t end = name.find('/', begin);
+    if (name.compare(begin, end == std::string::npos ? std::string::npos : end - begin, "..") == 0) return true;
+    if (end == std::string::npos) return false;
+    begin = end + 1;
+  }
 }
 
 }  // namespace
@@ -139,19 +152,24 @@ struct ShardReader::State {
   [[noreturn]] void corrupt(const std::string& what) const {
     throw InvalidInput(path, what, kRegenerate);
   }
-  // Reads the next member; false at the end of the archive.
+  // Reads the next member; false at the end of the archive. Folders are skipped; links, devices and names that
+  // would leave a folder (absolute, '..') are refused, naming the member: a shard holds plain files only.
   bool read_member(std::string& key, std::string& suffix, std::string& bytes) {
     archive_entry* entry = nullptr;
     for (;;) {
       const int status = archive_read_next_header(tar, &entry);
       if (status == ARCHIVE_EOF) return false;
       if (status != ARCHIVE_OK) corrupt(std::string("corrupt tar (") + archive_error_string(tar) + ")");
-      if (archive_entry_filetype(entry) == AE_IFREG) break;  // folders and links are not members
+      if (archive_entry_filetype(entry) != AE_IFDIR) break;
     }
-    const std::string name = archive_entry_pathname(entry);
+    const char* path = archive_entry_pathname(entry);
+    const std::string name = path ? path : "";
+    check_member(entry, name);
     if (!split_member(name, key, suffix))
       corrupt("member '" + name + "' has no key.suffix name");
     const la_int64_t size = archive_entry_size(entry);
+    if (size < 0) corrupt("member '" + name + "' has a negative size");
+    check_memory(this->path, double(size), "member '" + name + "'");
     bytes.resize(size_t(size));
     la_ssize_t got = 0;
     while (got < size) {
@@ -160,6 +178,14 @@ struct ShardReader::State {
       got += n;
     }
     return true;
+  }
+  void check_member(archive_entry* entry, const std::string& name) const {
+    if (archive_entry_hardlink(entry) || archive_entry_filetype(entry) == AE_IFLNK)
+      throw InvalidInput(path, "member '" + name + "' is a link (a shard holds plain files only)", kHostile);
+    if (archive_entry_filetype(entry) != AE_IFREG)
+      throw InvalidInput(path, "member '" + name + "' is not a plain file (a shard holds plain files only)", kHostile);
+    if (name.empty() || name[0] == '/' || name.find('\\') != std::string::npos || has_parent_part(name))
+      throw InvalidInput(path, "member '" + name + "' has a name that leaves the shard's folder", kHostile);
   }
 };
 
@@ -216,13 +242,10 @@ void write_manifest(const std::string& dir, const Manifest& manifest) {
   write_file_atomic(dir + "/manifest.json", j.dump(2) + "\n");
 }
 
-Manifest read_manifest(const std::string& dir) {
-  const std::string path = dir + "/manifest.json";
-  if (!fs::is_regular_file(path))
-    throw InvalidInput(dir, "has no manifest.json (not a dataset folder)", "point at the folder a texgen command wrote");
+Manifest parse_manifest(const std::string& text, const std::string& path) {
   Manifest manifest;
   try {
-    const auto j = nlohmann::json::parse(read_file(path));
+    const auto j = nlohmann::json::parse(text);
     if (j.at("format").get<std::string>() != kFormat)
       throw InvalidInput(path, "format '" + j.at("format").get<std::string>() + "' is not " + kFormat,
                          "regenerate the dataset with this version");
@@ -233,6 +256,22 @@ Manifest read_manifest(const std::string& dir) {
   } catch (const nlohmann::json::exception& e) {
     throw InvalidInput(path, std::string("malformed (") + e.what() + ")", "regenerate the dataset");
   }
+  for (const auto& s : manifest.shards) {
+    if (s.name.empty() || s.name == "." || s.name == ".." || s.name.find('/') != std::string::npos ||
+        s.name.find('\\') != std::string::npos)
+      throw InvalidInput(path, "shard name '" + s.name + "' is not a file name in the dataset's folder",
+                         "the manifest is corrupt or hostile; regenerate the dataset");
+    if (s.samples < 0 || s.bytes < 0)
+      throw InvalidInput(path, "shard '" + s.name + "' has a negative count", "regenerate the dataset");
+  }
+  return manifest;
+}
+
+Manifest read_manifest(const std::string& dir) {
+  const std::string path = dir + "/manifest.json";
+  if (!fs::is_regular_file(path))
+    throw InvalidInput(dir, "has no manifest.json (not a dataset folder)", "point at the folder a texgen command wrote");
+  Manifest manifest = parse_manifest(read_file(path), path);
   for (const auto& s : manifest.shards)
     if (!fs::is_regular_file(dir + "/" + s.name))
       throw InvalidInput(dir + "/" + s.name, "is listed in manifest.json but missing", kRegenerate);

@@ -65,7 +65,9 @@ class ShardReader {
   ShardReader(const ShardReader&) = delete;
   ShardReader& operator=(const ShardReader&) = delete;
   // The next sample, false at the end. InvalidInput (naming the shard and member) for a corrupt or truncated tar,
-  // a member name without a key, or a key that appears in two separate runs of members.
+  // a member name without a key, or a key that appears in two separate runs of members; for a link (symbolic or
+  // hard), a device or a name that leaves the folder (absolute, '..'); for a member larger than the memory limit
+  // (core/memory_limit.h), before it is allocated. Folders are skipped. Nothing is ever written to disk.
   bool next(Sample& sample);
 
  private:
@@ -78,6 +80,9 @@ class ShardReader {
 void write_manifest(const std::string& dir, const Manifest& manifest);
 // InvalidInput when missing, malformed, or naming a shard that is not there.
 Manifest read_manifest(const std::string& dir);
+// The manifest from its text (`path` names it in errors): InvalidInput when malformed, or when a shard's name is not a
+// plain file name (a '/', '..') or its counts are negative.
+Manifest parse_manifest(const std::string& text, const std::string& path);
 
 // The shard files of a dataset: a folder with manifest.json (its order), or a single .tar file (samples unknown: -1).
 // InvalidInput for a folder without manifest or with no shards.

@@ -4,13 +4,16 @@
 #include <fmt/format.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/files.h"
+#include "core/memory_limit.h"
 #include "core/test_util.h"
 
 namespace bareskin::shards {
@@ -26,6 +29,41 @@ Sample make_sample(int i) {
   s.members["makeup.png"] = std::string(size_t(100 + 37 * i), char('a' + i % 26));  // any bytes; sizes vary
   if (i % 3 == 0) s.members["bare.png"] = std::string(size_t(513 * i), '\0');  // 0 bytes for sample 0
   return s;
+}
+
+// One handmade ustar member: a 512-byte header (name, type, size in octal, link target, checksum) and the body padded
+// to 512 bytes. `size` is what the header claims (by default the body's length).
+std::string tar_member(const std::string& name, char type, const std::string& body, const std::string& link = "",
+                       int64_t size = -1) {
+  std::string h(512, '\0');
+  name.copy(&h[0], std::min<size_t>(name.size(), 100));
+  std::snprintf(&h[100], 8, "%07o", 0644);
+  std::snprintf(&h[108], 8, "%07o", 0);
+  std::snprintf(&h[116], 8, "%07o", 0);
+  std::snprintf(&h[124], 12, "%011llo", static_cast<unsigned long long>(size >= 0 ? size : int64_t(body.size())));
+  std::snprintf(&h[136], 12, "%011o", 0);
+  h[156] = type;
+  link.copy(&h[157], std::min<size_t>(link.size(), 100));
+  std::memcpy(&h[257], "ustar\0" "00", 8);
+  std::memset(&h[148], ' ', 8);
+  unsigned sum = 0;
+  for (unsigned char c : h) sum += c;
+  std::snprintf(&h[148], 8, "%06o", sum);
+  return h + body + std::string((512 - body.size() % 512) % 512, '\0');
+}
+
+// The message the reader gives for a shard of these members (after a good sample), "" when it reads to the end.
+std::string read_error(const std::string& path, const std::string& members) {
+  write_file_atomic(path, tar_member("000000.json", '0', "{}") + members + std::string(1024, '\0'));
+  try {
+    ShardReader reader(path);
+    Sample s;
+    while (reader.next(s)) {
+    }
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  return "";
 }
 
 std::string temp_dir(const std::string& name) { return testing::temp_dir() + "/" + name; }
@@ -109,6 +147,43 @@ TEST(Shards, TruncatedShardNamesFileAndMember) {
   } catch (const InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
+}
+
+TEST(Shards, HostileMembersAreRefusedNamingTheMember) {
+  const auto dir = temp_dir("hostile");
+  fs::create_directories(dir);
+  const std::string path = dir + "/hostile-000000.tar";
+  // The handmade writer makes files Python's tarfile reads: a folder member is skipped, the sample is read.
+  EXPECT_EQ(read_error(path, tar_member("sub/", '5', "") + tar_member("000001.json", '0', "{}")), "");
+  const struct {
+    std::string members, expected;
+  } cases[] = {
+      {tar_member("../x.json", '0', "{}"), "member '../x.json' has a name that leaves the shard's folder"},
+      {tar_member("a/../../000001.json", '0', "{}"), "member 'a/../../000001.json' has a name that leaves"},
+      {tar_member("/etc/x.json", '0', "{}"), "member '/etc/x.json' has a name that leaves"},
+      {tar_member("000001.json", '2', "", "/etc/passwd"), "member '000001.json' is a link"},
+      {tar_member("000001.json", '1', "", "000000.json"), "member '000001.json' is a link"},
+      {tar_member("000001.dev", '3', ""), "member '000001.dev' is not a plain file"},
+      {tar_member("000001.fifo", '6', ""), "member '000001.fifo' is not a plain file"},
+  };
+  for (const auto& c : cases) {
+    const std::string m = read_error(path, c.members);
+    EXPECT_EQ(m.rfind(path + ": ", 0), 0u) << m;
+    EXPECT_NE(m.find(c.expected), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+  // A header promising more than the memory limit is refused before the member is allocated (the body is absent).
+  set_max_memory("1M");
+  const std::string big = read_error(path, tar_member("000001.png", '0', "", "", int64_t(3) << 30));
+  set_max_memory("8G");
+  EXPECT_NE(big.find("member '000001.png' needs 3.22 GB, more than the memory limit of 0.001 GB"), std::string::npos) << big;
+  // A manifest naming a shard outside the folder is refused.
+  Manifest outside;
+  outside.shards.push_back({"../hostile/hostile-000000.tar", 1, 0, 10});
+  write_manifest(dir, outside);
+  EXPECT_THROW(read_manifest(dir), InvalidInput);
+  EXPECT_THROW(parse_manifest(R"({"format": "bareskin-shards/1", "shards": [{"name": "/etc/passwd", "samples": 1,
+                                  "crc32": 0, "bytes": 1}]})", "m.json"), InvalidInput);
 }
 
 TEST(Shards, BadInput) {

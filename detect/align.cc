@@ -1,6 +1,8 @@
 #include "detect/align.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "core/error.h"
 #include "render/camera.h"
@@ -105,6 +107,15 @@ Landmarks68 transform(const Similarity& similarity, const Landmarks68& landmarks
   Landmarks68 out;
   for (int i = 0; i < 68; ++i) out.row(i) = similarity.apply(landmarks.row(i).transpose()).transpose();
   return out;
+}
+
+void check_photo(const Image& photo, const std::string& source) {
+  if (photo.channels < 3) throw InvalidInput(source, "is not an RGB image", "give a colour photo");
+  if (std::min(photo.width, photo.height) < kMinPhotoSide)
+    throw InvalidInput(source, "is " + std::to_string(photo.width) + "x" + std::to_string(photo.height) +
+                                   " pixels; a face photo needs at least " + std::to_string(kMinPhotoSide) +
+                                   " on its shorter side",
+                       "give the full-size photo, not a thumbnail (faces are found from about 80 px)");
 }
 
 }  // namespace bareskin::detect

@@ -13,6 +13,7 @@
 #pragma once
 #include <Eigen/Core>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "core/image.h"
@@ -55,6 +56,13 @@ Similarity alignment(const Landmarks68& landmarks);
 // The photo resampled into the size² aligned frame (bilinear; black outside the photo). Any channel count and
 // colour space (kept); resample sRGB images as they are, like Deep3DFaceRecon does.
 Image warp_aligned(const Image& photo, const Similarity& similarity, int size = kAlignedSize);
+
+// The smallest photo `recon`, `run` and `demakeup` take: its shorter side in pixels (the detector finds faces from
+// about 80 px; a thumbnail holds none it could align).
+constexpr int kMinPhotoSide = 64;
+// InvalidInput naming `source` for a photo with fewer than 3 channels or a side below kMinPhotoSide, one line saying
+// what to give instead.
+void check_photo(const Image& photo, const std::string& source);
 
 // A face found in a photo: the detector's score and its 68 landmarks (pixels).
 struct PhotoFace {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -45,8 +46,10 @@ std::vector<double> list(const Eigen::VectorXd& v) { return std::vector<double>(
 
 }  // namespace
 
-Coefficients read_coefficients(const std::string& path) {
-  const auto doc = nlohmann::json::parse(read_file(path), nullptr, false);
+Coefficients read_coefficients(const std::string& path) { return parse_coefficients(read_file(path), path); }
+
+Coefficients parse_coefficients(const std::string& text, const std::string& path) {
+  const auto doc = nlohmann::json::parse(text, nullptr, false);
   if (doc.is_discarded() || !doc.is_object()) {
     throw InvalidInput(path, "is not a JSON object", "give the coefficient file mm-fit writes");
   }
@@ -81,22 +84,6 @@ void write_coefficients(const std::string& path, const Coefficients& c) {
   if (c.gamma) j["gamma"] = *c.gamma;
   for (const auto& [key, value] : c.extra.items()) j[key] = value;
   write_file_atomic(path, j.dump(1) + "\n");
-}
-
-Mesh posed_mesh(const MorphableModel& model, const Coefficients& c) {
-  Mesh mesh = model.topology;
-  mesh.V = model.shape(c.alpha, c.beta);
-  mesh.V = ((mesh.V * euler_rotation(c.rotation).transpose()).rowwise() + c.translation.transpose()).eval();
-  mesh.N.resize(0, 3);
-  return mesh;
-}
-
-Image appearance_image(const MorphableModel& model, const Coefficients& c) {
-  if (model.appearance_resolution <= 0 || model.appearance_mean.size() == 0) return Image();
-  const int R = model.appearance_resolution;
-  Image img(R, R, 3, ColorSpace::Linear);
-  img.pixels = model.appearance(c.delta);
-  return img;
 }
 
 }  // namespace bareskin

@@ -31,6 +31,8 @@ Eigen::Matrix3d euler_rotation(const Eigen::Vector3d& angles);
 // InvalidInput naming the file when it is not a JSON object or an entry is not a list of finite numbers of the
 // right length (rotation, translation 3; gamma 27); IoError when it cannot be read.
 Coefficients read_coefficients(const std::string& path);
+// The same from the file's text; `path` only names it in errors.
+Coefficients parse_coefficients(const std::string& text, const std::string& path);
 
 // Writes the file atomically: the coefficients, then the `extra` keys.
 void write_coefficients(const std::string& path, const Coefficients& c);

@@ -13,6 +13,7 @@
 #include "core/image_io.h"
 #include "core/landmarks.h"
 #include "core/mesh_io.h"
+#include "detect/align.h"
 #include "detect/face_api.h"
 #include "morphable/fit.h"
 #include "training/checkpoint.h"
@@ -198,7 +199,7 @@ struct PhotoContext {
 void reconstruct_photo_file(const PhotoContext& ctx, const std::string& photo_path, const std::string& out_dir,
                             bool quiet) {
   const Image photo = read_image(photo_path);
-  if (photo.channels < 3) throw InvalidInput(photo_path, "is not an RGB image", "give a colour photo");
+  detect::check_photo(photo, photo_path);
   const std::vector<detect::Face> faces = ctx.detector->detect(detect::photo_tensor(photo, photo_path));
   if (faces.empty()) throw InvalidInput(photo_path, "no face was found", "give a photo with a face of at least ~80 px");
   PhotoReconstruction r = reconstruct_photo(ctx.net, ctx.geometry, photo, faces.front().points, ctx.options);
@@ -233,6 +234,7 @@ bool is_image(const std::filesystem::path& p) {
 
 void reconstruct_photo_files(const PhotoFilesOptions& o) {
   namespace fs = std::filesystem;
+  if (!fs::is_directory(o.input)) detect::check_photo(read_image(o.input), o.input);  // before the nets load
   PhotoContext ctx;
   ctx.net = load_recon(o.run, FaceModel::load(o.model), o.device);
   ctx.geometry = read_model(o.model);

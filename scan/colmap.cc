@@ -19,15 +19,6 @@ namespace bareskin {
 namespace fs = std::filesystem;
 namespace {
 
-std::vector<std::string> data_lines(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path, "cannot be read", "export the model as TXT (colmap model_converter --output_type TXT)");
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty() && line[0] != '#') lines.push_back(line);
-  return lines;
-}
-
 std::string shell_quote(const std::string& s) {
   std::string q = "'";
   for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
@@ -37,66 +28,6 @@ std::string shell_quote(const std::string& s) {
 std::string database_summary(const std::string& work);
 
 }  // namespace
-
-ColmapModel read_colmap_text_model(const std::string& dir) {
-  struct Intrinsics {
-    int width, height;
-    double focal, cx, cy;
-  };
-  std::map<int, Intrinsics> cams;
-  for (const std::string& line : data_lines(dir + "/cameras.txt")) {
-    std::istringstream s(line);
-    int id, w, h;
-    std::string model;
-    std::vector<double> p;
-    if (!(s >> id >> model >> w >> h)) throw InvalidInput(dir + "/cameras.txt", "has a malformed line", "re-export it");
-    for (double x; s >> x;) p.push_back(x);
-    Intrinsics in{w, h, 0, 0, 0};
-    if ((model == "SIMPLE_PINHOLE" || model == "SIMPLE_RADIAL" || model == "RADIAL") && p.size() >= 3)
-      in.focal = p[0], in.cx = p[1], in.cy = p[2];
-    else if ((model == "PINHOLE" || model == "OPENCV") && p.size() >= 4)
-      in.focal = (p[0] + p[1]) / 2, in.cx = p[2], in.cy = p[3];
-    else
-      throw InvalidInput(dir + "/cameras.txt", "camera model " + model + " is not supported",
-                         "use SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL or OPENCV");
-    cams[id] = in;
-  }
-  ColmapModel m;
-  const auto images = data_lines(dir + "/images.txt");
-  // Two lines per image; the second (its 2D points) may be empty, and empty lines were dropped above, so parse the
-  // image lines by their shape: 10 fields, the 9th an existing camera id.
-  for (const std::string& line : images) {
-    std::istringstream s(line);
-    int id, cam;
-    double qw, qx, qy, qz, tx, ty, tz;
-    std::string name, extra;
-    if (!(s >> id >> qw >> qx >> qy >> qz >> tx >> ty >> tz >> cam >> name) || (s >> extra) || !cams.count(cam)) continue;
-    const Intrinsics& in = cams[cam];
-    // COLMAP: x_c = R X + t, camera looking down +z, y down; ours looks down −z with y up: flip y and z.
-    const Eigen::Matrix3d R = Eigen::Quaterniond(qw, qx, qy, qz).normalized().toRotationMatrix();
-    const Eigen::Vector3d flip(1, -1, -1);
-    ColmapImage im;
-    im.name = name;
-    im.camera.width = in.width, im.camera.height = in.height;
-    im.camera.focal = in.focal, im.camera.cx = in.cx, im.camera.cy = in.cy;
-    im.camera.R = flip.asDiagonal() * R;
-    im.camera.t = flip.asDiagonal() * Eigen::Vector3d(tx, ty, tz);
-    m.images.push_back(im);
-  }
-  const auto pts = data_lines(dir + "/points3D.txt");
-  m.points.resize(Eigen::Index(pts.size()), 3);
-  for (size_t k = 0; k < pts.size(); ++k) {
-    std::istringstream s(pts[k]);
-    long id;
-    double x, y, z, error = 0;
-    int r, g, b;
-    if (!(s >> id >> x >> y >> z)) throw InvalidInput(dir + "/points3D.txt", "has a malformed line", "re-export it");
-    if (s >> r >> g >> b >> error) m.reprojection_px += error / double(pts.size());
-    m.points.row(Eigen::Index(k)) << x, y, z;
-  }
-  if (m.images.empty()) throw InvalidInput(dir + "/images.txt", "holds no registered image", "check the model");
-  return m;
-}
 
 ColmapModel run_colmap(const std::string& images, const std::string& work, const ColmapOptions& o,
                        const std::string& log) {

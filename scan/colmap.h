@@ -45,6 +45,9 @@ struct ColmapOptions {
 // distortion (fine for the small distortion of rig cameras; say so in the log). InvalidInput naming the file for
 // malformed lines or an unknown camera model.
 ColmapModel read_colmap_text_model(const std::string& dir);
+// The same from the three files' text; `dir` names the folder in errors.
+ColmapModel parse_colmap_text_model(const std::string& cameras_txt, const std::string& images_txt,
+                                    const std::string& points_txt, const std::string& dir);
 
 // Runs colmap on the photos in `images` (CPU SIFT, one shared SIMPLE_PINHOLE camera, exhaustive matching, mapper) in
 // `work` and reads the largest model. `log` gets COLMAP's output. IoError when colmap is missing; InvalidInput naming

@@ -735,7 +735,7 @@ void check_scan_landmarks(const TemplateFace& face, const Landmarks& landmarks, 
   if (eyes < 0.02 * template_eyes) {
     std::snprintf(what, sizeof what, "outer eye corners are %.4g apart, faces about %.0f mm: the scan looks like metres",
                   eyes, template_eyes);
-    throw InvalidInput(source, what, "scale the scan and its landmarks by 1000 (millimetres)");
+    throw InvalidInput(source, what, "rerun with --scale 1000 (scan register reads both in millimetres)");
   }
   if (eyes > 20 * template_eyes) {
     std::snprintf(what, sizeof what, "outer eye corners are %.4g apart, faces about %.0f mm: not millimetres", eyes,

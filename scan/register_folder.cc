@@ -31,6 +31,50 @@ constexpr double kMinAcceptedFraction = 0.3;
 
 namespace fs = std::filesystem;
 
+// Sanity of scans that parse but make no sense as a face (each refused with one line saying what to fix).
+constexpr int kMinScanTriangles = 1000;  // a face scan has tens of thousands; fewer is a fragment or a proxy
+constexpr double kMinHeadMm = 5;         // bounding-box diagonal: a head in millimetres spans 150-400
+
+std::string scale_hint(double scale, const char* fix) {
+  return scale == 1 ? std::string("rerun with ") + fix : "check --scale (now " + std::to_string(scale) + ")";
+}
+
+// The scan's mesh, scaled by `scale` (--scale), refused when it is too coarse or far too small to be millimetres.
+Mesh read_scan_mesh(const std::string& path, double scale) {
+  Mesh scan = read_mesh(path);
+  scan.V *= scale;
+  if (scan.F.rows() < kMinScanTriangles)
+    throw InvalidInput(path, "has only " + std::to_string(scan.F.rows()) + " triangles (a face scan has " +
+                                 std::to_string(kMinScanTriangles) + " or more): a fragment, a preview or a proxy mesh",
+                       "give the full-resolution scan");
+  const double diagonal = (scan.V.colwise().maxCoeff() - scan.V.colwise().minCoeff()).norm();
+  if (diagonal < kMinHeadMm) {
+    char what[160];
+    std::snprintf(what, sizeof what, "spans %.3g units corner to corner (a head in millimetres: 150-400): the scan "
+                  "looks like metres", diagonal);
+    throw InvalidInput(path, what, scale_hint(scale, "--scale 1000"));
+  }
+  return scan;
+}
+
+// Landmarks of a file must lie on the scan: within its bounding box grown by a tenth of its diagonal.
+void check_landmarks_on_scan(const Mesh& scan, const Landmarks& landmarks, const std::string& path) {
+  const Eigen::RowVector3d lo = scan.V.colwise().minCoeff(), hi = scan.V.colwise().maxCoeff();
+  const double margin = 0.1 * (hi - lo).norm();
+  for (Eigen::Index k = 0; k < landmarks.points.rows(); ++k) {
+    const Eigen::RowVector3d p = landmarks.points.row(k);
+    const Eigen::RowVector3d inside =
+        p.cwiseMax((lo.array() - margin).matrix()).cwiseMin((hi.array() + margin).matrix());
+    if ((p - inside).norm() > 0) {
+      char what[200];
+      std::snprintf(what, sizeof what, "landmark %d lies %.3g mm outside the scan's bounding box (grown by %.3g mm)",
+                    int(k), (p - inside).norm(), margin);
+      throw InvalidInput(path, what, "the landmarks belong to another scan, frame or unit: fix landmarks.json or "
+                                     "remove it (then the fallback or --detect-landmarks places them)");
+    }
+  }
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
@@ -51,7 +95,9 @@ ScanLandmarkSource scan_landmarks(const TemplateFace& face, const Mesh& scan, co
   if (fs::exists(scan_dir + "/landmarks.json")) {
     const std::string path = scan_dir + "/landmarks.json", text = read_file(path);
     out.landmarks = parse_landmarks_json(text, path);
+    out.landmarks->points *= options.scale;
     check_scan_landmarks(face, *out.landmarks, path);
+    check_landmarks_on_scan(scan, *out.landmarks, path);
     out.nicp.landmark_sigma_mm = parse_landmark_sigma(text);
     return out;
   }
@@ -222,7 +268,7 @@ nlohmann::json register_one(const TemplateFace& face, const std::string& scan_di
   const std::string id = fs::path(scan_dir).filename().string(), mesh_path = find_scan_mesh(scan_dir);
   if (mesh_path.empty())
     throw InvalidInput(scan_dir, "holds no mesh.obj or mesh.ply", "point --scans at a folder of scan folders");
-  const Mesh scan = read_mesh(mesh_path);
+  const Mesh scan = read_scan_mesh(mesh_path, options.scale);
   const ScanLandmarkSource lm = scan_landmarks(face, scan, scan_dir, options);
   const Landmarks* landmarks = lm.landmarks ? &*lm.landmarks : nullptr;
   const double read_seconds = seconds_since(t0);

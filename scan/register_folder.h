@@ -33,6 +33,7 @@ struct RegisterFolderOptions {
   std::string scans = "scans", output = "registered";
   bool keep_going = false;    // go on after a scan fails; InvalidInput listing the failures at the end
   bool no_landmarks = false;  // ignore landmark files: the fallback alignment
+  double scale = 1;           // multiplies every scan and its landmarks.json on reading (1000: scans in metres)
   double heat_max_mm = 2.0;   // error shown red in the QA heat maps
   BakeOptions maps = [] {     // resolution 0: no texture transfer
     BakeOptions o;
