@@ -52,7 +52,8 @@ def g_curve(run, cpu, seed):
     n2 = s2.max() if len(s2) else 0
     c2 = cpu.get(f"G{seed}_stage2", 0) / 60 / max(n2, 1)
     steps = np.concatenate([s1, n1 + s2])
-    minutes = np.concatenate([s1 * c1, n1 * c1 + s2 * c2])
+    # A stage without its CPU record (killed before it ended) has no CPU-minutes: NaN, not drawn on that axis.
+    minutes = np.concatenate([s1 * c1 if c1 else s1 * np.nan, n1 * c1 + s2 * c2 if c2 else s2 * np.nan])
     return steps, minutes, np.concatenate([v1, v2]), (i1.mean() if len(i1) else float("nan")), n1
 
 
@@ -77,7 +78,8 @@ def main():
         ax.set_ylabel("validation PSNR vs bare truth on skin (dB)")
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7)
-    fig.suptitle("BareSkinNet G, --profile cpu: held-out subjects (val split), three seeds", fontsize=10)
+    fig.suptitle(f"BareSkinNet G, --profile cpu: held-out subjects (val split), {len(curves)} seed(s); grey line: "
+                 "stage 1 → stage 2", fontsize=10)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "curves_g.png"))
 
