@@ -10,6 +10,8 @@ if [ ! -f "$avatar/avatar.glb" ]; then
   echo "demo §15: no avatar from §14 ($avatar), skipping the applications" >&2
   exit 0
 fi
+# The looks' regions are placed on the template the demo's model was built on (§1).
+export BARESKIN_TEMPLATE="$out/template"
 rm -rf "$out/applications"
 timed "applications" demo_applications "$bareskin" "$avatar" "$out/applications" > "$out/sections/15_applications.html.tmp"
 mv "$out/sections/15_applications.html.tmp" "$out/sections/15_applications.html"
