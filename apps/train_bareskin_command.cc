@@ -96,7 +96,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->get_option("--resume")->description("Continue the run in the output folder (finished stages are kept)");
   app->add_flag("--evaluate", o->evaluate, "Only evaluate the run in the output folder on the test split (eval.json)");
   app->add_option("--eval-samples", o->eval_samples, "Test samples the final evaluation reads (0: all)")->capture_default_str();
-  app->footer("Example:\n  bareskin train bareskin --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
+  app->footer("Examples:\n  bareskin train bareskin --profile cpu --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
+              "  bareskin train bareskin --device cuda --data faces/ --teacher runs/F --model model.safetensors -o runs/bsn\n"
               "docs/training.md, \"BareSkinNet\", describes the losses, the stages and the ablation rows.");
   return [o, app, &globals] {
     const nlohmann::json profile = apply_profile(*app, o->profile, bareskin_profiles());

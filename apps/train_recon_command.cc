@@ -73,7 +73,8 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   app->add_option("--decay-every", o->decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
   app->add_option("--eval-batches", o->eval_batches, "Validation batches per evaluation")->capture_default_str();
-  app->footer("Example:\n  bareskin train recon --arch resnet50 --data faces/ --model model.safetensors -o runs/F\n"
+  app->footer("Examples:\n  bareskin train recon --profile cpu --data faces/ --model model.safetensors -o runs/F\n"
+              "  bareskin train recon --device cuda --data faces/ --model model.safetensors -o runs/F\n"
               "docs/training.md, \"Face reconstruction (F / E)\", describes the heads, losses and metrics.");
   return [o, app, &globals] {
     if (!app->parsed()) return false;
