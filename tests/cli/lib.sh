@@ -51,6 +51,8 @@ for line in open(sys.argv[2]):
         continue
     if line.startswith("v "):
         line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
+    elif line.startswith("f "):  # the normals are dropped: so are the corners' references to them
+        line = "f " + " ".join("/".join(c.split("/")[:2]) for c in line.split()[1:]) + "\n"
     out.append(line)
 open(sys.argv[4], "w").writelines(out)
 PY
