@@ -91,12 +91,7 @@ Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps
   const KeyLight key = light.key.direction.norm() > 0 ? light.key : dominant_light(light.sh);
   const Eigen::Vector3d eye = camera.R.transpose() * -camera.t;  // camera centre in the model frame
   const int W = camera.width, H = camera.height;
-  Frame out;
-  out.colour = Image(W, H, 3, ColorSpace::Linear);
-  out.albedo = Image(W, H, 3, ColorSpace::Linear);
-  out.normal = Image(W, H, 3, ColorSpace::Data);
-  out.depth = Image(W, H, 1, ColorSpace::Data);
-  out.mask = Image(W, H, 1, ColorSpace::Data);
+  Frame out = Frame::blank(W, H);
   parallel_for(0, int64_t(W) * H, [&](int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const int32_t f = r.triangle[size_t(i)];

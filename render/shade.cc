@@ -22,6 +22,16 @@ std::array<double, 27> default_lighting() {
   return g;
 }
 
+Frame Frame::blank(int W, int H) {
+  Frame f;
+  f.colour = Image(W, H, 3, ColorSpace::Linear);
+  f.albedo = Image(W, H, 3, ColorSpace::Linear);
+  f.depth = Image(W, H, 1, ColorSpace::Data);
+  f.normal = Image(W, H, 3, ColorSpace::Data);
+  f.mask = Image(W, H, 1, ColorSpace::Data);
+  return f;
+}
+
 Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& options) {
   if (mesh.V.rows() == 0 || mesh.F.rows() == 0) throw InvalidInput("", "the mesh is empty", "give a mesh with triangles");
   if (!mesh.V.allFinite()) throw InvalidInput("", "the mesh has NaN or infinite vertices", "repair the mesh");
@@ -39,12 +49,7 @@ Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& o
     uv = interpolate(r, FUV.data(), UV.data(), 2);
   }
   const int W = camera.width, H = camera.height;
-  Frame out;
-  out.colour = Image(W, H, 3, ColorSpace::Linear);
-  out.albedo = Image(W, H, 3, ColorSpace::Linear);
-  out.depth = Image(W, H, 1, ColorSpace::Data);
-  out.normal = Image(W, H, 3, ColorSpace::Data);
-  out.mask = Image(W, H, 1, ColorSpace::Data);
+  Frame out = Frame::blank(W, H);
   out.dropped_behind = r.dropped_behind;
   parallel_for(0, int64_t(W) * H, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {

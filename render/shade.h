@@ -30,6 +30,8 @@ struct Frame {
   Image normal;          // camera-frame unit normals, (n + 1) / 2; background 0
   Image mask;            // 1 channel: 1 where a triangle covers
   int64_t dropped_behind = 0;
+  // A W × H frame with every pass zero (the background), as the renderers start from.
+  static Frame blank(int W, int H);
 };
 
 // InvalidInput when the mesh is empty, has NaN vertices, or a texture but no UVs.
