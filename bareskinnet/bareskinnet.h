@@ -66,11 +66,6 @@ struct Options {
   // what it adds. options_of_run reads the configurations of older runs (their boolean `residual`).
   std::string head = "residual";
   int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
-  // Ours, not the paper's: G's U-Net sees the image area-downsampled by this factor (1, 2 or 4) and its output is
-  // upsampled back (bilinear) before the head applies it to the image at `size`. Shading and makeup layers are smooth,
-  // so with the affine or residual head G works at a fraction of the cost while the input's detail passes through at
-  // full resolution. 1: the U-Net works at `size` (the paper).
-  int64_t g_down = 1;
   nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
   nlohmann::json d = nlohmann::json::object();  // patchgan options
   std::string gan = "vanilla";                  // pix2pix's loss
@@ -252,7 +247,6 @@ struct Demakeup {
   std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
   std::string head = "image";            // how G's image comes from the U-Net (Options::head of its run)
-  int64_t g_down = 1;                    // the U-Net's downsampling (Options::g_down of its run)
   bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
@@ -344,11 +338,7 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
 
 // G's image from the U-Net's output (Options::head), in [0, 1] units; `images` [B, 3, S, S] in [0, 1]. Not clamped
 // (training sees the raw value; inference clamps). apply_head: the same from the U-Net's Tanh output `y`.
-torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head,
-                                int64_t g_down = 1);
-// The U-Net's input for images [B, 3, S, S] in [0, 1]: area-downsampled by g_down, mapped to [−1, 1].
-torch::Tensor generator_input(const torch::Tensor& images, int64_t g_down);
-// The head applied to the images; a U-Net output y of a smaller size is first upsampled to theirs (bilinear).
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head);
 torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head);
 // Zeroes the U-Net's last layer (weights and bias): with the "residual" and "affine" heads G is then the identity.
 void zero_last_layer(nets::UNetImpl& G);
