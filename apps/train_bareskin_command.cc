@@ -23,9 +23,9 @@ namespace {
 const std::vector<Profile>& bareskin_profiles() {
   static const std::vector<Profile> profiles = {
       {"paper", "G ngf 64 at 256², 10k + 30k steps of 4, lr 2e-5 (a GPU's days)", {}},
-      {"cpu", "G ngf 16 with the affine head at 64², D ndf 16, E width 16, 1500 + 300 steps of 8, lr 2e-4, the bare "
+      {"cpu", "G ngf 16 with the affine head at 128², D ndf 16, E width 16, 1500 + 300 steps of 8, lr 2e-4, the bare "
               "target, LPIPS on face-api's net, L_diff and L_light at 10",
-       {{"--size", "64"},
+       {{"--size", "128"},
         {"--head", "affine"},
         {"--target", "bare"},
         {"--g-options", R"({"ngf": 16})"},

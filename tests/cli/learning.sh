@@ -26,7 +26,7 @@ print(f"F: shape error {s['median_per_face']:.3f} mm per face, the mean face {s[
 assert s["median_per_face"] < s["mean_face_median_per_face"], s
 PY
 
-# G: stage 1 of the CPU profile (the bare target, a U-Net of width 16 with the affine head at 64², starting as the
+# G: stage 1 of the CPU profile (the bare target, a U-Net of width 16 with the affine head at 128², starting as the
 # identity), shortened to 150 steps without the weight average (which lags behind at so few steps).
 "$bin" -q --threads 2 train bareskin --profile cpu --data "$work/faces" --steps1 ${LEARNING_G_STEPS:-150} --steps2 0 \
   --ema-g 0 --log-every 50 --checkpoint-every 1000 --eval-every 0 --sample-every 0 -o "$work/G" \
