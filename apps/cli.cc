@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -13,6 +14,9 @@
 #include "core/files.h"
 #include "core/memory_limit.h"
 #include "core/parallel.h"
+#ifdef BARESKIN_WITH_DETECT
+#include "training/ranks.h"
+#endif
 
 #ifndef BARESKIN_VERSION
 #define BARESKIN_VERSION "unknown"
@@ -124,6 +128,13 @@ void add_trainer_flags(CLI::App& app, TrainerFlags& f, bool steps) {
   app.add_option("--eval-every", f.eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
   app.add_option("--sample-every", f.sample_every, "Steps between sample grids (0: never)")->capture_default_str();
   app.add_flag("--resume", f.resume, "Continue the run in the output folder from its checkpoint");
+#ifdef BARESKIN_WITH_DETECT  // the trainings are built with LibTorch
+  app.add_option_function<int>("--dist-timeout", dist::set_timeout_seconds,
+                               "Started as several ranks (torchrun, srun): seconds a rank waits for the others before "
+                               "it stops with one line")
+      ->default_str(std::to_string(dist::kDefaultTimeoutSeconds))
+      ->check(CLI::Range(1, 86400));
+#endif
 }
 
 void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles) {
@@ -159,6 +170,9 @@ int run(int argc, char** argv) {
   // Page faults are expensive on our VMs: keep large allocations in the heap instead of fresh mmaps (docs/environment.md).
   mallopt(M_MMAP_MAX, 0);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // A write past the file size limit (ulimit -f, a quota) fails with EFBIG and becomes one line naming the file,
+  // as a full disk does, instead of killing the process mid-write.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   // Multi-call: invoked as `uvtools ...` (a link to bareskin) means `bareskin uvtools ...`.
   std::vector<char*> args(argv, argv + argc);

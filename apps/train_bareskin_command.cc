@@ -11,6 +11,7 @@
 #include "detect/face_api.h"
 #include "bareskinnet/bareskinnet.h"
 #include "training/device.h"
+#include "training/ranks.h"
 #include "recon/face_model.h"
 
 namespace bareskin::cli {
@@ -178,6 +179,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
         for (auto& [k, v] : r->last_eval) std::cerr << (r == &result.stage1 ? "stage 1 " : "stage 2 ") << k << " " << v << "\n";
       std::cerr << "wrote " << o->output << "/stage1" << (o->steps2 > 0 ? " and stage2" : "") << "\n";
     }
+    if (dist::Environment::from_env().rank != 0) return;  // one of several ranks: rank 0 writes the run folder
     if (result.stage1.steps + result.stage2.steps > 0 || !fs::exists(o->output + "/eval.json"))
       bsn::evaluate_run(o->output, o->data, eval);
   };

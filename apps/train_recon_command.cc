@@ -10,6 +10,7 @@
 #include "detect/face_api.h"
 #include "core/shards.h"
 #include "training/device.h"
+#include "training/ranks.h"
 #include "recon/recon.h"
 
 namespace bareskin::cli {
@@ -99,7 +100,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
     lo.required = {o->input + ".png", "json"};
     lo.batch_size = o->t.batch;
     lo.seed = o->t.seed;
-    data::ShardLoader loader(lo);
+    data::ShardLoader loader(dist::this_rank(lo));
     {
       // The image size from the first sample; the nets take any size, the face model renders at it.
       data::LoaderOptions peek = lo;

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/json_options.h"
 #include "training/checkpoint.h"
+#include "training/ranks.h"
 #include "core/safetensors.h"
 #include "training/lpips.h"
 #include "recon/recon.h"
@@ -523,7 +524,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   lo.batch_size = ro.batch;
   lo.seed = ro.seed;
   lo.decode_threads = ro.decode_threads;
-  data::ShardLoader train_loader(lo);
+  data::ShardLoader train_loader(dist::this_rank(lo));
   if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made
     train_loader.next();
     train_loader.seek({0, 0});

@@ -146,12 +146,24 @@ void check_output_apart(const std::string& output, const std::vector<std::string
 
 void write_file_atomic(const std::string& path, const std::string& bytes) {
   AtomicFile file(path);
-  {
-    std::ofstream out(file.temp_path(), std::ios::binary);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.flush();
-    if (!out) throw IoError(path, "write failed", "check free disk space and permissions");
+  // POSIX calls rather than a stream, so that the message can say why (no space, file too large, quota).
+  const int fd = ::open(file.temp_path().c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw IoError(path, std::string("cannot create: ") + std::strerror(errno), "check permissions");
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int error = n < 0 ? errno : ENOSPC;
+      ::close(fd);
+      throw IoError(path, std::string("write failed (") + std::strerror(error) + ")",
+                    "free disk space (the previous file, if any, is unchanged)");
+    }
+    done += size_t(n);
   }
+  if (::close(fd) != 0)
+    throw IoError(path, std::string("write failed (") + std::strerror(errno) + ")",
+                  "free disk space (the previous file, if any, is unchanged)");
   file.commit();
 }
 

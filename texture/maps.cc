@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/safetensors.h"
 #include "training/checkpoint.h"
+#include "training/ranks.h"
 
 namespace bareskin::texture {
 namespace fs = std::filesystem;
@@ -149,7 +150,7 @@ data::LoaderOptions loader(const std::string& dataset, const TrainRunOptions& ru
   o.seed = run.seed;
   o.shuffle_buffer = shuffle ? 64 : 0;
   o.decode_threads = run.decode_threads;
-  return o;
+  return shuffle ? dist::this_rank(o) : o;  // validation: every rank reads the whole split
 }
 
 // Decodes the first sample of a dataset, so bad data stops the command before the run folder exists.

@@ -4,6 +4,8 @@
 #endif
 #include "training/distributed.h"
 
+#include "training/ranks.h"
+
 #include <torch/torch.h>
 #include <torch/csrc/distributed/c10d/PrefixStore.hpp>
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
@@ -32,6 +34,20 @@ int env_int(const char* name, int fallback) {
   if (*end || v < 0) throw InvalidInput(std::string("environment ") + name, std::string("'") + value + "' is not a count",
                                         "set it to a non-negative integer (torchrun and SLURM do)");
   return int(v);
+}
+
+// A collective that failed (a rank died, hangs past the timeout, or its connection broke): one line for the user.
+[[noreturn]] void lost_ranks(int rank, int world, int timeout_seconds, const std::string& operation,
+                             const std::exception& e) {
+  std::string reason = e.what();
+  reason = reason.substr(0, reason.find('\n'));
+  const bool timed_out = reason.find("imed out") != std::string::npos || reason.find("imeout") != std::string::npos;
+  throw IoError("rank " + std::to_string(rank) + " of " + std::to_string(world),
+                (timed_out ? "waited more than " + std::to_string(timeout_seconds) + " s for the other ranks in "
+                           : "lost the connection to another rank in ") +
+                    operation + " (" + reason + ")",
+                "another rank died or hangs: see its log, then start every rank again with --resume (--dist-timeout "
+                "sets the wait)");
 }
 
 }  // namespace
@@ -65,22 +81,36 @@ struct Group::Impl {
   c10::intrusive_ptr<c10::intrusive_ptr_target> group;
   std::function<void(std::vector<torch::Tensor>&, const c10d::AllreduceOptions&)> allreduce;
   std::function<void(std::vector<torch::Tensor>&)> broadcast;
-  int rank = 0, world = 1;
+  int rank = 0, world = 1, timeout_seconds = kDefaultTimeoutSeconds;
   std::string backend;
 
   template <class ProcessGroup>
   void bind(c10::intrusive_ptr<ProcessGroup> pg, std::string name) {
     ProcessGroup* p = pg.get();
-    allreduce = [p](std::vector<torch::Tensor>& t, const c10d::AllreduceOptions& o) { p->allreduce(t, o)->wait(); };
-    broadcast = [p](std::vector<torch::Tensor>& t) { p->broadcast(t)->wait(); };
+    allreduce = [this, p](std::vector<torch::Tensor>& t, const c10d::AllreduceOptions& o) {
+      guard("an all-reduce", [&] { p->allreduce(t, o)->wait(); });
+    };
+    broadcast = [this, p](std::vector<torch::Tensor>& t) { guard("a broadcast", [&] { p->broadcast(t)->wait(); }); };
     group = std::move(pg);
     backend = std::move(name);
+  }
+
+  template <class F>
+  void guard(const char* operation, F&& collective) {
+    try {
+      collective();
+    } catch (const Error&) {
+      throw;
+    } catch (const std::exception& e) {  // c10::Error, c10::DistBackendError, gloo's exceptions
+      lost_ranks(rank, world, timeout_seconds, operation, e);
+    }
   }
 };
 
 Group::Group(const Environment& env, torch::Device device, int timeout_seconds) : impl_(std::make_unique<Impl>()) {
   impl_->rank = env.rank;
   impl_->world = env.world;
+  impl_->timeout_seconds = timeout_seconds;
   c10d::TCPStoreOptions store_options;
   store_options.port = uint16_t(env.master_port);
   store_options.isServer = env.rank == 0;
@@ -98,6 +128,7 @@ Group::Group(const Environment& env, torch::Device device, int timeout_seconds) 
   if (device.is_cuda()) {
 #ifdef USE_C10D_NCCL  // set by LibTorch's CMake target where it is built with NCCL (pip's CUDA wheels)
     auto options = c10d::ProcessGroupNCCL::Options::create();
+    options->timeout = std::chrono::seconds(timeout_seconds);
     impl_->bind(c10::make_intrusive<c10d::ProcessGroupNCCL>(prefixed, env.rank, env.world, options), "nccl");
 #else
     throw InvalidInput("--device cuda", "distributed CUDA training needs NCCL, which this LibTorch lacks",
@@ -159,6 +190,36 @@ void Group::check_same(int64_t value, const std::string& what) {
   if (a[0] != value || -a[1] != value)
     throw InvalidInput(what, "differs between ranks (" + std::to_string(-a[1]) + " to " + std::to_string(a[0]) + ")",
                        "start every rank with the same options and run folder");
+}
+
+namespace {
+int g_timeout_seconds = kDefaultTimeoutSeconds;
+}  // namespace
+
+void set_timeout_seconds(int seconds) {
+  if (seconds < 1)
+    throw InvalidInput("--dist-timeout " + std::to_string(seconds), "is not a positive number of seconds",
+                       "give e.g. 300");
+  g_timeout_seconds = seconds;
+}
+
+data::LoaderOptions this_rank(data::LoaderOptions options) {
+  const Environment env = Environment::from_env();
+  options.rank = env.rank;
+  options.world = env.world;
+  return options;
+}
+
+Group* world_group(torch::Device device) {
+  // Never destroyed: at exit, after a rank was lost, the backend's threads may still wait on the dead connection, and
+  // a destructor would join them.
+  static Group* group = nullptr;
+  if (!group) {
+    const Environment env = Environment::from_env();
+    if (env.world == 1) return nullptr;
+    group = new Group(env, device, g_timeout_seconds);
+  }
+  return group;
 }
 
 }  // namespace bareskin::dist

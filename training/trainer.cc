@@ -14,6 +14,7 @@
 #include "core/progress.h"
 #include "core/safetensors.h"
 #include "training/checkpoint.h"
+#include "training/ranks.h"
 #include "training/run_log.h"
 
 namespace bareskin::train {
@@ -64,6 +65,8 @@ struct Trainer::State {
 
   State(TrainerOptions o, Task& t, data::DataSource& tr, data::DataSource* v, dist::Group* g)
       : options(std::move(o)), task(t), train(tr), validation(v), group(g) {
+    // A process started as one of several ranks (torchrun, srun) joins their group here unless it was given one.
+    if (!group) group = dist::world_group(options.device);
     rank0 = !group || group->rank() == 0;
     modules = task.modules();
     for (auto& [name, module] : modules) module->to(options.device);
@@ -150,11 +153,16 @@ struct Trainer::State {
     return logged;
   }
 
-  [[noreturn]] void diverged(const std::string& name, double value) const {
+  // What a stopped run leaves: "the last good checkpoint is <file> (step N)" or "no checkpoint was written yet".
+  std::string kept_checkpoint() const {
     const std::string checkpoint = checkpoint_path(options.run_dir);
-    const std::string kept = fs::exists(checkpoint) ? "the last good checkpoint is " + checkpoint + " (step " +
-                                                          std::to_string(read_checkpoint_step(checkpoint)) + ")"
-                                                    : "no checkpoint was written yet";
+    return fs::exists(checkpoint) ? "the last good checkpoint is " + checkpoint + " (step " +
+                                        std::to_string(read_checkpoint_step(checkpoint)) + ")"
+                                  : "no checkpoint was written yet";
+  }
+
+  [[noreturn]] void diverged(const std::string& name, double value) const {
+    const std::string kept = kept_checkpoint();
     throw InvalidInput("step " + std::to_string(step + 1), "loss '" + name + "' is " + (std::isnan(value) ? "NaN" : "infinite") +
                                                                "; training stopped and " + kept,
                        "lower the learning rate or check the data, then --resume");
@@ -237,10 +245,22 @@ TrainResult Trainer::run() {
   auto& interval_steps = s.interval_steps;
   TrainResult result;
   auto save = [&] {
-    if (s.rank0) save_checkpoint(checkpoint, s.snapshot(), s.modules, s.specs, s.optimizers);
+    if (!s.rank0) return;
+    try {
+      save_checkpoint(checkpoint, s.snapshot(), s.modules, s.specs, s.optimizers);
+    } catch (const IoError& e) {  // a full disk: the file is written aside and renamed, so the last one is intact
+      throw IoError(std::string(e.what()) + " (step " + std::to_string(s.step) + "; training stopped and " +
+                    s.kept_checkpoint() + ": free space, then --resume)");
+    }
   };
   while (s.step < o.steps) {
-    data::Batch batch = s.train.next();
+    data::Batch batch;
+    try {
+      batch = s.train.next();
+    } catch (const InvalidInput& e) {  // e.g. a shard damaged while the run reads it: named with its member
+      throw InvalidInput(std::string(e.what()) + " (before step " + std::to_string(s.step + 1) +
+                         "; training stopped and " + s.kept_checkpoint() + ": repair the data, then --resume)");
+    }
     for (auto& [name, t] : batch.tensors) t = t.to(o.device);
     if (s.rank0 && o.sample_every > 0 && s.sample_batch.keys.empty()) {
       // The validation split's first batch where there is one (the same at every start), else this run's first.

@@ -3,37 +3,7 @@
 # held-out evaluation, and bad input: a teacher checkpoint of another model, corrupt shards, a photo without a face.
 source "$(dirname "$0")/lib.sh" "$@"
 
-# Face samples in texgen faces' layout (32², 8 train + 4 test), with an independent PNG and tar writer.
-"$py" - "$work/faces" "$here/../python" <<'PY'
-import io, json, os, struct, sys, tarfile, zlib
-import numpy as np
-root = sys.argv[1]
-sys.path.insert(0, sys.argv[2])
-from spec_writers import png
-rng = np.random.default_rng(1)
-yy, xx = np.mgrid[0:32, 0:32] / 31.0 * 2 - 1
-disc = (xx**2 + yy**2 < 0.6).astype(float)
-for split, count in (("train", 8), ("test", 4)):
-    os.makedirs(f"{root}/{split}", exist_ok=True)
-    name = f"faces-000000.tar"
-    with tarfile.open(f"{root}/{split}/{name}", "w") as tar:
-        for i in range(count):
-            bare = 0.3 + 0.4 * rng.random(3)[None, None, :] * np.ones((32, 32, 1))
-            before = bare * (0.8 + 0.2 * xx[..., None])
-            makeup = before * 0.7 + 0.3 * np.array([0.8, 0.2, 0.3]) * disc[..., None]
-            meta = {"subject": f"mm/{i}", "split": split, "style": "natural", "has_truth": True,
-                    "landmarks": (rng.random((68, 2)) * 32).tolist()}
-            for member, data in (("makeup.png", png(makeup)), ("before.png", png(before)), ("bare.png", png(bare)),
-                                 ("skin.png", png(disc)), ("face.png", png(disc)), ("json", json.dumps(meta).encode())):
-                info = tarfile.TarInfo(f"{i:08d}.{member}")
-                info.size = len(data)
-                tar.addfile(info, io.BytesIO(data))
-    data = open(f"{root}/{split}/{name}", "rb").read()
-    json.dump({"format": "bareskin-shards/1", "samples": count, "metadata": {},
-               "shards": [{"name": name, "samples": count, "crc32": zlib.crc32(data), "bytes": len(data)}]},
-              open(f"{root}/{split}/manifest.json", "w"))
-PY
-[ -f "$work/faces/train/manifest.json" ] || fail "could not write the test shards"
+tiny_faces "$work/faces"
 
 small=(--size 32 --batch 4 --g-options '{"ngf": 8}' --d-options '{"ndf": 8, "n_layers": 2}' --ablation b
        --log-every 1 --checkpoint-every 2 --eval-every 0 --sample-every 2 --eval-samples 4 --threads 2 -q)
