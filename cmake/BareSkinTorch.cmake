@@ -119,14 +119,28 @@ set(_torch_abi "")
 set(_abi_from "TORCH_CXX_FLAGS")
 if(TORCH_CXX_FLAGS MATCHES "_GLIBCXX_USE_CXX11_ABI=([01])")
   set(_torch_abi ${CMAKE_MATCH_1})
-elseif(BARESKIN_LIBSTDCXX AND TARGET c10)
+elseif(BARESKIN_LIBSTDCXX AND (c10_LIBRARY OR TARGET c10))
+  # c10::detail::torchCheckFail(…, const std::string&) is exported by every LibTorch since 1.8; declared here rather
+  # than through c10's headers, so the check compiles in a moment.
   set(_abi_from "link check")
   set(_probe "${CMAKE_BINARY_DIR}/CMakeFiles/bareskin_torch_abi")
-  file(WRITE "${_probe}/abi.cc" "#include <string>
-#include <c10/core/Device.h>
-int main() { return c10::Device(std::string(\"cpu\")).is_cpu() ? 0 : 1; }
+  file(WRITE "${_probe}/abi.cc" "#include <cstdint>
+#include <string>
+namespace c10 { namespace detail {
+[[noreturn]] void torchCheckFail(const char*, const char*, std::uint32_t, const std::string&);
+} }
+int main(int argc, char**) {
+  if (argc > 99) c10::detail::torchCheckFail(\"\", \"\", 0, std::string(\"abi\"));
+  return 0;
+}
 ")
-  try_compile(_links "${_probe}/build" SOURCES "${_probe}/abi.cc" LINK_LIBRARIES c10
+  if(c10_LIBRARY)
+    set(_c10 "${c10_LIBRARY}")
+  else()
+    set(_c10 c10)
+  endif()
+  unset(_links CACHE)  # try_compile before CMake 3.25 keeps its result in the cache
+  try_compile(_links "${_probe}/build" SOURCES "${_probe}/abi.cc" LINK_LIBRARIES "${_c10}"
     CXX_STANDARD 17 OUTPUT_VARIABLE _probe_log)
   if(_links)
     set(_torch_abi ${_system_abi})
