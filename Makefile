@@ -23,7 +23,7 @@ help:
 	@echo "make demo    run the pipeline on the built-in synthetic data; writes out/demo/report.html"
 	@echo "make test    install what is missing, build, run all tests, then the fuzzers 15 s each (LABEL=unit|cli|torch|fuzz)"
 	@echo "make deps    Debian packages + pinned npm assets (idempotent)"
-	@echo "make build   configure and build into $(BUILD)/"
+	@echo "make build   configure and build into $(BUILD)/ (TORCH=/path/to/libtorch: against that LibTorch, e.g. CUDA)"
 	@echo "make install PREFIX=/usr/local   bareskin on PATH, assets + template + docs in PREFIX/share/bareskin"
 	@echo "make gpu     Torch-side build on the GPU machine (see docs/gpu.md)"
 	@echo "make gpu-bench  ... then the GPU figures (differentiable render, face networks)"
@@ -33,10 +33,15 @@ deps:
 	@bash scripts/install_deps.sh
 	@bash scripts/fetch_assets.sh
 
+# TORCH=/path/to/libtorch (an unzipped LibTorch, a Python torch folder, or `python`): the whole tool against that
+# LibTorch, e.g. a CUDA one (docs/gpu.md). Without it, Debian's CPU LibTorch. Configure prints which one it took.
+TORCH ?=
+
 $(BUILD)/build.ninja:
-	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE)
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) $(if $(TORCH),-DBARESKIN_TORCH=$(TORCH))
 
 build: deps $(BUILD)/build.ninja
+	$(if $(TORCH),@grep -qxF 'BARESKIN_TORCH:STRING=$(TORCH)' $(BUILD)/CMakeCache.txt || cmake $(BUILD) -DBARESKIN_TORCH=$(TORCH))
 	cmake --build $(BUILD) -j $(JOBS)
 
 # After the tests, every fuzz target runs FUZZ_TEST_SECONDS on its corpus (LABEL=fuzz: only that; FUZZ_TEST_SECONDS=0:

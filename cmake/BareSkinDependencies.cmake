@@ -51,7 +51,8 @@ else()
 endif()
 
 if(BARESKIN_WITH_TORCH OR BARESKIN_TORCH_ONLY)
-  find_package(Torch REQUIRED)
+  # Any LibTorch (BARESKIN_TORCH, Torch_DIR or the default): version, CUDA and C++ ABI printed, a foreign ABI refused.
+  include(${CMAKE_CURRENT_LIST_DIR}/BareSkinTorch.cmake)
 endif()
 
 if(BARESKIN_TESTS)

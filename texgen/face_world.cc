@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <spdlog/spdlog.h>
 
 #include "core/error.h"
 #include "core/image_io.h"
@@ -101,7 +102,7 @@ std::shared_ptr<const Image> read_map(const fs::path& dir, const std::string& na
   const std::string path = find_scan_map(dir.string(), name);
   if (path.empty())
     throw InvalidInput(dir.string(), "has no " + name + " map (" + name + ".png|exr|tif)",
-                       "give a folder written by 'scan register' from scans with all four maps");
+                       "register the scan with its diffuse map (roughness and specular may be missing)");
   Image img = read_image(path);
   if (colour) {
     if (img.channels < 3) throw InvalidInput(path, "is not an RGB map", "give the diffuse albedo as RGB");
@@ -133,15 +134,29 @@ Eigen::VectorXd project(const RowMatrixXf& basis, const Eigen::VectorXf& stddev,
   return coeff;
 }
 
+// The mean of the subjects' roughness (or specular) maps over those that have one; null when none has.
 std::shared_ptr<const Image> mean_map(const std::vector<FaceSubject>& subjects, bool roughness) {
-  if (subjects.empty()) return nullptr;
-  auto out = std::make_shared<Image>(*(roughness ? subjects[0].roughness : subjects[0].specular));
-  for (size_t s = 1; s < subjects.size(); ++s) {
-    const Image& m = *(roughness ? subjects[s].roughness : subjects[s].specular);
-    for (size_t i = 0; i < out->pixels.size(); ++i) out->pixels[i] += m.pixels[i];
+  std::shared_ptr<Image> out;
+  int n = 0;
+  for (const FaceSubject& s : subjects) {
+    const auto& m = roughness ? s.roughness : s.specular;
+    if (!m) continue;
+    if (!out) {
+      out = std::make_shared<Image>(*m);
+    } else {
+      for (size_t i = 0; i < out->pixels.size(); ++i) out->pixels[i] += m->pixels[i];
+    }
+    ++n;
   }
-  for (float& v : out->pixels) v /= float(subjects.size());
+  if (out)
+    for (float& v : out->pixels) v /= float(n);
   return out;
+}
+
+// A registered subject's map that is missing (diffuse-only scans): the population mean, else the constant 3DMM subjects
+// get without registered maps.
+std::shared_ptr<const Image> fill_map(const std::shared_ptr<const Image>& mean, float constant) {
+  return mean ? mean : std::make_shared<const Image>(1, 1, 1, ColorSpace::Data, constant);
 }
 
 }  // namespace
@@ -167,8 +182,13 @@ RegisteredSubjects read_registered_subjects(const std::string& folder, const Mor
     s.id = "scan/" + name;
     s.scan = true;
     s.diffuse = read_map(dir, "diffuse", true, map_size);
-    s.roughness = read_map(dir, "roughness", false, map_size);
-    s.specular = read_map(dir, "specular", false, map_size);
+    for (const char* m : {"roughness", "specular"}) {  // diffuse-only scans: filled below from the others
+      if (find_scan_map(dir.string(), m).empty()) {
+        s.filled_maps.push_back(m);
+        continue;
+      }
+      (std::string(m) == "roughness" ? s.roughness : s.specular) = read_map(dir, m, false, map_size);
+    }
     s.maps = "registered scan maps (diffuse, roughness, specular) at " + std::to_string(map_size) + "²";
     const std::string mesh_path = fs::exists(dir / "mesh.ply") ? (dir / "mesh.ply").string() : (dir / "mesh.obj").string();
     const Mesh mesh = read_mesh(mesh_path);
@@ -202,6 +222,25 @@ RegisteredSubjects read_registered_subjects(const std::string& folder, const Mor
   }
   out.mean_roughness = mean_map(out.subjects, true);
   out.mean_specular = mean_map(out.subjects, false);
+  std::string filled;
+  for (FaceSubject& s : out.subjects) {
+    if (s.filled_maps.empty()) continue;
+    std::string how, names;
+    for (const std::string& m : s.filled_maps) {
+      const bool r = m == "roughness";
+      const auto& mean = r ? out.mean_roughness : out.mean_specular;
+      const float constant = r ? kDefaultRoughness : kDefaultSpecular;
+      (r ? s.roughness : s.specular) = fill_map(mean, constant);
+      how += (how.empty() ? "" : ", ") + m +
+             (mean ? " (mean of the registered subjects' maps)" : " " + std::to_string(constant) + " (none has one)");
+      names += (names.empty() ? "" : ", ") + m;
+    }
+    s.maps = "registered scan maps (diffuse) at " + std::to_string(map_size) + "²; filled: " + how;
+    filled += (filled.empty() ? "" : "; ") + s.id.substr(5) + " (" + names + ")";
+  }
+  if (!filled.empty())
+    spdlog::warn("{}: subjects without roughness or specular maps, filled from the population mean (or the 3DMM "
+                 "subjects' constants) and recorded as filled_maps in their samples: {}", folder, filled);
   return out;
 }
 
@@ -230,16 +269,14 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
   diffuse->pixels = model.appearance(s.delta);
   for (float& v : diffuse->pixels) v = std::clamp(v, 0.f, 1.f);
   s.diffuse = diffuse;
-  if (registered.mean_roughness) {
-    s.roughness = registered.mean_roughness;
-    s.specular = registered.mean_specular;
-    s.maps = "diffuse: the model's appearance at delta; roughness, specular: mean of the registered subjects' maps";
-  } else {
-    s.roughness = std::make_shared<const Image>(1, 1, 1, ColorSpace::Data, kDefaultRoughness);
-    s.specular = std::make_shared<const Image>(1, 1, 1, ColorSpace::Data, kDefaultSpecular);
-    s.maps = "diffuse: the model's appearance at delta; roughness " + std::to_string(kDefaultRoughness) +
-             ", specular " + std::to_string(kDefaultSpecular) + " (constants: no registered subjects)";
-  }
+  s.roughness = fill_map(registered.mean_roughness, kDefaultRoughness);
+  s.specular = fill_map(registered.mean_specular, kDefaultSpecular);
+  s.maps = "diffuse: the model's appearance at delta; roughness: " +
+           (registered.mean_roughness ? std::string("mean of the registered subjects' maps")
+                                      : std::to_string(kDefaultRoughness) + " (no registered roughness map)") +
+           "; specular: " +
+           (registered.mean_specular ? std::string("mean of the registered subjects' maps")
+                                     : std::to_string(kDefaultSpecular) + " (no registered specular map)");
   return s;
 }
 

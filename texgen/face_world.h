@@ -50,6 +50,7 @@ struct FaceSubject {
   std::shared_ptr<const Image> diffuse;  // linear RGB, template UV
   std::shared_ptr<const Image> roughness, specular;  // 1 channel, Data
   std::string maps;                      // where the maps came from
+  std::vector<std::string> filled_maps;  // scans without them: "roughness", "specular" (filled, see below)
 };
 
 struct RegisteredSubjects {
@@ -59,8 +60,10 @@ struct RegisteredSubjects {
 };
 
 // Reads every subject folder (mesh.ply + diffuse, roughness, specular; normal maps are not used) of a `scan register`
-// output, maps resampled to `map_size`². InvalidInput naming the folder when a subject lacks a map or its mesh is
-// not in the model's topology; an empty `folder` gives no subjects.
+// output, maps resampled to `map_size`². A subject without roughness or specular (a diffuse-only scan) gets the mean
+// of the other subjects' maps, or kDefaultRoughness / kDefaultSpecular where none has one, listed in its filled_maps;
+// one warning names them all. InvalidInput naming the folder when a subject lacks its diffuse map or its mesh is not
+// in the model's topology; an empty `folder` gives no subjects.
 RegisteredSubjects read_registered_subjects(const std::string& folder, const MorphableModel& model, int map_size);
 
 // A map resampled to size² (area average for whole factors, else bilinear; a 1x1 constant is repeated).

@@ -411,6 +411,7 @@ shards::Sample FaceGenerator::World::finish(Stage& s) const {
     }
   }
   nlohmann::json truth = {{"frame", subj.frame}, {"maps", subj.maps}};
+  if (!subj.filled_maps.empty()) truth["filled_maps"] = subj.filled_maps;
   if (subj.scan)
     truth.update({{"alpha_delta", "least-squares projections of the scan onto the model"},
                   {"shape_residual_mm", subj.shape_residual_mm},

@@ -20,6 +20,7 @@
 #include "core/png_encoding.h"
 #include "core/scan_folder.h"
 #include "render/rasterize.h"
+#include "texgen/face_world.h"  // kDefaultRoughness, kDefaultSpecular
 #include "texgen/member_quantize.h"
 #include "fitting/multiview_fit.h"
 #include "texgen/occlusion_masks.h"
@@ -85,13 +86,40 @@ std::vector<std::string> list_subjects(const std::string& registered) {
   return names;
 }
 
-// What can be seen without reading a subject's data: its maps exist and are large enough for the targets.
-void check_subject_files(const std::string& dir, const TextureDatasetOptions& o) {
-  std::string missing;
+// The maps a subject lacks besides its diffuse (a diffuse-only scan): filled in its targets (fill_map), and named in
+// its samples' JSON as "filled_maps".
+std::vector<std::string> missing_maps(const std::string& dir) {
+  std::vector<std::string> missing;
   for (const char* m : kMaps)
-    if (find_scan_map(dir, m).empty()) missing += std::string(missing.empty() ? "" : ", ") + m;
-  if (!missing.empty())
-    throw InvalidInput(dir, "has no " + missing + " map", "register the scan with its four maps, or pass --keep-going");
+    if (std::string(m) != "diffuse" && find_scan_map(dir, m).empty()) missing.push_back(m);
+  return missing;
+}
+
+// A missing target map at `size`: flat normals (0.5, 0.5, 1) everywhere, roughness and specular the constants 3DMM
+// subjects of `texgen faces` get (kDefaultRoughness, kDefaultSpecular) inside the layout's islands and 0 outside, as
+// baked maps hold outside the charts.
+Image fill_map(const std::string& map, const UvIslands& islands) {
+  const int n = islands.size();
+  if (map == "normal") {
+    Image out(n, n, 3, ColorSpace::Data);
+    for (size_t i = 0; i < out.pixels.size(); i += 3) {
+      out.pixels[i] = out.pixels[i + 1] = 0.5f;
+      out.pixels[i + 2] = 1.f;
+    }
+    return out;
+  }
+  const float value = map == "roughness" ? kDefaultRoughness : kDefaultSpecular;
+  std::vector<uint8_t> mask;
+  islands.mask_rows(0, n, mask);
+  Image out(n, n, 1, ColorSpace::Data);
+  for (size_t i = 0; i < mask.size(); ++i) out.pixels[i] = mask[i] ? value : 0.f;
+  return out;
+}
+
+// What can be seen without reading a subject's data: its diffuse map exists and is large enough for the targets.
+void check_subject_files(const std::string& dir, const TextureDatasetOptions& o) {
+  if (find_scan_map(dir, "diffuse").empty())
+    throw InvalidInput(dir, "has no diffuse map", "register the scan with its diffuse map, or pass --keep-going");
   const ImageFileInfo info = probe_image(find_scan_map(dir, "diffuse"));
   for (int size : {o.target_res, o.hr_res}) {
     if (size <= 0) continue;
@@ -181,7 +209,7 @@ class TargetBake {
       for (int size : bake.sizes)
         if (size >= o.sample.render_size) texture_size = std::min(texture_size, size);
       std::vector<std::pair<std::vector<std::string>, std::future<std::string>>> jobs;
-      bake_maps(dir, &rasters.at(map_set_size(dir)), bake, [&](const std::string& map, int size, Image image) {
+      const BakedMapSink sink = [&](const std::string& map, int size, Image image) {
         if (map == "diffuse" && size == texture_size) {
           if (image.channels < 3)
             throw InvalidInput(find_scan_map(dir, "diffuse"), "is not an RGB map", "give the registered diffuse map");
@@ -194,7 +222,10 @@ class TargetBake {
         jobs.emplace_back(std::move(names), std::async(std::launch::async, [img = std::move(image)]() mutable {
                             return baked_member(std::move(img));
                           }));
-      });
+      };
+      bake_maps(dir, &rasters.at(map_set_size(dir)), bake, sink);
+      for (const std::string& map : missing_maps(dir))
+        for (int size : bake.sizes) sink(map, size, fill_map(map, rasters.at(size)));
       if (!texture_set) throw InvalidInput(dir, "has no diffuse map", "register the scan with its maps, or remove the subject");
       std::map<std::string, std::string> members;
       for (auto& [names, job] : jobs) {
@@ -313,6 +344,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
                            {"coefficients", coefficients_json(v.fit)}});
     }
     const double psnr = masked_psnr_srgb(merged.colour, truth, merged.confidence);
+    const std::vector<std::string> filled = missing_maps(dir);
     json meta = {{"subject", subject.name},
                  {"split", split},
                  {"light", l},
@@ -331,6 +363,7 @@ SubjectOutput process_subject(const MorphableModel& model, const std::string& di
                  {"mm_position", {{"offset_mm", mm.position_offset}, {"scale_mm", mm.position_scale},
                                   {"frame", "model (object) frame, unposed"}, {"decode", "mm = offset + scale * value"}}},
                  {"mm_fit_view", views[0].name}};
+    if (!filled.empty()) meta["filled_maps"] = filled;  // targets filled by fill_map (diffuse-only scans)
     sample.members["json"] = meta.dump();
     out.samples.push_back(std::move(sample));
     encode_s += since(t);
@@ -562,14 +595,24 @@ TextureDatasetReport make_texture_dataset(const TextureDatasetOptions& options, 
                          "pass the same --landmark-calibration, or learn it again with --write-view-calibration");
     for (const ViewSpec& v : o.sample.views) o.sample.view_calibration->at(v.name, v.yaw_deg, o.sample.view_calibration_source);
   }
-  // A whole folder from another template shows at its first subject; missing maps show for every subject up front.
+  // A whole folder from another template shows at its first subject; missing maps show for every subject up front:
+  // a missing diffuse stops the run, other missing maps are filled (one warning names the subjects).
+  std::string filled;
   for (const std::string& s : subjects) {
     try {
       check_subject_files(o.registered + "/" + s, o);
     } catch (const InvalidInput&) {
       if (!o.keep_going) throw;
+      continue;
     }
+    std::string names;
+    for (const std::string& m : missing_maps(o.registered + "/" + s)) names += (names.empty() ? "" : ", ") + m;
+    if (!names.empty()) filled += (filled.empty() ? "" : "; ") + s + " (" + names + ")";
   }
+  if (!filled.empty())
+    spdlog::warn("make-dataset: subjects without some maps; their targets are filled (normal flat, roughness {:.2f}, "
+                 "specular {:.2f}) and their samples' JSON lists filled_maps: {}", kDefaultRoughness, kDefaultSpecular,
+                 filled);
   for (const std::string& s : subjects) {
     if (find_scan_mesh(o.registered + "/" + s).empty()) continue;
     if (find_scan_map(o.registered + "/" + s, "diffuse").empty()) continue;

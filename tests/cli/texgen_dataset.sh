@@ -6,7 +6,7 @@
 # - the same seed gives the same bytes: a second run killed with -9 after its first shard and resumed equals the first
 #   run byte for byte, and so does a run split over two workers (--shard 0/1 --shards 2);
 # - bad input, one line each, exit 3, no shard: a registered folder from another template, a model from another
-#   template, a subject without maps (and --keep-going skipping and listing it), a CelebAMask photo without a face.
+#   template, a subject without its diffuse map (and --keep-going skipping and listing it), a CelebAMask photo without a face.
 source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 4 --vertices 6000 --res 64 --truth-res 128 -o "$work/s" || fail "synth"
@@ -143,15 +143,16 @@ done
 expect_failure 3 "registered to another template" "" -- "$bin" texgen make-dataset "$work/r" \
   --model "$work/m2/model.safetensors" -o "$work/bad2" --render-size 128 --fit-size 128 --input-res 64 --target-res 64 --hr-res 0
 no_shard "$work/bad2"
-# A subject without maps: an error naming it, or skipped and listed with --keep-going.
+# A subject without its diffuse map: an error naming it, or skipped and listed with --keep-going (other missing maps
+# are filled: tests/cli/third_party.sh).
 cp -r "$work/r" "$work/r_nomap"
-rm "$work/r_nomap/subject_0002/normal.png"
-expect_failure 3 "subject_0002: has no normal map" "" -- "$bin" texgen make-dataset "$work/r_nomap" --model "$model" \
+rm "$work/r_nomap/subject_0002/diffuse.png"
+expect_failure 3 "subject_0002: has no diffuse map" "" -- "$bin" texgen make-dataset "$work/r_nomap" --model "$model" \
   -o "$work/bad3" --render-size 128 --fit-size 128 --input-res 64 --target-res 64 --hr-res 0
 no_shard "$work/bad3"
 "$bin" texgen make-dataset --threads 2 "$work/r_nomap" --model "$model" -o "$work/kg" --render-size 256 --input-res 64 \
   --target-res 64 --hr-res 0 --keep-going 2> "$work/kg.err" || fail "keep-going: $(cat "$work/kg.err")"
-grep -q "skipped .*subject_0002: has no normal map" "$work/kg.err" || fail "keep-going summary: $(cat "$work/kg.err")"
+grep -q "skipped .*subject_0002: has no diffuse map" "$work/kg.err" || fail "keep-going summary: $(cat "$work/kg.err")"
 $py - "$work/kg" <<'PY' || fail "keep-going manifests"
 import json, sys
 m = [json.load(open(f"{sys.argv[1]}/{s}/manifest.json")) for s in ("train", "val", "test")]

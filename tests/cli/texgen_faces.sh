@@ -4,7 +4,7 @@
 # - the shards, read by Python's tarfile: every member at its size, json fields, manifests whose counts and CRC-32
 #   agree with the tar files, no subject in two splits;
 # - the same seed gives the same bytes: a run killed with -9 mid-run and resumed equals an uninterrupted run;
-# - bad input, one line each, exit 3/4, no output: a registered folder without maps, a model file of another format,
+# - bad input, one line each, exit 3/4, no output: a registered subject without its diffuse map, a model file of another format,
 #   --count 0, an unwritable output folder.
 source "$(dirname "$0")/lib.sh" "$@"
 tiny_face_world
@@ -76,10 +76,10 @@ for f in $(cd "$work/a" && ls */*.tar */manifest.json); do cmp -s "$work/a/$f" "
 
 # Bad input: one line, exit 3 (4 for the folder), nothing written.
 cp -r "$work/r" "$work/r_nomap"
-rm "$work/r_nomap/subject_0001/roughness.png"
+rm "$work/r_nomap/subject_0001/diffuse.png"  # (roughness and specular are filled: tests/cli/third_party.sh)
 nomap=("${args[@]}")
 nomap[6]="$work/r_nomap"
-expect_failure 3 "has no roughness map" "$work/bad1" -- "$bin" "${nomap[@]}" --count 4 -o "$work/bad1"
+expect_failure 3 "has no diffuse map" "$work/bad1" -- "$bin" "${nomap[@]}" --count 4 -o "$work/bad1"
 expect_failure 3 "$work/t/face.obj" "$work/bad2" -- "$bin" texgen faces -q --model "$work/t/face.obj" --count 4 \
   --align truth -o "$work/bad2"
 expect_failure 3 "--count" "$work/bad3" -- "$bin" "${args[@]}" --count 0 -o "$work/bad3"

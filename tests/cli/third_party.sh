@@ -7,7 +7,8 @@
 # - run from another folder (/) without BARESKIN_ASSETS: the template finds the assets of the build, scan register
 #   finds the template from BARESKIN_TEMPLATE, and with no template anywhere the one error line lists the places searched;
 # - a scan remeshed, smoothed and noised beyond what the generator makes still registers to the truth;
-# - uvtools bake without --layout: a plain area-correct resize per map type (numpy + oiiotool oracle), said in the log.
+# - uvtools bake without --layout: a plain area-correct resize per map type (numpy + oiiotool oracle), said in the log;
+# - the diffuse-only quad head through texgen faces and make-dataset: missing maps filled, said once, in the JSON.
 source "$(dirname "$0")/lib.sh" "$@"
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
 "$bin" scan synth -q --template "$work/t" --count 1 --vertices 8000 --res 128 --truth-res 64 -o "$work/s" || fail "synth"
@@ -168,4 +169,80 @@ PY
 grep -q "no --layout: a plain area-correct resize per map type" "$work/log" || fail "bake: the log does not say so"
 grep -q '"layout": "none' "$work/baked/bake.json" || fail "bake.json does not say there was no layout"
 $py "$here/../python/bake_oracle.py" - "$src" "$work/baked" 64 32 || fail "bake without a layout: oracle"
+# 6. Diffuse-only scans all the way: the quad head with its diffuse map only is registered, then `texgen faces` and
+# `texgen make-dataset` take it beside a subject with all four maps. Each warns once, naming it; its samples' JSON lists
+# the filled maps; faces fill roughness and specular with the other subject's maps, make-dataset's targets are flat
+# normals and the constants 0.55 / 0.30 inside the layout. The model comes from three synthetic subjects.
+mkdir -p "$work/qd" && cp -r "$work/quads/subject_0000" "$work/qd/" || fail "quad head copy"
+rm "$work"/qd/subject_0000/{normal,roughness,specular}.png
+reg --scans "$work/qd" -o "$work/r_qd" || fail "diffuse-only quad head"
+check_report "$work/r_qd/subject_0000/report.json" diffuse || fail "diffuse-only quad head: report"
+mkdir -p "$work/world"
+cp -r "$work/r_qd/subject_0000" "$work/world/subject_0000" && cp -r "$work/r_quads/subject_0000" "$work/world/subject_0001" \
+  || fail "world"
+"$bin" scan synth -q --template "$work/t" --count 3 --vertices 6000 --res 64 --truth-res 64 -o "$work/s3" || fail "synth 3"
+register_truth "$work/t" "$work/s3" "$work/r3" diffuse.png
+"$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r3" -o "$work/m/model.safetensors" \
+  || fail "mm-build"
+# one_warning LOG: exactly one warning, naming subject_0000 and not subject_0001.
+one_warning() {
+  [ "$(grep -c "warn" "$1")" -eq 1 ] && grep "warn" "$1" | grep -q "subject_0000 (" && ! grep -q "subject_0001" "$1" \
+    || fail "not one warning naming subject_0000 alone: $(cat "$1")"
+}
+"$bin" texgen faces -q --threads 2 --registered "$work/world" --model "$work/m/model.safetensors" --mm-subjects 2 \
+  --val 1 --test 1 --seed 3 --align truth --map-size 64 --layer-size 32 --backgrounds "" --count 12 --shard-size 4 \
+  -o "$work/faces" 2> "$work/faces.err" || fail "texgen faces with a diffuse-only subject: $(cat "$work/faces.err")"
+one_warning "$work/faces.err"
+$py - "$work/faces" <<'PY' || fail "texgen faces: filled_maps"
+import glob, json, sys, tarfile
+seen = {}
+for path in glob.glob(f"{sys.argv[1]}/*/*.tar"):
+    with tarfile.open(path) as tar:
+        for m in tar.getmembers():
+            if m.name.endswith(".json"):
+                meta = json.loads(tar.extractfile(m).read())
+                truth = meta["subject_truth"]
+                seen.setdefault(meta["subject"], []).append(truth.get("filled_maps"))
+                if meta["subject"] == "scan/subject_0000":
+                    assert "filled" in truth["maps"], truth["maps"]
+assert seen.get("scan/subject_0000") and all(f == ["roughness", "specular"] for f in seen["scan/subject_0000"]), seen
+assert all(f is None for s, fs in seen.items() if s != "scan/subject_0000" for f in fs), seen
+print(f"ok   texgen faces: {len(seen['scan/subject_0000'])} sample(s) of the diffuse-only head record filled_maps")
+PY
+"$bin" texgen make-dataset -q --threads 2 "$work/world" --model "$work/m/model.safetensors" --render-size 128 \
+  --fit-size 128 --input-res 64 --target-res 64 --hr-res 0 --masks 0 --split 0.5,0.5,0 -o "$work/ds" 2> "$work/ds.err"
+ds=$?
+if [ $ds -ne 0 ] && grep -q "which this build lacks (no Torch side)" "$work/ds.err"; then
+  echo "skip texgen make-dataset: this build has no face detector (Torch side)"
+else
+  [ $ds -eq 0 ] || fail "make-dataset with a diffuse-only subject: $(cat "$work/ds.err")"
+  one_warning "$work/ds.err"
+  $py - "$work/ds" <<'PY' || fail "make-dataset: filled maps"
+import glob, io, json, sys, tarfile
+import numpy as np
+from skimage import io as skio
+seen = {}
+for path in glob.glob(f"{sys.argv[1]}/*/texture-*.tar"):
+    with tarfile.open(path) as tar:
+        groups = {}
+        for m in tar.getmembers():
+            key, suffix = m.name.split(".", 1)
+            groups.setdefault(key, {})[suffix] = tar.extractfile(m).read()
+    for g in groups.values():
+        meta = json.loads(g["json"])
+        seen[meta["subject"]] = meta.get("filled_maps")
+        n, r, s = (skio.imread(io.BytesIO(g[k + ".png"])) for k in ("normal", "roughness", "specular"))
+        if meta["subject"] == "subject_0000":
+            flat = np.unique(n.reshape(-1, 3), axis=0)  # (0.5, 0.5, 1) everywhere, 8-bit
+            assert len(flat) == 1 and abs(flat[0] - [127.5, 127.5, 255]).max() <= 1, flat
+            inside = r > 0
+            assert 0.3 < inside.mean() < 1 and (inside == (s > 0)).all(), inside.mean()
+            vr, vs = np.unique(r[inside]), np.unique(s[inside])  # 0.55 and 0.30, 8-bit
+            assert len(vr) == 1 and abs(vr[0] - 0.55 * 255) <= 1 and len(vs) == 1 and abs(vs[0] - 0.3 * 255) <= 1, (vr, vs)
+        else:
+            assert len(np.unique(r)) > 2, "the full subject's roughness looks filled"
+assert seen == {"subject_0000": ["normal", "roughness", "specular"], "subject_0001": None}, seen
+print("ok   make-dataset: the diffuse-only head's targets are filled and its JSON says so")
+PY
+fi
 echo "third-party scans: all cases passed"
