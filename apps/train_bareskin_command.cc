@@ -59,6 +59,9 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
   app->add_option("--head", o->run.task.head, "How G's image comes from its U-Net: residual (input + Δ), affine (input · "
                   "gain + offset per pixel) or image (the paper); residual and affine start as the identity")
       ->check(CLI::IsMember({"residual", "affine", "image"}))->capture_default_str();
+  app->add_option("--g-down", o->run.task.g_down, "G's U-Net sees the image downsampled by 1, 2 or 4; its output is "
+                  "upsampled back and the head (residual or affine) applies it at --size")
+      ->check(CLI::IsMember({1, 2, 4}))->capture_default_str();
   app->add_option("--lpips", o->run.task.lpips_trunk, "LPIPS trunk: vgg16-random or facenet (cheap on the CPU)")
       ->check(CLI::IsMember({"vgg16-random", "facenet"}))->capture_default_str();
   app->add_option("--g-options", o->g, "G (unet256) options over the defaults, JSON, e.g. '{\"ngf\": 16}'");

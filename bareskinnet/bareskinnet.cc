@@ -33,6 +33,14 @@ void Options::check() const {
     throw InvalidInput("recon '" + o.recon + "'", "is not a reconstruction network", "use E (the paper) or F");
   if (o.size < 32 || (o.size & (o.size - 1)) != 0)
     throw InvalidInput("size " + std::to_string(o.size), "is not a power of two ≥ 32", "use 64, 128 or 256");
+  if (o.g_down != 1 && o.g_down != 2 && o.g_down != 4)
+    throw InvalidInput("g_down " + std::to_string(o.g_down), "is not a downsampling of G's input", "use 1, 2 or 4");
+  if (o.size / o.g_down < 32)
+    throw InvalidInput("g_down " + std::to_string(o.g_down), "leaves G's U-Net below 32² at size " + std::to_string(o.size),
+                       "use a smaller g_down or a larger size");
+  if (o.g_down > 1 && o.head == "image")
+    throw InvalidInput("g_down " + std::to_string(o.g_down), "needs a head that applies G's output to the image",
+                       "use --head affine or residual, or g_down 1");
   if (!(o.ema >= 0 && o.ema < 1))
     throw InvalidInput("ema " + std::to_string(o.ema), "is not a decay in [0, 1)", "use e.g. 0.99, or 0 for no average");
   if (!(o.lr_decay >= 0 && o.lr_decay <= 1))
@@ -77,6 +85,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   // Written only when set, so that the configurations of runs made before the options existed still match on resume.
   v.unless_default("lr_decay", o.lr_decay);
   v.unless_default("w_level", o.w_level);
+  v.unless_default("g_down", o.g_down);
   // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
   v.unwritten("face_api", o.face_api);
 };
@@ -178,14 +187,27 @@ torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const 
   return (map * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
 }
 
-torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head) {
+torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y_, const std::string& head) {
+  torch::Tensor y = y_;
+  if (y.size(-1) != images.size(-1) || y.size(-2) != images.size(-2))
+    y = F::interpolate(y, F::InterpolateFuncOptions()
+                              .size(std::vector<int64_t>{images.size(-2), images.size(-1)})
+                              .mode(torch::kBilinear)
+                              .align_corners(false));
   if (head == "residual") return images + y;
   if (head == "affine") return images * y.narrow(1, 0, 3).exp() + y.narrow(1, 3, 3);
   return (y + 1) * 0.5;
 }
 
-torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head) {
-  return apply_head(images, G.forward(images * 2 - 1), head);
+torch::Tensor generator_input(const torch::Tensor& images, int64_t g_down) {
+  if (g_down == 1) return images * 2 - 1;
+  const std::vector<int64_t> size{images.size(-2) / g_down, images.size(-1) / g_down};
+  return F::interpolate(images, F::InterpolateFuncOptions().size(size).mode(torch::kArea)) * 2 - 1;
+}
+
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head,
+                                int64_t g_down) {
+  return apply_head(images, G.forward(generator_input(images, g_down)), head);
 }
 
 void zero_last_layer(nets::UNetImpl& G) {
@@ -229,7 +251,7 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
       nets_(std::make_shared<Nets>()) {
   options_.check();
   nets_->G = std::dynamic_pointer_cast<nets::UNetImpl>(
-      nets::find_model("unet256").make(generator_options(options_.g, options_.size, options_.head)));
+      nets::find_model("unet256").make(generator_options(options_.g, options_.size / options_.g_down, options_.head)));
   nlohmann::json d = nets::find_model("patchgan").defaults;
   d.update(options_.d);
   nets_->D = std::dynamic_pointer_cast<nets::PatchGANImpl>(nets::find_model("patchgan").make(d));
@@ -241,7 +263,7 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
     at::Generator rng = at::detail::getDefaultCPUGenerator();
     const at::Tensor rng_state = rng.get_state();
     nets_->G_ema = std::make_shared<GeneratorEmaImpl>(std::dynamic_pointer_cast<nets::UNetImpl>(
-        nets::find_model("unet256").make(generator_options(options_.g, options_.size, options_.head))));
+        nets::find_model("unet256").make(generator_options(options_.g, options_.size / options_.g_down, options_.head))));
     rng.set_state(rng_state);
     reset_ema();
   }
@@ -311,11 +333,11 @@ torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& 
 }
 
 torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
-  return generator_forward(*nets_->G, images, options_.head);
+  return generator_forward(*nets_->G, images, options_.head, options_.g_down);
 }
 
 torch::Tensor BareSkinTask::generate_eval(const torch::Tensor& images) {
-  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.head);
+  return generator_forward(nets_->G_ema ? *nets_->G_ema->G : *nets_->G, images, options_.head, options_.g_down);
 }
 
 torch::Tensor BareSkinTask::target(const data::Batch& batch) const {

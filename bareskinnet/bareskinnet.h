@@ -195,6 +195,7 @@ struct Demakeup {
   std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
   std::string head = "image";            // how G's image comes from the U-Net (Options::head of its run)
+  int64_t g_down = 1;                    // the U-Net's downsampling (Options::g_down of its run)
   bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
@@ -286,7 +287,11 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
 
 // G's image from the U-Net's output (Options::head), in [0, 1] units; `images` [B, 3, S, S] in [0, 1]. Not clamped
 // (training sees the raw value; inference clamps). apply_head: the same from the U-Net's Tanh output `y`.
-torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head);
+torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head,
+                                int64_t g_down = 1);
+// The U-Net's input for images [B, 3, S, S] in [0, 1]: area-downsampled by g_down, mapped to [−1, 1].
+torch::Tensor generator_input(const torch::Tensor& images, int64_t g_down);
+// The head applied to the images; a U-Net output y of a smaller size is first upsampled to theirs (bilinear).
 torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head);
 // Zeroes the U-Net's last layer (weights and bias): with the "residual" and "affine" heads G is then the identity.
 void zero_last_layer(nets::UNetImpl& G);

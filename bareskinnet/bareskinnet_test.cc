@@ -219,6 +219,37 @@ TEST(BareSkinNet, ResidualAndAffineGStartAsTheIdentityAndLearn) {
     const double after = (task.generate(x) - target).abs().mean().item<double>();
     EXPECT_LT(after, 0.9 * before) << before << " -> " << after;
   }
+  // G's U-Net on the image downsampled (g_down 2): still the identity at full resolution at step 0, and its gain and
+  // offset maps, upsampled, still learn; a G that draws the image itself cannot work at a coarser size.
+  for (const std::string head : {"residual", "affine"}) {
+    SCOPED_TRACE(head + ", g_down 2");
+    torch::manual_seed(0);
+    Options o = small_options(1);
+    o.size = 2 * kSize;
+    o.g_down = 2;
+    o.head = head;
+    BareSkinTask task(o);
+    auto x = torch::rand({2, 3, 2 * kSize, 2 * kSize});
+    EXPECT_TRUE(torch::equal(task.generate(x), x));
+    auto target = (x + 0.15).detach();  // a smooth change, which coarse maps can draw
+    torch::optim::Adam adam(task.generator()->parameters(), torch::optim::AdamOptions(1e-3));
+    for (int i = 0; i < 20; ++i) {
+      adam.zero_grad();
+      (task.generate(x) - target).abs().mean().backward();
+      adam.step();
+    }
+    EXPECT_LT((task.generate(x) - target).abs().mean().item<double>(), 0.9 * (x - target).abs().mean().item<double>());
+  }
+  {
+    Options o = small_options(1);
+    o.size = 2 * kSize;
+    o.g_down = 2;
+    o.head = "image";
+    EXPECT_THROW(o.check(), InvalidInput);
+    o.head = "affine";
+    o.g_down = 4;  // U-Net below 32²
+    EXPECT_THROW(o.check(), InvalidInput);
+  }
   // The affine head is x · exp(gain) + offset, per pixel and channel.
   auto x = torch::rand({1, 3, 4, 4}), y = torch::rand({1, 6, 4, 4}) - 0.5;
   auto expected = x * y.slice(1, 0, 3).exp() + y.slice(1, 3, 6);
@@ -269,7 +300,8 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
                                          {"beta1", 0.9},
                                          {"ema", 0.99},
                                          {"lr_decay", 0.5},
-                                         {"w_level", 1.0}});
+                                         {"w_level", 1.0},
+                                         {"g_down", 2}});
   // face_api is read (a folder of this machine) but never written into a run's configuration.
   const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
   EXPECT_EQ(with_folder.face_api, "/tmp/face-api");
@@ -677,6 +709,19 @@ TEST(BareSkinNet, InferenceFormOfGEqualsTheModuleInEvalMode) {
   const auto fast = run_generator(d, x);
   EXPECT_GT((plain - x).abs().max().item<double>(), 1e-3);
   EXPECT_LT((fast - plain).abs().max().item<double>(), 1e-5);
+  // ... also when G works at half the size: the same U-Net then reads 2× larger images, and the inference form
+  // downsamples as generator_forward does.
+  auto x2 = torch::rand({2, 3, 2 * kSize, 2 * kSize});
+  d.size = 2 * kSize;
+  d.g_down = 2;
+  const auto fast2 = run_generator(d, x2);
+  torch::Tensor plain2;
+  {
+    torch::NoGradGuard no_grad;
+    plain2 = generator_forward(*G, x2, "residual", 2);
+  }
+  EXPECT_GT((fast2 - x2).abs().max().item<double>(), 1e-3);
+  EXPECT_LT((fast2 - plain2.clamp(0, 1)).abs().max().item<double>(), 1e-5);
 }
 
 }  // namespace

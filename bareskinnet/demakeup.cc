@@ -76,7 +76,8 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   d.device = device;
   d.size = o.size;
   d.head = o.head;
-  d.G = nets::find_model("unet256").make(generator_options(o.g, o.size, o.head));
+  d.g_down = o.g_down;
+  d.G = nets::find_model("unet256").make(generator_options(o.g, o.size / o.g_down, o.head));
   if (o.ema > 0) {  // the moving average the run kept
     GeneratorEmaImpl average(std::dynamic_pointer_cast<nets::UNetImpl>(d.G));
     BS_CHECK(average.G, "the zoo's unet256 has an unexpected type");
@@ -133,12 +134,12 @@ torch::Tensor generator_image(const Demakeup& d, const torch::Tensor& x) {
   if (!d.G_inference) {
     auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
     BS_CHECK(G, "Demakeup::G is not a U-Net");
-    return generator_forward(*G, x, d.head);
+    return generator_forward(*G, x, d.head, d.g_down);
   }
   torch::Tensor y;  // as generator_forward
   {
     c10::InferenceMode guard;
-    y = d.G_inference->forward(x * 2 - 1);
+    y = d.G_inference->forward(generator_input(x, d.g_down));
   }
   return apply_head(x, y, d.head);
 }

@@ -21,6 +21,11 @@ struct Options {
   // what it adds. options_of_run reads the configurations of older runs (their boolean `residual`).
   std::string head = "residual";
   int64_t size = 256;             // training resolution (the shards' 256² images are area-resized)
+  // Ours, not the paper's: G's U-Net sees the image area-downsampled by this factor (1, 2 or 4) and its output is
+  // upsampled back (bilinear) before the head applies it to the image at `size`. Shading and makeup layers are smooth,
+  // so with the affine or residual head G works at a fraction of the cost while the input's detail passes through at
+  // full resolution. 1: the U-Net works at `size` (the paper).
+  int64_t g_down = 1;
   nlohmann::json g = nlohmann::json::object();  // unet256 options over the zoo defaults (num_downs follows size)
   nlohmann::json d = nlohmann::json::object();  // patchgan options
   std::string gan = "vanilla";                  // pix2pix's loss

@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""How far can any G get against the bare truth? Oracles on a `texgen faces` world, no network involved.
+
+G's target in the CPU profile is the bare albedo: the input photo with its makeup AND its light taken off. One photo
+cannot tell a bright face under a dim light from a dim face under a bright light (the world draws the ambient light
+×0.75–1.15 and a warm/cool tint independently of the subject), so even a G that recovered every detail would still
+have to guess the face's overall level and colour. This script measures that ceiling on the held-out split:
+
+  input            the photo unchanged (the do-nothing baseline every eval.json reports)
+  global gain      the photo × one per-channel gain per image, predicted from the photo (no detail fixed)
+  no makeup, gain  the makeup-free photo ("before") × that gain: makeup removed perfectly, the light's shading kept
+  ceiling          the bare truth itself with its level and colour set by the predictor: every detail right, the
+                   global level only as good as a predictor that sees the photo can make it
+
+The predictor is a ridge regression from statistics of the photo's face pixels (per-channel mean, spread and
+quantiles of the log colour) to the log of the truth's per-channel mean, fitted on the train split. A network can
+use more cues than these statistics, so "ceiling" is an estimate, not a proof; the gap between it and "input" is the
+room G has. PSNRs are over the face mask at the profile's working size (area-resized), as `train bareskin`'s
+psnr_face_* metrics are, averaged per image; the interval is 95% over held-out subjects.
+
+  /usr/bin/python3 bench/bareskin_ceiling.py <faces/> [--size 64] [--train 1500] [--json out.json]
+"""
+import argparse
+import glob
+import io
+import json
+import sys
+import tarfile
+
+import numpy as np
+from PIL import Image
+
+
+def area(a, size):
+    f = a.shape[0] // size
+    return a.reshape(size, f, size, f, *a.shape[2:]).mean((1, 3))
+
+
+def samples(split_dir, size, limit):
+    """(makeup, before, bare, face mask, subject, style) per sample of a split, area-resized to size²."""
+    out = []
+    for shard in sorted(glob.glob(f"{split_dir}/*.tar")):
+        with tarfile.open(shard) as t:
+            keys = sorted({n.split(".")[0] for n in t.getnames() if n.endswith(".json")})
+            for k in keys:
+                def png(member):
+                    data = t.extractfile(f"{k}.{member}.png").read()
+                    return area(np.asarray(Image.open(io.BytesIO(data)), np.float64) / 255, size)
+                meta = json.loads(t.extractfile(f"{k}.json").read())
+                out.append((png("makeup"), png("before"), png("bare"), png("face") > 0.5, meta["subject"], meta["style"]))
+                if len(out) >= limit:
+                    return out
+    if not out:
+        sys.exit(f"bareskin_ceiling: no samples in {split_dir}; give a `texgen faces` output folder")
+    return out
+
+
+def features(photo, mask):
+    x = np.log(photo[mask] + 1e-3)
+    q = np.quantile(x, [0.1, 0.5, 0.9], axis=0).ravel()
+    return np.concatenate([x.mean(0), x.std(0), q, [1.0]])
+
+
+def level(img, mask):
+    return np.log(img[mask].mean(0) + 1e-3)
+
+
+def psnr(a, b, mask):
+    return -10 * np.log10(((np.clip(a, 0, 1) - b)[mask] ** 2).mean())
+
+
+def interval(values, subjects):
+    per = {}
+    for v, s in zip(values, subjects):
+        per.setdefault(s, []).append(v)
+    m = np.array([np.mean(v) for v in per.values()])
+    return float(np.mean(values)), float(1.96 * m.std(ddof=1) / np.sqrt(len(m))) if len(m) > 1 else float("nan")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("faces")
+    ap.add_argument("--size", type=int, default=64)
+    ap.add_argument("--train", type=int, default=1500, help="train samples for the level predictor")
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    train = samples(f"{a.faces}/train", a.size, a.train)
+    test = samples(f"{a.faces}/test", a.size, 10**9)
+    X = np.array([features(s[0], s[3]) for s in train])
+    Y = np.array([level(s[2], s[3]) for s in train])
+    W = np.linalg.solve(X.T @ X + 1e-3 * np.eye(X.shape[1]), X.T @ Y)
+    rows = {"input": [], "global gain": [], "no makeup, gain": [], "ceiling": []}
+    for photo, before, bare, mask, _, _ in test:
+        predicted = features(photo, mask) @ W
+        rows["input"].append(psnr(photo, bare, mask))
+        rows["global gain"].append(psnr(photo * np.exp(predicted - level(photo, mask)), bare, mask))
+        rows["no makeup, gain"].append(psnr(before * np.exp(predicted - level(before, mask)), bare, mask))
+        rows["ceiling"].append(psnr(bare * np.exp(predicted - level(bare, mask)), bare, mask))
+    subjects = [s[4] for s in test]
+    result = {"faces": a.faces, "size": a.size, "test_samples": len(test), "test_subjects": len(set(subjects)),
+              "train_samples": len(train), "psnr_face_bare": {}}
+    print(f"held-out split of {a.faces}: {len(test)} samples, {len(set(subjects))} subjects, {a.size}²")
+    print("| oracle | PSNR on the face vs the bare truth (dB) |\n|---|---|")
+    for name, values in rows.items():
+        m, ci = interval(values, subjects)
+        result["psnr_face_bare"][name] = {"mean": m, "ci95": ci}
+        print(f"| {name} | {m:.2f} ± {ci:.2f} |")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(result, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
