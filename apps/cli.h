@@ -10,6 +10,7 @@
 
 #include "core/log.h"
 #include "core/progress.h"
+#include "training/run_flags.h"
 
 namespace bareskin::cli {
 
@@ -62,14 +63,9 @@ class JsonConfig : public CLI::Config {
 // naming the flag, with `example` as the hint, when it is not a JSON object.
 nlohmann::json json_flag(const std::string& text, const std::string& flag, const std::string& example);
 
-// The flags every training shares. A command sets its defaults here, registers them with add_trainer_flags, and
-// copies them into its library's run options.
-struct TrainerFlags {
-  int64_t steps = 1000, batch = 1, log_every = 50, checkpoint_every = 1000, eval_every = 1000, sample_every = 1000;
-  uint64_t seed = 0;
-  bool resume = false;
-  std::string device = "cpu";
-};
+// The flags every training shares (training/run_flags.h). A command sets its defaults in its library's run options
+// and registers them with add_trainer_flags.
+using TrainerFlags = train::RunFlags;
 
 // --steps (unless `steps` is false: the command has its own), --batch, --seed, --device, --log-every,
 // --checkpoint-every, --eval-every, --sample-every, --resume.

@@ -15,6 +15,10 @@
 #include "detect/face_api.h"
 #include "bench/bench_util.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `detect_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_detect {
+
 using namespace bareskin::detect;
 using bareskin::bench::median_ms;
 
@@ -57,3 +61,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace bareskin_bench_detect

@@ -15,6 +15,10 @@
 #include "morphable/fit.h"
 #include "morphable/model.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `fit_solver_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_fit_solver {
+
 using namespace bareskin;
 
 namespace {
@@ -115,3 +119,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace bareskin_bench_fit_solver

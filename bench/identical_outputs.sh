@@ -10,6 +10,7 @@ set -eu
 [ $# -eq 2 ] || { echo "usage: bash bench/identical_outputs.sh BARESKIN_BINARY OUT" >&2; exit 2; }
 tests=$(cd "$(dirname "$0")/../tests" && pwd)
 source "$tests/cli/lib.sh" "$1"
+here=$tests/cli  # lib.sh takes its caller's folder for tests/cli
 trap - EXIT
 rm -rf "$work"
 work=$2

@@ -20,6 +20,10 @@
 #include "bench/bench_util.h"
 #include "training/ssim.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `losses_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_losses {
+
 using namespace bareskin;
 
 int main(int argc, char** argv) {
@@ -55,3 +59,5 @@ int main(int argc, char** argv) {
               timed([&](const torch::Tensor& x) { return 1 - losses::ssim(x, b).mean(); }));
   return 0;
 }
+
+}  // namespace bareskin_bench_losses

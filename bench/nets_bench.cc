@@ -19,6 +19,10 @@
 
 #include "training/nets/zoo.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `nets_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_nets {
+
 using namespace bareskin::nets;
 using J = nlohmann::json;
 
@@ -136,3 +140,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace bareskin_bench_nets

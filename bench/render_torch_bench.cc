@@ -19,6 +19,10 @@
 #include "bench/bench_util.h"
 #include "render/torch/ops.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `render_torch_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_render_torch {
+
 
 using namespace bareskin;
 using bench::median;
@@ -96,3 +100,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace bareskin_bench_render_torch

@@ -30,6 +30,10 @@
 #include "training/nets/zoo.h"
 #include "training/trainer.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `train_step_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_train_step {
+
 using namespace bareskin;
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -216,3 +220,5 @@ int main(int argc, char** argv) {
   }
   return 0;
 }
+
+}  // namespace bareskin_bench_train_step

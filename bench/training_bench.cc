@@ -25,6 +25,10 @@
 #include "training/losses.h"
 #include "training/nets/zoo.h"
 
+// One namespace per program: bench/torch_bench.cc runs this main under the name `training_bench` (one binary, one unity
+// translation unit for every Torch bench).
+namespace bareskin_bench_training {
+
 using namespace bareskin;
 namespace fs = std::filesystem;
 
@@ -202,3 +206,5 @@ int main(int argc, char** argv) {
     if (sizes.find(s->name) != std::string::npos) bareskinnet_step(*s, device, steps);
   return 0;
 }
+
+}  // namespace bareskin_bench_training

@@ -3,7 +3,8 @@
 # committed seeds (tests/fuzz/seeds/<t>), its kept crashes (tests/fuzz/regressions/<t>) and the corpus it grew before
 # (build-fuzz/corpus/<t>). A crash, a hang (-timeout) or an allocation over the limit fails the run; its input is
 # copied to tests/fuzz/regressions/<t>/ (commit it: from then on every run replays it) and the message says where.
-# `make test` runs this with 15 s per target, `make fuzz FUZZ_SECONDS=600` for the long runs; docs/reliability.md.
+# Targets run JOBS at a time (default: every core). `make test` runs this with 15 s per target, `make fuzz
+# FUZZ_SECONDS=600` for the long runs; docs/reliability.md.
 # Usage: scripts/fuzz.sh SECONDS [target ...]   (targets: all of tests/fuzz/CMakeLists.txt by default)
 set -uo pipefail
 seconds=${1:-15}
@@ -29,15 +30,14 @@ built=$(date +%s)
 echo "fuzz: built ${#targets[@]} targets in $((built - start)) s; running each for $seconds s"
 
 summary=$build/summary.tsv
-printf 'target\tseconds\texecutions\tcoverage\tfeatures\tcorpus\tresult\n' >"$summary"
-failed=0
-for t in "${targets[@]}"; do
-  corpus=$build/corpus/$t crashes=$build/crashes/$t regressions=tests/fuzz/regressions/$t
+# One target: runs it, keeps a crash's input, writes its summary row to $build/summary_<t>.tsv; exit 1 on a failure.
+fuzz_one() {
+  local t=$1 corpus=$build/corpus/$1 crashes=$build/crashes/$1 regressions=tests/fuzz/regressions/$1
   mkdir -p "$corpus" "$crashes"
   rm -f "$crashes"/*
-  dirs=("$corpus" "tests/fuzz/seeds/$t")
+  local dirs=("$corpus" "tests/fuzz/seeds/$t")
   [ -d "$regressions" ] && dirs+=("$regressions")
-  log=$build/fuzz_$t.log
+  local log=$build/fuzz_$t.log rc execs cov ft units result=ok
   TMPDIR=${TMPDIR:-/tmp} "$build/bin/fuzz_$t" -max_total_time="$seconds" -print_final_stats=1 -timeout=10 \
     -rss_limit_mb=2048 -artifact_prefix="$crashes/" "${dirs[@]}" >"$log" 2>&1
   rc=$?
@@ -45,9 +45,8 @@ for t in "${targets[@]}"; do
   cov=$(grep -oE 'cov: [0-9]+' "$log" | tail -1 | cut -d' ' -f2)
   ft=$(grep -oE 'ft: [0-9]+' "$log" | tail -1 | cut -d' ' -f2)
   units=$(find "$corpus" -type f | wc -l)
-  result=ok
   if [ $rc -ne 0 ]; then
-    result=CRASH failed=1
+    result=CRASH
     mkdir -p "$regressions"
     for f in "$crashes"/*; do
       [ -f "$f" ] || continue
@@ -57,8 +56,27 @@ for t in "${targets[@]}"; do
     grep -m1 -E "ERROR|SUMMARY|==[0-9]+==" "$log" | sed 's/^/fuzz:   /'
     ls "$crashes"/* >/dev/null 2>&1 || echo "fuzz: fuzz_$t failed (exit $rc) without an input; log: $log"
   fi
-  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$t" "$seconds" "${execs:-0}" "${cov:-0}" "${ft:-0}" "$units" "$result" >>"$summary"
+  printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$t" "$seconds" "${execs:-0}" "${cov:-0}" "${ft:-0}" "$units" "$result" \
+    >"$build/summary_$t.tsv"
+  [ $rc -eq 0 ]
+}
+# $jobs targets at a time (each fuzzer is one process on one core), so `make test` spends SECONDS x targets / jobs.
+failed=0
+running=0
+for t in "${targets[@]}"; do
+  if [ $running -ge "$jobs" ]; then
+    wait -n || failed=1
+    running=$((running - 1))
+  fi
+  fuzz_one "$t" &
+  running=$((running + 1))
 done
+while [ $running -gt 0 ]; do
+  wait -n || failed=1
+  running=$((running - 1))
+done
+printf 'target\tseconds\texecutions\tcoverage\tfeatures\tcorpus\tresult\n' >"$summary"
+for t in "${targets[@]}"; do cat "$build/summary_$t.tsv" >>"$summary"; done
 column -t "$summary"
 echo "fuzz: $(( $(date +%s) - start )) s in all (build $((built - start)) s)"
 exit $failed

@@ -1,0 +1,91 @@
+// `bareskin train recon`'s run (train_recon.h): the samples, the identity net, the task and the Trainer.
+#include "recon/train_recon.h"
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/shards.h"
+#include "detect/face_api.h"
+#include "recon/recon.h"
+#include "training/device.h"
+#include "training/ranks.h"
+#include "training/trainer.h"
+
+namespace bareskin::recon {
+
+TrainReconResult train_recon(const TrainReconOptions& o) {
+  namespace fs = std::filesystem;
+  const torch::Device device = parse_device(o.trainer.device);
+  if (!fs::exists(o.model)) throw IoError(o.model, "does not exist", "give the morphable model file (mm-build)");
+  ReconTaskOptions to;
+  to.net.arch = o.arch;
+  to.net.width = o.width;
+  to.net.gamma = o.gamma == "auto" ? o.arch == "resnet50" : o.gamma == "on";
+  to.net.check();
+  to.loss.supervision = parse_supervision(o.supervision);
+  from_json(o.loss, to.loss);
+  to.input = o.input;
+  to.lr = o.lr;
+  to.schedule.step_every = o.decay_every > 0 ? o.decay_every : o.decay_every == 0 ? std::max<int64_t>(1, o.trainer.steps / 2) : 0;
+  if (to.schedule.step_every == 0) to.schedule.kind = "constant";
+  const FaceModel model = FaceModel::load(o.model);
+  const auto [train_dir, val_dir] = shards::find_splits(o.data, "give the folder 'bareskin texgen faces' wrote");
+  data::LoaderOptions lo;
+  lo.dataset = train_dir;
+  lo.required = {o.input + ".png", "json"};
+  lo.batch_size = o.trainer.batch;
+  lo.seed = o.trainer.seed;
+  data::ShardLoader loader(dist::this_rank(lo));
+  {
+    // The image size from the first sample; the nets take any size, the face model renders at it.
+    data::LoaderOptions peek = lo;
+    peek.batch_size = 1;
+    peek.shuffle_buffer = 0;
+    peek.decode_threads = 1;
+    const data::Batch b = data::ShardLoader(peek).next();
+    to.image_size = b.at(o.input).size(3);
+    if (b.at(o.input).size(2) != to.image_size) throw InvalidInput(train_dir, "the samples are not square", "");
+    if (o.image_size > 0) to.image_size = o.image_size;
+  }
+  std::unique_ptr<data::ShardLoader> val;
+  if (!val_dir.empty()) {
+    data::LoaderOptions vo = lo;
+    vo.dataset = val_dir;
+    vo.shuffle_buffer = 0;
+    val = std::make_unique<data::ShardLoader>(vo);
+  }
+  std::shared_ptr<detect::FaceRecognitionNet> identity;
+  if (to.loss.identity > 0 && to.loss.supervision != Supervision::Truth) {
+    identity = std::make_shared<detect::FaceRecognitionNet>(detect::default_face_api_folder());
+    (*identity)->to(device);
+    (*identity)->eval();
+    for (auto& p : (*identity)->parameters()) p.requires_grad_(false);
+  }
+  train::seed_everything(o.trainer.seed);
+  ReconTask task(to, model, identity, device);
+  train::TrainerOptions topt;
+  topt.run_dir = o.output;
+  topt.steps = o.trainer.steps;
+  topt.log_every = o.trainer.log_every;
+  topt.checkpoint_every = o.trainer.checkpoint_every;
+  topt.eval_every = val ? o.trainer.eval_every : 0;
+  topt.eval_batches = o.eval_batches;
+  topt.sample_every = o.trainer.sample_every;
+  topt.resume = o.trainer.resume;
+  topt.device = device;
+  topt.progress = o.progress;
+  topt.config = {{"net", to.net}, {"loss", to.loss}, {"input", to.input}, {"image_size", to.image_size},
+                 {"model", fs::absolute(o.model).string()},
+                 {"layout", {{"id", model.layout().id}, {"exp", model.layout().exp}, {"app", model.layout().app}}},
+                 {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"decay_every", o.decay_every},
+                 {"seed", o.trainer.seed}, {"steps", o.trainer.steps}, {"log_every", o.trainer.log_every},
+                 {"checkpoint_every", o.trainer.checkpoint_every}, {"eval_every", topt.eval_every},
+                 {"eval_batches", o.eval_batches}, {"sample_every", o.trainer.sample_every}, {"device", o.trainer.device}};
+  topt.config["profile"] = o.profile;
+  topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
+  train::Trainer trainer(topt, task, loader, val.get());
+  const train::TrainResult result = trainer.run();
+  return {task.module_name(), result.steps, result.last_eval};
+}
+
+}  // namespace bareskin::recon
