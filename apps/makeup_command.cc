@@ -1,10 +1,12 @@
 // bareskin makeup: looks on an avatar folder (makeup/apply.h). `list` the built-in looks and region groups, `show` a
-// look's JSON (to copy and edit), `apply` a look (or several, or all) to an avatar folder.
+// look's JSON (to copy and edit), `apply` a look (or several, or all) to an avatar folder, `extract` a look from a
+// made-up face's unwrap and its bare skin's (makeup/extract.h).
 #include <iostream>
 
 #include "apps/cli.h"
 #include "core/parallel.h"
 #include "makeup/apply.h"
+#include "makeup/extract.h"
 
 namespace bareskin::cli {
 
@@ -30,6 +32,20 @@ std::function<void()> setup_makeup_command(CLI::App& app, const Globals& globals
       ->capture_default_str()->check(CLI::Range(32, 8192));
   apply->footer("Example:\n  bareskin makeup apply out/avatar --look red_lips -o out/avatar_red\n"
                 "  bareskin makeup apply out/avatar --looks all -o out/looks\ndocs/makeup.md describes looks.");
+  auto ex = std::make_shared<looks::ExtractCommand>();
+  CLI::App* extract = app.add_subcommand("extract", "Read a look off a made-up face: its unwrap against the bare skin's");
+  extract->add_option("--made", ex->made, "The made-up face in the template UV (sRGB PNG)")->required();
+  extract->add_option("--bare", ex->bare, "Its bare skin in the same UV (BareSkinNet's, sRGB PNG)")->required();
+  extract->add_option("--seen", ex->seen, "Where both are known (grey PNG, > 0.5), e.g. demakeup's uv_mask.png");
+  extract->add_option("-o,--output", ex->output, "The look file to write (.json)")->required();
+  extract->add_option("--name", ex->options.name, "The look's name")->capture_default_str();
+  extract->add_option("--template", ex->template_dir, "The template of the UV layout (default: search)");
+  extract->add_option("--min-delta-e", ex->options.min_delta_e, "A region that changes less (mean ΔE*ab) gets no layer")
+      ->capture_default_str()->check(CLI::Range(0.0, 100.0));
+  extract->footer("Example:\n  bareskin demakeup photo.jpg --run runs/bsn -o d\n"
+                  "  bareskin demakeup photo.jpg --run runs/bsn --without-g -o d0\n"
+                  "  bareskin makeup extract --made d0/uv.png --bare d/uv.png --seen d/uv_mask.png -o mine.json\n"
+                  "  bareskin makeup apply out/avatar --look mine.json -o out/avatar_mine\ndocs/makeup.md.");
   return [=, &globals] {
     if (list->parsed()) {
       std::cout << "looks (bareskin makeup show NAME prints one as JSON):\n";
@@ -46,6 +62,11 @@ std::function<void()> setup_makeup_command(CLI::App& app, const Globals& globals
     }
     if (show->parsed()) {
       std::cout << looks::load_look(*show_name, "look").source.dump(2) << "\n";
+      return;
+    }
+    if (extract->parsed()) {
+      const nlohmann::json look = looks::extract_command(*ex);
+      spdlog::info("makeup extract: {} layer(s) -> {}", look["layers"].size(), ex->output);
       return;
     }
     if (!apply->parsed()) return;

@@ -24,6 +24,7 @@
 #include "texgen/texture_sample.h"
 #include "avatar/glb.h"
 #include "bareskinnet/bareskinnet.h"
+#include "makeup/relight.h"
 #include "training/checkpoint.h"
 #include "training/data.h"
 #include "training/ssim.h"
@@ -276,6 +277,7 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   write_image(d + "/unwrap.png", a.unwrap);
   write_image(d + "/confidence.png", a.confidence);
   write_coefficients(d + "/coefficients.json", a.coefficients);
+  if (a.coefficients.gamma) looks::write_light_files(d, *a.coefficients.gamma, looks::kLightEnvWidth);  // for engines
   write_mesh(d + "/mesh.obj", a.mesh);
   // Each map is encoded once, on `threads` threads, largest first; the GLB embeds the files' bytes (its roughness
   // texture is the grey roughness PNG itself, glb.h) plus one grey+alpha specular texture. The 4K maps use the fast

@@ -39,6 +39,24 @@ float linear_to_srgb(float v) {
 }
 
 namespace {
+// srgb_to_linear of the 256 values an 8-bit file decodes to (i / 255): looked up when the input is exactly one of
+// them, computed otherwise, so the result is srgb_to_linear's to the bit either way.
+float srgb_to_linear_fast(float v) {
+  struct Table {
+    float in[256], out[256];
+    Table() {
+      for (int i = 0; i < 256; ++i) in[i] = float(i) / 255.0f, out[i] = srgb_to_linear(in[i]);
+    }
+  };
+  static const Table table;
+  const float scaled = v * 255.0f;
+  if (scaled >= 0 && scaled <= 255) {
+    const int i = int(scaled + 0.5f);
+    if (table.in[i] == v) return table.out[i];
+  }
+  return srgb_to_linear(v);
+}
+
 Image convert(const Image& image, ColorSpace target, float (*transfer)(float)) {
   if (image.color_space == ColorSpace::Data) {
     throw InvalidInput("", "cannot convert a data image (normals, roughness, masks) between colour spaces",
@@ -48,14 +66,16 @@ Image convert(const Image& image, ColorSpace target, float (*transfer)(float)) {
   if (image.color_space == target) return out;
   out.color_space = target;
   const int colour_channels = image.channels == 4 ? 3 : image.channels;
-  for (size_t p = 0; p < out.pixels.size(); p += image.channels) {
-    for (int c = 0; c < colour_channels; ++c) out.pixels[p + c] = transfer(out.pixels[p + c]);
-  }
+  const size_t C = size_t(image.channels);
+  parallel_for(0, int64_t(out.pixels.size() / C), [&](int64_t b, int64_t e) {  // per value: the same on any pool
+    for (size_t p = size_t(b) * C; p < size_t(e) * C; p += C)
+      for (int c = 0; c < colour_channels; ++c) out.pixels[p + size_t(c)] = transfer(out.pixels[p + size_t(c)]);
+  }, 1 << 16);
   return out;
 }
 }  // namespace
 
-Image to_linear(const Image& image) { return convert(image, ColorSpace::Linear, srgb_to_linear); }
+Image to_linear(const Image& image) { return convert(image, ColorSpace::Linear, srgb_to_linear_fast); }
 Image to_srgb(const Image& image) { return convert(image, ColorSpace::sRGB, linear_to_srgb); }
 
 Eigen::Vector3f sample_bilinear(const Image& img, const Eigen::Vector2d& uv) {

@@ -10,6 +10,7 @@
 #include "core/assets.h"
 #include "core/image_io.h"
 #include "core/log.h"
+#include "core/parallel.h"
 #include "makeup/viewer.h"
 #include "template/template_face.h"
 
@@ -154,7 +155,8 @@ nlohmann::json apply_command(const ApplyOptions& o) {
                            {"map_size_hr", bare.maps_hr ? bare.maps_hr->diffuse.width : 0},
                            {"regions", o.regions.empty() ? "all" : o.regions}, {"looks", nlohmann::json::array()}};
   const auto lights = avatar_folder::preview_lights();
-  const std::vector<Image> before = avatar_folder::previews(bare, lights, o.preview_size);
+  const PbrScene scene = avatar_folder::preview_scene(bare, o.preview_size);  // the made-up copies share it
+  const std::vector<Image> before = avatar_folder::previews(scene, bare.best(), lights);
   const bool viewer = viewer_assets();
   Image unwrap;
   if (viewer && fs::exists(bare.dir + "/unwrap.png")) unwrap = read_image(bare.dir + "/unwrap.png", ColorSpace::sRGB);
@@ -172,14 +174,22 @@ nlohmann::json apply_command(const ApplyOptions& o) {
     if (!keep.empty()) look_json["layers"] = nlohmann::json::array();
     for (size_t k = 0, j = 0; !keep.empty() && k < looks[i].layers.layers.size(); ++k)
       if (keep.count(looks[i].layers.layers[k].region)) look_json["layers"][j++] = looks[i].source["layers"][k];
-    const std::vector<Image> after = avatar_folder::previews(m.folder, lights, o.preview_size);
-    avatar_folder::write(dir, m.folder,
-                         {{"look.json", look_json.dump(2) + "\n"},
-                          {"makeup_layer.png", encode_png(makeup::layer_png_image(m.layer), 8)},
-                          {"before_after.png", encode_png(before_after_sheet(before, after), 8)}},
-                         after);
+    const std::vector<Image> after = avatar_folder::previews(scene, m.folder.best(), lights);
+    std::string layer_png, sheet_png;  // encoded side by side
+    parallel_for(0, 2, [&](int64_t b, int64_t e) {
+      for (int64_t k = b; k < e; ++k)
+        (k ? sheet_png : layer_png) =
+            encode_png(k ? before_after_sheet(before, after) : makeup::layer_png_image(m.layer), 8);
+    });
+    const auto pngs = avatar_folder::write(dir, m.folder,
+                                           {{"look.json", look_json.dump(2) + "\n"},
+                                            {"makeup_layer.png", std::move(layer_png)},
+                                            {"before_after.png", std::move(sheet_png)}},
+                                           after);
     if (viewer) {  // this look first, then the bare maps and the photo's unwrap
       ViewerInputs in{&bare, {{looks[i].name, &m.folder.maps, nullptr}, {"bare", &bare.maps, nullptr}}, photo};
+      if (m.folder.maps.diffuse.width < avatar_folder::kFastPngWidth)  // the page's encoding: the same bytes
+        in.variants[0].diffuse_png = pngs.at("diffuse"), in.variants[0].roughness_png = pngs.at("roughness");
       if (!unwrap.empty()) in.variants.push_back({"photo unwrap", nullptr, &unwrap});
       write_file_atomic(dir + "/viewer.html", viewer_html(in));
       if (looks.size() > 1) made_up.push_back(m.folder.maps);

@@ -1,6 +1,7 @@
 #include "makeup/avatar_folder.h"
 
 #include <filesystem>
+#include <functional>
 #include <tuple>
 
 #include "avatar/glb.h"
@@ -38,19 +39,18 @@ Image read_map(const std::string& path, const std::string& name, int channels) {
   return m;
 }
 
-// The four maps, decoded in parallel.
-MapSet read_set(const std::string& dir, const std::string& suffix) {
-  MapSet s;
+// Decoding jobs for the four maps of a set: read_map into `s`.
+void add_set_jobs(std::vector<std::function<void()>>& jobs, MapSet& s, const std::string& dir, const std::string& suffix) {
   Image* maps[4] = {&s.diffuse, &s.normal, &s.roughness, &s.specular};
   const int channels[4] = {3, 3, 1, 1};
-  parallel_for(0, 4, [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i)
-      *maps[i] = read_map(dir + "/maps/" + kMapNames[size_t(i)] + suffix + ".png", kMapNames[size_t(i)], channels[i]);
-  });
+  for (size_t i = 0; i < 4; ++i)
+    jobs.push_back([=] { *maps[i] = read_map(dir + "/maps/" + kMapNames[i] + suffix + ".png", kMapNames[i], channels[i]); });
+}
+
+void check_set(const MapSet& s, const std::string& dir, const std::string& suffix) {
   for (const Image* m : {&s.normal, &s.roughness, &s.specular})
     if (m->width != s.diffuse.width || m->height != s.diffuse.height)
       throw InvalidInput(dir + "/maps", "the" + suffix + " maps differ in size", "give the maps bareskin run wrote");
-  return s;
 }
 
 Image grey(const Image& m) {
@@ -67,16 +67,23 @@ Folder read(const std::string& dir) {
   f.dir = dir;
   const std::string mesh = dir + "/mesh.obj";
   if (!fs::exists(mesh)) throw InvalidInput(mesh, "is missing", "give an avatar folder written by bareskin run");
-  f.mesh = read_mesh(mesh);
-  if (!f.mesh.has_uv()) throw InvalidInput(mesh, "has no UVs", "give the mesh.obj bareskin run wrote");
-  if (!f.mesh.has_normals()) f.mesh.N = vertex_normals(f.mesh.V, f.mesh.F);
-  f.maps = read_set(dir, "");
   int hr = 0;
   for (const char* m : kMapNames) hr += fs::exists(dir + "/maps/" + m + "_hr.png");
-  if (hr == 4) f.maps_hr = read_set(dir, "_hr");
-  else if (hr > 0)
+  if (hr > 0 && hr < 4)
     throw InvalidInput(dir + "/maps", "holds only " + std::to_string(hr) + " of the four _hr maps",
                        "give all four ×4 maps or none");
+  if (hr == 4) f.maps_hr.emplace();
+  // The mesh (the longest job: first) and every map, decoded side by side.
+  std::vector<std::function<void()>> jobs = {[&] { f.mesh = read_mesh(mesh); }};
+  add_set_jobs(jobs, f.maps, dir, "");
+  if (f.maps_hr) add_set_jobs(jobs, *f.maps_hr, dir, "_hr");
+  parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) jobs[size_t(i)]();
+  });
+  if (!f.mesh.has_uv()) throw InvalidInput(mesh, "has no UVs", "give the mesh.obj bareskin run wrote");
+  if (!f.mesh.has_normals()) f.mesh.N = vertex_normals(f.mesh.V, f.mesh.F);
+  check_set(f.maps, dir, "");
+  if (f.maps_hr) check_set(*f.maps_hr, dir, "_hr");
   f.maps.roughness = grey(f.maps.roughness);
   f.maps.specular = grey(f.maps.specular);
   if (f.maps_hr) {
@@ -92,18 +99,25 @@ std::vector<ShLight> preview_lights() {
   return lights;
 }
 
-std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& lights, int size) {
-  const Camera camera = orbit_camera(size, 0, 0, Eigen::Vector3d::Zero());
+PbrScene preview_scene(const Folder& folder, int size) {
+  return PbrScene(folder.mesh, orbit_camera(size, 0, 0, Eigen::Vector3d::Zero()), &folder.best().normal);
+}
+
+std::vector<Image> previews(const PbrScene& scene, const MapSet& maps, const std::vector<ShLight>& lights) {
   std::vector<Image> out;
   for (const ShLight& l : lights) {
     PbrLight light;
     light.sh = l;
-    out.push_back(to_srgb(render_pbr(folder.mesh, camera, folder.best().view(), light).colour));
+    out.push_back(to_srgb(scene.shade(maps.view(), light).colour));
   }
   return out;
 }
 
-void write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra,
+std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& lights, int size) {
+  return previews(preview_scene(folder, size), folder.best(), lights);
+}
+
+std::map<std::string, std::string> write(const std::string& out, const Folder& f, const std::map<std::string, std::string>& extra,
            const std::vector<Image>& given_previews) {
   // Everything else of the source folder, as it is.
   const std::string src = f.dir;
@@ -131,7 +145,7 @@ void write(const std::string& out, const Folder& f, const std::map<std::string, 
   parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       PngEncoding encoding;
-      encoding.fast = jobs[size_t(i)].second->width >= 2048;
+      encoding.fast = jobs[size_t(i)].second->width >= kFastPngWidth;
       png.at(jobs[size_t(i)].first) = encode_png(*jobs[size_t(i)].second, 8, encoding);
     }
   });
@@ -142,11 +156,14 @@ void write(const std::string& out, const Folder& f, const std::map<std::string, 
   texture::write_glb(out + "/avatar.glb", f.mesh,
                      texture::PbrPngs{png.at("diffuse" + sfx), png.at("normal" + sfx), png.at("roughness" + sfx), specular_glb});
   const auto shots = given_previews.empty() ? previews(f, preview_lights(), 512) : given_previews;
-  for (size_t i = 0; i < shots.size(); ++i) write_image(out + "/preview_light" + std::to_string(i + 1) + ".png", shots[i]);
+  parallel_for(0, int64_t(shots.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) write_image(out + "/preview_light" + std::to_string(i + 1) + ".png", shots[size_t(i)]);
+  });
   for (const auto& [name, bytes] : extra) {
     make_directories(fs::path(out + "/" + name).parent_path().string());
     write_file_atomic(out + "/" + name, bytes);
   }
+  return png;
 }
 
 ShLight photo_light(const std::string& dir) {

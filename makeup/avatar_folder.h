@@ -15,6 +15,7 @@
 
 namespace bareskin::avatar_folder {
 
+constexpr int kFastPngWidth = 2048;  // maps this wide and wider are written with PNG's fast encoding
 inline const std::array<const char*, 4> kMapNames = {"diffuse", "normal", "roughness", "specular"};
 
 struct MapSet {
@@ -40,13 +41,19 @@ Folder read(const std::string& dir);
 // (relative path -> bytes) into `out` (an existing, empty folder being built, e.g. an AtomicDirectory's path), with
 // every other file of the source folder `folder.dir` copied beside them (the aligned photo, coefficients, unwrap, ...).
 // `previews`: the folder's previews(preview_lights()) when the caller has them, else empty (made at 512²).
-void write(const std::string& out, const Folder& folder, const std::map<std::string, std::string>& extra,
+// Returns the maps' PNG bytes by name ("diffuse", "roughness_hr", ...): encode_png(·, 8), the fast encoding from
+// kFastPngWidth on.
+std::map<std::string, std::string> write(const std::string& out, const Folder& folder, const std::map<std::string, std::string>& extra,
            const std::vector<Image>& previews = {});
 
 // The three preview lights of `bareskin run` (texgen's lights 0–2 of seed 2022: the default, then two random ones).
 std::vector<ShLight> preview_lights();
 // The avatar's best maps on its mesh, front view, under each light (sRGB).
 std::vector<Image> previews(const Folder& folder, const std::vector<ShLight>& lights, int size);
+// The same in two steps, for an avatar and its made-up copies (same mesh and normal map): the front view rasterized
+// once at size², then `maps` under each light.
+PbrScene preview_scene(const Folder& folder, int size);
+std::vector<Image> previews(const PbrScene& scene, const MapSet& maps, const std::vector<ShLight>& lights);
 
 // The fitted light of the photo: coefficients.json's gamma (InvalidInput when the folder has none).
 ShLight photo_light(const std::string& dir);

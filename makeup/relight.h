@@ -10,6 +10,8 @@
 
 namespace bareskin::looks {
 
+constexpr int kLightEnvWidth = 64;  // light_env.exr: 64 × 32 (`bareskin run` writes it too)
+
 struct RelightOptions {
   std::string avatar, output;  // avatar folder; output image (.png, .exr, ...)
   std::string light;           // --light sh.json
@@ -20,7 +22,7 @@ struct RelightOptions {
   std::string view = "0,0";    // yaw,pitch in degrees
   int size = 1024;
   std::string export_light;    // a folder: light_sh.json + light_env.exr of the photo's fitted light
-  int export_width = 64;       // width of the exported equirectangular map
+  int export_width = kLightEnvWidth;  // width of the exported equirectangular map
 };
 
 // The light the options choose (one of light / env / direction, else the photo's): InvalidInput for more than one,
@@ -31,7 +33,8 @@ PbrLight chosen_light(const RelightOptions& options);
 Frame relight(const RelightOptions& options);
 void relight_command(const RelightOptions& options);
 
-// Writes dir/light_sh.json (27 numbers, channel-major) and dir/light_env.exr (width × width/2 radiance, linear).
+// Writes dir/light_sh.json (27 numbers, channel-major) and dir/light_env.exr (width × width/2 radiance, linear):
+// `relight --export-light` and `bareskin run` (the photo's fitted light in every avatar folder).
 void write_light_files(const std::string& dir, const ShLight& light, int width);
 
 }  // namespace bareskin::looks

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "avatar/glb.h"
@@ -10,6 +11,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
+#include "core/parallel.h"
 #include "core/png.h"
 #include "render/sh.h"
 
@@ -37,7 +39,6 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
-std::string png_uri(const Image& image) { return "data:image/png;base64," + base64(encode_png(image, 8)); }
 std::string js_uri(const std::string& source) { return "data:text/javascript;base64," + base64(source); }
 Image srgb(const Image& m) { return m.color_space == ColorSpace::Linear ? to_srgb(m) : m; }
 
@@ -196,21 +197,36 @@ std::string viewer_html(const ViewerInputs& in) {
                                       {"three/addons/loaders/GLTFLoader.js", js_uri(loader)},
                                       {"three/addons/utils/BufferGeometryUtils.js",
                                        js_uri(read_file(dir + "/BufferGeometryUtils.js"))}}}};
+  // Every PNG of the page encoded once, in parallel: the GLB's four (the bare 1× maps), then each variant's (its
+  // diffuse, roughness and specular texture, or a diffuse alone), unless the variant brings them encoded.
   const avatar_folder::MapSet& m = in.avatar->maps;
-  const std::string glb = texture::glb_bytes(
-      in.avatar->mesh, texture::PbrPngs{encode_png(to_srgb(m.diffuse), 8), encode_png(m.normal, 8),
-                                        encode_png(m.roughness, 8),
-                                        encode_png(texture::specular_texture(m.specular), 8)});
-  nlohmann::json data = {{"glb", base64(glb)}, {"variants", nlohmann::json::array()}};
+  std::vector<std::function<std::string()>> jobs = {
+      [&] { return encode_png(to_srgb(m.diffuse), 8); }, [&] { return encode_png(m.normal, 8); },
+      [&] { return encode_png(m.roughness, 8); }, [&] { return encode_png(texture::specular_texture(m.specular), 8); }};
+  std::vector<std::vector<std::pair<std::string, size_t>>> variant_pngs;  // per variant: key -> job index
   for (const ViewerVariant& v : in.variants) {
-    nlohmann::json j = {{"name", v.name}};
+    auto& keys = variant_pngs.emplace_back();
+    const auto add = [&](const char* key, const std::string& given, std::function<std::string()> job) {
+      keys.push_back({key, jobs.size()});
+      jobs.push_back(given.empty() ? std::move(job) : [&given] { return given; });
+    };
     if (v.maps && v.maps != &in.avatar->maps) {
-      j["diffuse"] = png_uri(srgb(v.maps->diffuse));
-      j["roughness"] = png_uri(v.maps->roughness);
-      j["specular"] = png_uri(texture::specular_texture(v.maps->specular));
+      add("diffuse", v.diffuse_png, [&v] { return encode_png(srgb(v.maps->diffuse), 8); });
+      add("roughness", v.roughness_png, [&v] { return encode_png(v.maps->roughness, 8); });
+      add("specular", "", [&v] { return encode_png(texture::specular_texture(v.maps->specular), 8); });
     } else if (v.diffuse_only) {
-      j["diffuse"] = png_uri(srgb(*v.diffuse_only));
+      add("diffuse", "", [&v] { return encode_png(srgb(*v.diffuse_only), 8); });
     }
+  }
+  std::vector<std::string> png(jobs.size());
+  parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) png[size_t(i)] = jobs[size_t(i)]();
+  });
+  const std::string glb = texture::glb_bytes(in.avatar->mesh, texture::PbrPngs{png[0], png[1], png[2], png[3]});
+  nlohmann::json data = {{"glb", base64(glb)}, {"variants", nlohmann::json::array()}};
+  for (size_t i = 0; i < in.variants.size(); ++i) {
+    nlohmann::json j = {{"name", in.variants[i].name}};
+    for (const auto& [key, job] : variant_pngs[i]) j[key] = "data:image/png;base64," + base64(png[job]);
     data["variants"].push_back(j);
   }
   if (in.photo_light) data["photo"] = photo_preset(*in.photo_light);

@@ -14,9 +14,14 @@
 namespace bareskin::looks {
 
 struct ViewerVariant {
+  ViewerVariant(std::string name, const avatar_folder::MapSet* maps, const Image* diffuse_only)
+      : name(std::move(name)), maps(maps), diffuse_only(diffuse_only) {}
   std::string name;                 // "bare", a look's name, "photo unwrap"
   const avatar_folder::MapSet* maps = nullptr;  // diffuse, roughness, specular used (the normal map stays the bare one)
   const Image* diffuse_only = nullptr;          // or a diffuse alone (sRGB or linear), e.g. the photo's unwrap
+  // `maps`' diffuse (sRGB) and roughness as encode_png(·, 8) with the default encoding wrote them, where the caller
+  // has them (the page then holds these bytes); empty: encoded here.
+  std::string diffuse_png, roughness_png;
 };
 
 struct ViewerInputs {

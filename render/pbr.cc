@@ -63,6 +63,11 @@ double ggx(const Eigen::Vector3d& n, const Eigen::Vector3d& v, const Eigen::Vect
   return d * vis * f * M_PI * nl;
 }
 
+void check_diffuse(const PbrMapsView& maps) {
+  if (!maps.diffuse || maps.diffuse->color_space != ColorSpace::Linear || maps.diffuse->channels < 3)
+    throw InvalidInput("", "the diffuse map must be linear RGB", "convert it with to_linear");
+}
+
 }  // namespace
 
 Camera orbit_camera(int size, double yaw_deg, double pitch_deg, const Eigen::Vector3d& target, double distance) {
@@ -74,11 +79,10 @@ Camera orbit_camera(int size, double yaw_deg, double pitch_deg, const Eigen::Vec
   return c;
 }
 
-Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps, const PbrLight& light) {
+PbrScene::PbrScene(const Mesh& mesh, const Camera& camera, const Image* normal_map)
+    : width_(camera.width), height_(camera.height) {
   if (mesh.V.rows() == 0 || mesh.F.rows() == 0 || !mesh.has_uv())
     throw InvalidInput("", "the mesh is empty or has no UVs", "give the avatar's mesh.obj");
-  if (!maps.diffuse || maps.diffuse->color_space != ColorSpace::Linear || maps.diffuse->channels < 3)
-    throw InvalidInput("", "the diffuse map must be linear RGB", "convert it with to_linear");
   const RasterOutput r = rasterize_mesh(mesh, camera, true);
   const Eigen::Matrix<int32_t, Eigen::Dynamic, 3, Eigen::RowMajor> F = mesh.F, FUV = mesh.FUV;
   const RowF3 N = (mesh.has_normals() ? mesh.N : vertex_normals(mesh.V, mesh.F)).cast<float>();
@@ -87,21 +91,40 @@ Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps
   const std::vector<float> normal = interpolate(r, F.data(), N.data(), 3), pos = interpolate(r, F.data(), P.data(), 3),
                            uv = interpolate(r, FUV.data(), UV.data(), 2);
   Eigen::MatrixX3d T, B;
-  if (maps.normal) face_tangents(mesh, T, B);
-  const KeyLight key = light.key.direction.norm() > 0 ? light.key : dominant_light(light.sh);
+  if (normal_map) face_tangents(mesh, T, B);
   const Eigen::Vector3d eye = camera.R.transpose() * -camera.t;  // camera centre in the model frame
-  const int W = camera.width, H = camera.height;
-  Frame out = Frame::blank(W, H);
-  parallel_for(0, int64_t(W) * H, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      const int32_t f = r.triangle[size_t(i)];
-      if (f < 0) continue;
-      const size_t s = size_t(i);
+  for (int64_t i = 0; i < int64_t(width_) * height_; ++i)
+    if (r.triangle[size_t(i)] >= 0) pixel_.push_back(i);
+  const size_t count = pixel_.size();
+  n_.resize(3 * count);
+  v_.resize(3 * count);
+  uv_.resize(2 * count);
+  depth_.resize(count);
+  parallel_for(0, int64_t(count), [&](int64_t begin, int64_t end) {
+    for (int64_t j = begin; j < end; ++j) {
+      const size_t s = size_t(pixel_[size_t(j)]), k = size_t(j);
+      const int32_t f = r.triangle[s];
       Eigen::Vector3d n = Eigen::Vector3d(normal[3 * s], normal[3 * s + 1], normal[3 * s + 2]).normalized();
       const Eigen::Vector2d t(uv[2 * s], uv[2 * s + 1]);
-      if (maps.normal) n = mapped_normal(n, T.row(f), B.row(f), sample_bilinear(*maps.normal, t));
+      if (normal_map) n = mapped_normal(n, T.row(f), B.row(f), sample_bilinear(*normal_map, t));
       const Eigen::Vector3d p(pos[3 * s], pos[3 * s + 1], pos[3 * s + 2]);
       const Eigen::Vector3d v = (eye - p).normalized();
+      for (int c = 0; c < 3; ++c) n_[3 * k + c] = n[c], v_[3 * k + c] = v[c];
+      uv_[2 * k] = t.x(), uv_[2 * k + 1] = t.y();
+      depth_[k] = r.depth[s];
+    }
+  }, 4096);
+}
+
+Frame PbrScene::shade(const PbrMapsView& maps, const PbrLight& light) const {
+  check_diffuse(maps);
+  const KeyLight key = light.key.direction.norm() > 0 ? light.key : dominant_light(light.sh);
+  Frame out = Frame::blank(width_, height_);
+  parallel_for(0, int64_t(pixel_.size()), [&](int64_t begin, int64_t end) {
+    for (int64_t j = begin; j < end; ++j) {
+      const size_t s = size_t(pixel_[size_t(j)]), k = size_t(j);
+      const Eigen::Vector3d n(n_[3 * k], n_[3 * k + 1], n_[3 * k + 2]), v(v_[3 * k], v_[3 * k + 1], v_[3 * k + 2]);
+      const Eigen::Vector2d t(uv_[2 * k], uv_[2 * k + 1]);
       const Eigen::Vector3f a = sample_bilinear(*maps.diffuse, t);
       const Eigen::Vector3d S = sh_irradiance(n, light.sh.data());
       const double spec = key.direction.norm() > 0
@@ -112,11 +135,16 @@ Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps
         out.colour.pixels[3 * s + c] = float(std::max(0.0, a[c] * S[c] + spec * key.intensity[c]));
         out.normal.pixels[3 * s + c] = float(0.5 * (n[c] + 1));
       }
-      out.depth.pixels[s] = r.depth[s];
+      out.depth.pixels[s] = depth_[k];
       out.mask.pixels[s] = 1;
     }
   }, 4096);
   return out;
+}
+
+Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps, const PbrLight& light) {
+  check_diffuse(maps);  // before the rasterization
+  return PbrScene(mesh, camera, maps.normal).shade(maps, light);
 }
 
 }  // namespace bareskin

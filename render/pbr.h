@@ -4,6 +4,8 @@
 // KHR_materials_specular) from the light's key: the given key light, else the SH light's dominant direction. All in
 // the model frame, so the light stays on the head when the camera turns. Linear light; the caller encodes.
 #pragma once
+#include <vector>
+
 #include "core/image.h"
 #include "core/mesh.h"
 #include "render/camera.h"
@@ -26,6 +28,21 @@ struct PbrLight {
 
 // InvalidInput when the mesh has no UVs or is empty, or the diffuse map is missing or not linear colour.
 Frame render_pbr(const Mesh& mesh, const Camera& camera, const PbrMapsView& maps, const PbrLight& light);
+
+// render_pbr in two steps, for many renders of one view: the rasterization with the normal map applied, once, then
+// shade() per set of maps and light (the maps' normal map is not used: the scene's is). The same pixels as
+// render_pbr, which is PbrScene(mesh, camera, maps.normal).shade(maps, light).
+class PbrScene {
+ public:
+  PbrScene(const Mesh& mesh, const Camera& camera, const Image* normal_map);
+  Frame shade(const PbrMapsView& maps, const PbrLight& light) const;
+
+ private:
+  int width_ = 0, height_ = 0;
+  std::vector<int64_t> pixel_;          // the covered pixels, row-major indices
+  std::vector<double> n_, v_, uv_;      // per covered pixel: shading normal, direction to the eye, UV
+  std::vector<float> depth_;
+};
 
 // A camera `distance` mm from `target` turned by yaw (about +y, degrees; positive shows the face's left) then pitch
 // (about +x; positive looks from above), size² pixels, the lens of view_camera.

@@ -48,14 +48,25 @@ void check_layer(const LayerSpec& l) {
   }
 }
 
+// The bilinear footprint of texel-space point (x, y) (texel centres at +0.5), clamped, in a width × height image;
+// sample() reads any channel of an image of that size through it.
+struct Footprint {
+  int x0, y0, x1, y1;
+  float tx, ty;
+  Footprint(float x, float y, int width, int height) {
+    const float fx = std::clamp(x - 0.5f, 0.0f, float(width - 1)), fy = std::clamp(y - 0.5f, 0.0f, float(height - 1));
+    x0 = int(fx), y0 = int(fy), x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
+    tx = fx - float(x0), ty = fy - float(y0);
+  }
+  float sample(const Image& image, int c) const {
+    return (1 - ty) * ((1 - tx) * image.at(x0, y0, c) + tx * image.at(x1, y0, c)) +
+           ty * ((1 - tx) * image.at(x0, y1, c) + tx * image.at(x1, y1, c));
+  }
+};
+
 // Bilinear lookup of channel c of `image` at texel-space point (x, y) (texel centres at +0.5), clamped.
 float bilinear(const Image& image, float x, float y, int c) {
-  const float fx = std::clamp(x - 0.5f, 0.0f, float(image.width - 1)),
-              fy = std::clamp(y - 0.5f, 0.0f, float(image.height - 1));
-  const int x0 = int(fx), y0 = int(fy), x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
-  const float tx = fx - float(x0), ty = fy - float(y0);
-  return (1 - ty) * ((1 - tx) * image.at(x0, y0, c) + tx * image.at(x1, y0, c)) +
-         ty * ((1 - tx) * image.at(x0, y1, c) + tx * image.at(x1, y1, c));
+  return Footprint(x, y, image.width, image.height).sample(image, c);
 }
 
 }  // namespace
@@ -166,10 +177,11 @@ void apply_makeup(const MakeupLayer& layer, Image& diffuse, Image* roughness, Im
       for (int x = 0; x < diffuse.width; ++x) {
         const float lx = (float(x) + 0.5f) * float(n) / float(diffuse.width),
                     ly = (float(y) + 0.5f) * float(n) / float(diffuse.height);
-        const float A = same ? premultiplied.at(x, y, 3) : bilinear(premultiplied, lx, ly, 3);
+        const Footprint at(lx, ly, n, n);  // one footprint for the four channels
+        const float A = same ? premultiplied.at(x, y, 3) : at.sample(premultiplied, 3);
         if (A <= 0) continue;
         for (int k = 0; k < 3; ++k) {
-          const float C = same ? premultiplied.at(x, y, k) : bilinear(premultiplied, lx, ly, k);
+          const float C = same ? premultiplied.at(x, y, k) : at.sample(premultiplied, k);
           diffuse.at(x, y, k) = diffuse.at(x, y, k) * (1 - A) + C;
         }
       }

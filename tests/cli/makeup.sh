@@ -3,7 +3,7 @@
 # the folder written is complete and its GLB carries the made-up map, only a few texels change for a lipstick, a look
 # file edited from `makeup show` applies, bad input (a missing map, a look with an unknown region or key, an unknown
 # --region, an unreadable HDR) gets one line, exit 3 and no output; relight under a key light, an HDR and the
-# photo's light, and the light export.
+# photo's light, and the light export; makeup extract reads the lipstick back off the made-up map.
 source "$(dirname "$0")/lib.sh" "$@"
 
 "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
@@ -49,6 +49,25 @@ look = json.load(sys.stdin); look['name'] = 'pink'; look['layers'][0]['shade'] =
 json.dump(look, open('$work/pink.json', 'w'))" || fail "makeup show"
 "$bin" makeup apply -q "$a" --look "$work/pink.json" --region lips -o "$work/pink" || fail "apply a look file"
 grep -q '"pink"' "$work/pink/look.json" || fail "look.json is not the look file"
+
+# makeup extract: the red_lips folder's diffuse against the bare one (both in the template UV) gives a lipstick
+# layer, red, and nothing on the untouched regions; the look applies. Bad input: unwraps of two sizes, no makeup.
+"$bin" makeup extract -q --made "$work/red/maps/diffuse.png" --bare "$a/maps/diffuse.png" -o "$work/ex.json" \
+  --name ex || fail "makeup extract"
+$py - "$work/ex.json" <<'PY' || fail "extracted look: $(cat "$work/ex.json")"
+import json, sys
+look = json.load(open(sys.argv[1]))
+assert [l["region"] for l in look["layers"]] == ["lips"], look
+c = look["layers"][0]["colour"]
+r, g, b = (int(c[i:i + 2], 16) for i in (1, 3, 5))
+assert r > g + 60 and r > b + 60, c  # red
+PY
+"$bin" makeup apply -q "$a" --look "$work/ex.json" -o "$work/ex" || fail "apply the extracted look"
+oiiotool "$a/maps/diffuse.png" --resize 64x64 -o "$work/small.png"
+expect_failure 3 "64 wide" "$work/ex2.json" -- "$bin" makeup extract -q --made "$work/red/maps/diffuse.png" \
+  --bare "$work/small.png" -o "$work/ex2.json"
+expect_failure 3 "no makeup found" "$work/ex3.json" -- "$bin" makeup extract -q --made "$a/maps/diffuse.png" \
+  --bare "$a/maps/diffuse.png" -o "$work/ex3.json"
 
 # Bad input: one line, exit 3, no output.
 $py -c "
