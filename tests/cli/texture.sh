@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # bareskin train texture / upscale, run: tiny trainings on procedural shards, then the bad inputs of `run` (a photo
-# without a face, a corrupt photo, runs that do not fit each other or the model): one line, exit 3, no avatar folder.
+# without a face, a corrupt photo, runs that do not fit each other or the model): one line, exit 3, no avatar folder;
+# then one run that succeeds, with its light files.
 source "$(dirname "$0")/lib.sh" "$@"
 fixture="$py $here/../python/texture_cli_fixture.py"
 $fixture model "$work/a.safetensors" 1 && $fixture model "$work/b.safetensors" 2 || fail "fixture models"
@@ -47,4 +48,16 @@ error_ok 3 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$wor
   --no-bareskin || error_ok 4 "corrupt.png" "$work/avatar" -- run "$work/corrupt.png" --model "$work/a.safetensors" \
   --texture "$work/tex" --no-bareskin || fail "corrupt photo -> exit $error_code: $(cat "$work/err")"
 expect_failure 2 "--no-bareskin" "$work/avatar" -- run "$astronaut" --model "$work/a.safetensors" --texture "$work/tex"
+# run, without BareSkinNet (3DMM fit, the tiny texture net): a complete avatar folder, the GLB by its header, and the
+# light the photo was fitted with as 27 SH numbers and as an equirectangular EXR that oiiotool reads.
+"$bin" -q run "$astronaut" --model "$work/a.safetensors" --texture "$work/tex" --no-bareskin --preview-size 64 \
+  -o "$work/ok" || fail "run"
+for f in avatar.glb mesh.obj coefficients.json maps/diffuse.png maps/normal.png maps/roughness.png maps/specular.png \
+  preview_light1.png light_sh.json light_env.exr; do
+  [ -s "$work/ok/$f" ] || fail "run wrote no $f"
+done
+[ "$(head -c 4 "$work/ok/avatar.glb")" = glTF ] || fail "avatar.glb is not a GLB"
+$py -c 'import json, math, sys; g = json.load(open(sys.argv[1])); assert len(g) == 27 and all(math.isfinite(x) for x in g), g' \
+  "$work/ok/light_sh.json" || fail "light_sh.json is not 27 SH coefficients"
+oiiotool --info "$work/ok/light_env.exr" | grep -q "64 x  *32, 3 channel" || fail "light_env.exr is not a 64x32 RGB EXR"
 echo "texture CLI: ok"
