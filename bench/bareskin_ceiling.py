@@ -21,37 +21,23 @@ psnr_face_* metrics are, averaged per image; the interval is 95% over held-out s
   /usr/bin/python3 bench/bareskin_ceiling.py <faces/> [--size 64] [--train 1500] [--json out.json]
 """
 import argparse
-import glob
-import io
-import json
+import os
 import sys
-import tarfile
 
 import numpy as np
-from PIL import Image
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from face_shards import member, split_samples  # noqa: E402
 
 
-def area(a, size):
-    f = a.shape[0] // size
-    return a.reshape(size, f, size, f, *a.shape[2:]).mean((1, 3))
-
-
-def samples(split_dir, size, limit):
+def samples(faces, split, size, limit):
     """(makeup, before, bare, face mask, subject, style) per sample of a split, area-resized to size²."""
     out = []
-    for shard in sorted(glob.glob(f"{split_dir}/*.tar")):
-        with tarfile.open(shard) as t:
-            keys = sorted({n.split(".")[0] for n in t.getnames() if n.endswith(".json")})
-            for k in keys:
-                def png(member):
-                    data = t.extractfile(f"{k}.{member}.png").read()
-                    return area(np.asarray(Image.open(io.BytesIO(data)), np.float64) / 255, size)
-                meta = json.loads(t.extractfile(f"{k}.json").read())
-                out.append((png("makeup"), png("before"), png("bare"), png("face") > 0.5, meta["subject"], meta["style"]))
-                if len(out) >= limit:
-                    return out
-    if not out:
-        sys.exit(f"bareskin_ceiling: no samples in {split_dir}; give a `texgen faces` output folder")
+    for key, t, meta in split_samples(faces, split, "bareskin_ceiling"):
+        get = lambda name: member(t, key, name, size)
+        out.append((get("makeup"), get("before"), get("bare"), get("face") > 0.5, meta["subject"], meta["style"]))
+        if len(out) >= limit:
+            break
     return out
 
 
@@ -84,8 +70,8 @@ def main():
     ap.add_argument("--train", type=int, default=1500, help="train samples for the level predictor")
     ap.add_argument("--json")
     a = ap.parse_args()
-    train = samples(f"{a.faces}/train", a.size, a.train)
-    test = samples(f"{a.faces}/test", a.size, 10**9)
+    train = samples(a.faces, "train", a.size, a.train)
+    test = samples(a.faces, "test", a.size, 10**9)
     X = np.array([features(s[0], s[3]) for s in train])
     Y = np.array([level(s[2], s[3]) for s in train])
     W = np.linalg.solve(X.T @ X + 1e-3 * np.eye(X.shape[1]), X.T @ Y)

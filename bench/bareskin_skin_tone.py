@@ -14,37 +14,21 @@ reports the PSNR and RMSE of G's output on the skin against the bare truth, with
 bench/bareskin_skin_tone.sh runs both around `bareskin demakeup`.
 """
 import argparse
-import glob
-import io
-import json
 import os
 import sys
-import tarfile
 
 import numpy as np
-from PIL import Image
 
-GROUPS = [("very light", 55, 90), ("light", 41, 55), ("intermediate", 28, 41), ("tan", 10, 28), ("brown", -30, 10),
-          ("dark", -90, -30)]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from face_shards import member, png, split_samples  # noqa: E402
+
+# (name, lowest ITA°, highest): the outer groups take every angle beyond their bound.
+GROUPS = [("very light", 55, float("inf")), ("light", 41, 55), ("intermediate", 28, 41), ("tan", 10, 28),
+          ("brown", -30, 10), ("dark", -float("inf"), -30)]
 
 
 def test_samples(faces):
-    """(key, tar, member prefix, metadata) of every test sample."""
-    shards = sorted(glob.glob(f"{faces}/test/*.tar"))
-    if not shards:
-        sys.exit(f"bareskin_skin_tone: no test shards in {faces}/test; give a `texgen faces` output folder")
-    for shard in shards:
-        with tarfile.open(shard) as t:
-            for name in sorted(n for n in t.getnames() if n.endswith(".json")):
-                key = name[:-5]
-                yield key, t, json.loads(t.extractfile(name).read())
-
-
-def png(data, size):
-    """A PNG's pixels in [0, 1], area-resized to size²."""
-    a = np.asarray(Image.open(io.BytesIO(data)), np.float64) / 255
-    f = a.shape[0] // size
-    return a.reshape(size, f, size, f, *a.shape[2:]).mean((1, 3))
+    return split_samples(faces, "test", "bareskin_skin_tone")
 
 
 def lab_l_b(rgb):
@@ -62,7 +46,7 @@ def ita(rgb):
 
 
 def group_of(angle):
-    return next(name for name, lo, hi in GROUPS if lo <= angle < hi or (name == "very light" and angle >= hi))
+    return next(name for name, lo, hi in GROUPS if lo <= angle < hi)
 
 
 def extract(a):
@@ -86,7 +70,7 @@ def report(a):
         out = os.path.join(a.demakeup, key, "bare.png")
         if not os.path.exists(out):
             sys.exit(f"bareskin_skin_tone: {out} is missing; run `bareskin demakeup --aligned` on the extracted photos")
-        get = lambda member: png(t.extractfile(f"{key}.{member}.png").read(), a.size)
+        get = lambda name: member(t, key, name, a.size)
         truth, photo, skin = get("bare"), get("makeup"), get("skin") > 0.5
         with open(out, "rb") as f:
             g = png(f.read(), a.size)
@@ -118,7 +102,7 @@ def report(a):
              "ita_error_input": mean_ci(per(lambda r: abs(r["ita_input"] - truth_ita(r))))}
         table.append((name, g))
         f = lambda m: f"{m[0]:.2f} ± {m[1]:.2f}"
-        print(f"| {name} ({lo}…{hi}°) | {g['subjects']} | {g['samples']} | {f(g['psnr'])} | {f(g['psnr_input'])} | "
+        print(f"| {name} ({lo:g}…{hi:g}°) | {g['subjects']} | {g['samples']} | {f(g['psnr'])} | {f(g['psnr_input'])} | "
               f"{g['rmse'][0]:.4f} | {f(g['ita_error'])} | {f(g['ita_error_input'])} |")
     enough = [(n, g) for n, g in table if g["subjects"] >= a.min_subjects]
     worst = max(g["rmse"][0] for _, g in enough) if enough else float("nan")
