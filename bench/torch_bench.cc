@@ -3,6 +3,7 @@
 // translation unit pays ~15 CPU-s of LibTorch's precompiled header on 2 cores, and the programs share their templates.
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <string>
 
 namespace {
@@ -36,7 +37,13 @@ int main(int argc, char** argv) {
     --argc;
   }
   for (const Program& p : programs) {
-    if (name == p.name) return p.main(argc, argv);
+    if (name != p.name) continue;
+    try {
+      return p.main(argc, argv);
+    } catch (const std::exception& e) {  // a bad argument (a missing file, ...) is one line, not an abort
+      std::fprintf(stderr, "%s: %s\n", p.name, e.what());
+      return 3;
+    }
   }
   std::fprintf(stderr, "torch_bench: no bench program named '%s'; run one of:", name.c_str());
   for (const Program& p : programs) std::fprintf(stderr, " %s", p.name);
