@@ -13,6 +13,7 @@
 #include "training/losses.h"
 #include "training/nets/common.h"
 #include "training/ssim.h"
+#include "texture/uvnet.h"
 
 namespace bareskin::texture {
 namespace F = torch::nn::functional;
@@ -102,8 +103,8 @@ torch::Tensor perceptual_all(losses::Vgg16Features& vgg, const torch::Tensor& fa
 
 void TextureNetOptions::check() const {
   const std::string what = "texture model";
-  nets::require(generator == "global" || generator == "local", what, "generator must be global or local",
-                "e.g. \"generator\": \"global\"");
+  nets::require(generator == "global" || generator == "local" || generator == "uv", what,
+                "generator must be global, local or uv", "e.g. \"generator\": \"global\"");
   nets::require(res >= 16, what, "res must be at least 16", "e.g. --res 1024");
 }
 
@@ -128,9 +129,20 @@ const auto kTextureFields = [](auto& v, auto& o) {
 void to_json(nlohmann::json& j, const TextureNetOptions& o) { json_options::write(j, o, kTextureFields); }
 void from_json(const nlohmann::json& j, TextureNetOptions& o) { json_options::read(j, o, "texture model", kTextureFields); }
 
+torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01) {
+  const int64_t albedo = 4;  // unwrap 3, confidence 1, then mm_albedo (input_maps())
+  auto diffuse = (inputs.narrow(1, albedo, 3) + 1) * 0.5;
+  auto normal = torch::zeros_like(diffuse);
+  normal.narrow(1, 0, 2).fill_(0.5);
+  normal.narrow(1, 2, 1).fill_(1);
+  auto constants = truth01.narrow(1, 6, 2).mean({2, 3}, true).expand({-1, -1, truth01.size(2), truth01.size(3)});
+  return torch::cat({diffuse, normal, constants}, 1);
+}
+
 // ---- pix2pixHD ----
 
 std::shared_ptr<torch::nn::Module> make_texture_generator(const TextureNetOptions& options) {
+  if (options.generator == "uv") return UVNet(options.generator_options, options.res).ptr();
   nlohmann::json j = options.generator_options;
   j["in_channels"] = total_channels(input_maps());
   j["out_channels"] = total_channels(output_maps());
@@ -152,6 +164,7 @@ std::shared_ptr<torch::nn::Module> make_texture_generator(const TextureNetOption
 torch::Tensor run_generator(torch::nn::Module& generator, const torch::Tensor& x) {
   if (auto* g = dynamic_cast<nets::GlobalGeneratorImpl*>(&generator)) return g->forward(x);
   if (auto* l = dynamic_cast<nets::LocalEnhancerImpl*>(&generator)) return l->forward(x);
+  if (auto* u = dynamic_cast<UVNetImpl*>(&generator)) return u->forward(x);
   BS_CHECK(false, "not a texture generator");
   return {};
 }
@@ -234,8 +247,12 @@ std::map<std::string, double> Pix2PixHDTask::evaluate(const data::Batch& batch) 
   auto real = (target(batch).to(device) + 1) * 0.5;
   auto f = split_maps(fake, output_maps());
   auto r = split_maps(real, output_maps());
+  auto b = split_maps(mm_only_maps(input(batch).to(device), real), output_maps());
   std::map<std::string, double> out;
-  for (const auto& m : output_maps()) out["psnr_" + m.name] = losses::psnr(f[m.name], r[m.name]).mean().item<double>();
+  for (const auto& m : output_maps()) {
+    out["psnr_" + m.name] = losses::psnr(f[m.name], r[m.name]).mean().item<double>();
+    out["psnr_mm_" + m.name] = losses::psnr(b[m.name], r[m.name]).mean().item<double>();
+  }
   return out;
 }
 

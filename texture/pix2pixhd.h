@@ -40,9 +40,17 @@ class OcclusionSampler {
 // 3DMM channels are left as they are.
 torch::Tensor occlude(const torch::Tensor& inputs01, const torch::Tensor& mask);
 
+// The maps a renderer has without texture inference, the baseline every texture net must beat: the 3DMM albedo as
+// the diffuse, the flat tangent-space normal, and for roughness and specular (which the 3DMM does not model) the best
+// constant, the truth's own mean over each sample. From the stacked inputs in [−1, 1] and the truth in [0, 1]
+// ([B, 8, H, W]); [B, 8, H, W] in [0, 1].
+torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01);
+
 // ---- pix2pixHD ----
 struct TextureNetOptions {
-  std::string generator = "global";  // "global" (GlobalGenerator) | "local" (LocalEnhancer around it)
+  // "global" (GlobalGenerator) | "local" (LocalEnhancer around it) | "uv" (texture/uvnet.h: a U-Net correcting the
+  // unwrap and the 3DMM's maps)
+  std::string generator = "global";
   nlohmann::json generator_options = nlohmann::json::object();      // zoo options over the defaults (ngf, ...)
   nlohmann::json discriminator_options = nlohmann::json::object();  // pix2pixhd_multiscale_d options
   int64_t res = 1024;             // the maps' side (multiple of 2^n_downsampling)

@@ -15,6 +15,7 @@
 #include "core/test_util.h"
 #include "core/shards.h"
 #include "texture/pix2pixhd.h"
+#include "texture/uvnet.h"
 #include "training/ssim.h"
 
 namespace bareskin::texture {
@@ -200,6 +201,33 @@ TEST(Pix2PixHD, TheGeneratorLearnsAFixedBatch) {
   const double after = eval();
   EXPECT_LT(last_feat, 0.7 * first_feat);
   EXPECT_GT(after, before + 3) << "mean PSNR over the four maps, dB";
+}
+
+TEST(UVNet, StartsAtTheUnwrapOverTheModelsMaps) {
+  // Untrained, the UV net's maps are its base: the unwrap where seen, the 3DMM albedo elsewhere, the flat normal,
+  // mid-grey roughness and specular. The 3DMM-only baseline differs from it where the unwrap was seen.
+  torch::manual_seed(0);
+  auto o = tiny_texture_options(32);
+  o.generator = "uv";
+  o.generator_options = {{"ngf", 4}, {"num_downs", 5}};
+  Pix2PixHDTask task(o, OcclusionSampler());
+  auto batch = procedural_batch(0, 2, 32);
+  auto x = task.input(batch);
+  torch::NoGradGuard no_grad;
+  auto y = run_generator(task.generator(), x);
+  auto seen = (x.narrow(1, 3, 1) > -1).expand({-1, 3, -1, -1});
+  auto diffuse = torch::where(seen, x.narrow(1, 0, 3), x.narrow(1, 4, 3));
+  EXPECT_TRUE(torch::equal(y.narrow(1, 0, 3), diffuse));
+  EXPECT_TRUE(torch::equal(y.narrow(1, 3, 3), torch::tensor({0.f, 0.f, 1.f}).view({1, 3, 1, 1}).expand_as(diffuse)));
+  EXPECT_TRUE(torch::equal(y.narrow(1, 6, 2), torch::zeros_like(y.narrow(1, 6, 2))));
+  auto truth = (task.target(batch) + 1) * 0.5;
+  auto mm = mm_only_maps(x, truth);
+  EXPECT_TRUE(torch::allclose(mm.narrow(1, 0, 3), (x.narrow(1, 4, 3) + 1) * 0.5));
+  EXPECT_TRUE(torch::allclose(mm.narrow(1, 6, 1).mean({2, 3}), truth.narrow(1, 6, 1).mean({2, 3})));
+  auto e = task.evaluate(batch);
+  for (const char* m : {"diffuse", "normal", "roughness", "specular"}) EXPECT_TRUE(e.count(std::string("psnr_mm_") + m));
+  o.generator_options = {{"ngf", 4}, {"num_downs", 6}};
+  EXPECT_THROW(Pix2PixHDTask(o, OcclusionSampler()), InvalidInput) << "32 is not a multiple of 2^6";
 }
 
 TEST(Pix2PixHD, TrainsFromShardsAndLoadsForInference) {

@@ -33,31 +33,9 @@ expect_failure() {
 # synthetic scan, the template's OBJ with its vertices moved to the scan's true dense correspondence
 # (truth/correspondence.safetensors) as OUT_DIR/<id>/mesh.obj, and the named truth maps (default diffuse.png) copied.
 register_truth() {
-  local t=$1 scans=$2 out=$3 s id
+  local t=$1 scans=$2 out=$3
   shift 3
-  local maps=("$@")
-  [ ${#maps[@]} -eq 0 ] && maps=(diffuse.png)
-  for s in "$scans"/subject_*; do
-    id=$(basename "$s")
-    mkdir -p "$out/$id"
-    for m in "${maps[@]}"; do cp "$s/truth/maps/"$m "$out/$id/" || fail "copy $m"; done
-    $py - "$here/../python" "$t/face.obj" "$s/truth/correspondence.safetensors" "$out/$id/mesh.obj" <<'PY' || fail "truth mesh"
-import sys
-sys.path.insert(0, sys.argv[1])
-from safetensors_oracle import read_safetensors
-P = read_safetensors(sys.argv[3])[1]["template_to_scan_point"]
-out, k = [], 0
-for line in open(sys.argv[2]):
-    if line.startswith("vn "):
-        continue
-    if line.startswith("v "):
-        line, k = "v %.7g %.7g %.7g\n" % tuple(P[k]), k + 1
-    elif line.startswith("f "):  # the normals are dropped: so are the corners' references to them
-        line = "f " + " ".join("/".join(c.split("/")[:2]) for c in line.split()[1:]) + "\n"
-    out.append(line)
-open(sys.argv[4], "w").writelines(out)
-PY
-  done
+  "$py" "$lib_dir/../python/truth_registered.py" "$t/face.obj" "$scans" "$out" "$@" || fail "registered from the truth"
 }
 
 # tiny_face_world: the smallest world `texgen faces` draws from, in $work: a 3000-vertex template (t/), three

@@ -1,0 +1,51 @@
+#include "texture/uvnet.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "training/nets/zoo.h"
+
+namespace bareskin::texture {
+
+torch::Tensor uv_base(const torch::Tensor& inputs) {
+  // Channels: unwrap 0–2, confidence 3, mm_albedo 4–6 (texture/maps.h, input_maps()).
+  auto seen = (inputs.narrow(1, 3, 1) > -1).to(inputs.dtype());
+  auto diffuse = seen * inputs.narrow(1, 0, 3) + (1 - seen) * inputs.narrow(1, 4, 3);
+  auto normal = torch::zeros_like(diffuse);
+  normal.narrow(1, 2, 1).fill_(1);
+  auto grey = torch::zeros_like(inputs.narrow(1, 0, 2));
+  return torch::cat({diffuse, normal, grey}, 1);
+}
+
+UVNetImpl::UVNetImpl(const nlohmann::json& unet, int64_t res) {
+  nlohmann::json o = nets::find_model("unet256").defaults;
+  const int levels = int(std::lround(std::log2(double(res))));
+  o.update({{"ngf", 16}, {"norm", "none"}, {"dropout", false}, {"upsample", "resize_conv"},
+            {"num_downs", std::max(5, std::min(7, levels))}});
+  o.update(unet);
+  o["in_channels"] = 13;
+  o["out_channels"] = 8;
+  const int64_t multiple = int64_t(1) << o["num_downs"].get<int>();
+  if (res % multiple != 0)
+    throw InvalidInput("texture model", "res " + std::to_string(res) + " is not a multiple of 2^num_downs = " +
+                                            std::to_string(multiple),
+                       "pick --res as a multiple of " + std::to_string(multiple) + " or set num_downs");
+  nets::UNetOptions options;
+  nets::from_json(o, options);
+  unet_ = register_module("unet", nets::UNet(options));
+  // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: its up-convolution is the last
+  // layer; zeroed, the net starts at exactly the base.
+  torch::NoGradGuard no_grad;
+  int zeroed = 0;
+  for (auto& p : unet_->named_parameters())
+    if (p.key().rfind("model.model.3.", 0) == 0) {
+      p.value().zero_();
+      ++zeroed;
+    }
+  BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
+}
+
+torch::Tensor UVNetImpl::forward(const torch::Tensor& inputs) { return uv_base(inputs) + unet_->forward(inputs); }
+
+}  // namespace bareskin::texture

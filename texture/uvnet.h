@@ -1,0 +1,33 @@
+// The UV net: a generator built for texture maps in a fixed UV layout, beside pix2pixHD's (`--arch uv`). It predicts
+// the four maps as a correction of what the inputs already say, so it starts where a renderer without texture
+// inference would be and only has to learn the difference:
+//   diffuse   = the unwrapped photo where it was seen, the 3DMM albedo elsewhere  (+ Δ)
+//   normal    = the flat tangent-space normal (0, 0, 1)                          (+ Δ)
+//   roughness, specular = mid-grey                                               (+ Δ)
+// Δ comes from pix2pix's U-Net (training/nets/unet.h) on the 13 input channels, its last layer zeroed at the start.
+// The same U-Net with bilinear up-convolutions and no normalisation; docs/texture.md gives the chart it was chosen
+// from.
+#pragma once
+#include <torch/torch.h>
+
+#include <nlohmann/json.hpp>
+
+#include "training/nets/unet.h"
+
+namespace bareskin::texture {
+
+// The base the UV net corrects, from the stacked inputs in [−1, 1] ([B, 13, H, W]): [B, 8, H, W] in [−1, 1].
+torch::Tensor uv_base(const torch::Tensor& inputs);
+
+class UVNetImpl : public torch::nn::Module {
+ public:
+  // `unet` holds UNetOptions over the zoo's unet256 defaults; in/out channels and the side's levels are set here.
+  UVNetImpl(const nlohmann::json& unet, int64_t res);
+  torch::Tensor forward(const torch::Tensor& inputs);  // [B, 13, res, res] in [−1, 1] → [B, 8, res, res]
+
+ private:
+  nets::UNet unet_{nullptr};
+};
+TORCH_MODULE(UVNet);
+
+}  // namespace bareskin::texture
