@@ -63,6 +63,7 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   t->add_option("--arch", tex_model->generator, "global (pix2pixHD's GlobalGenerator), local (its LocalEnhancer) or uv (a U-Net "
                                            "correcting the unwrap and the 3DMM's maps; docs/texture.md)")
       ->capture_default_str();
+  t->add_option("--lambda-gan", tex_model->lambda_gan, "Adversarial weight")->capture_default_str();
   t->add_option("--lambda-feat", tex_model->lambda_feat, "Feature matching weight")->capture_default_str();
   t->add_option("--lambda-perceptual", tex_model->lambda_perceptual, "VGG loss weight (vgg16-random trunk)")
       ->capture_default_str();

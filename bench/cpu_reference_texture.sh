@@ -3,9 +3,8 @@
 # world of its own, on held-out subjects.
 #   1. a texture world: `scan synth` subjects (the demo's template and generator settings, another seed) "registered"
 #      from their truth (tests/python/truth_registered.py: the template on the true correspondence, the true maps in
-#      the template UV), then `texgen make-dataset` twice: the diffuse-only unwrap (what BareSkinNet hands over) and
-#      the lit unwrap under the default and a random light (what a photo without BareSkinNet gives); split by subject
-#      80/10/10, the same subjects in the same split in both;
+#      the template UV), then `texgen make-dataset` (the diffuse-only unwrap, what BareSkinNet hands over), split by
+#      subject 80/10/10;
 #   2. pix2pixHD and the UV net (`train texture --profile cpu`) on both unwraps, SRGAN x4 on the diffuse,
 #      roughness and specular, scored against the 3DMM-only maps and bicubic;
 #   3. Table 1 (`bareskin evaluate`) on faces with makeup of the test subjects, with the G of bench/cpu_reference.sh.
@@ -37,14 +36,9 @@ if [ ! -f "$out/registered/.complete" ]; then
   $py "$here/../tests/python/truth_registered.py" "$demo/template/face.obj" "$out/scans" "$out/registered" "*.png"
   touch "$out/registered/.complete"
 fi
-dataset() {  # dataset OUT [flags...]
-  local dst=$1
-  shift
-  if [ ! -f "$dst/test/manifest.json" ] || ! grep -q '"complete": true' "$dst/test/manifest.json"; then
-    echo "cpu_reference_texture: texgen make-dataset -> $dst $*" >&2
-    cpu "$(basename "$dst")" "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$dst" \
-      --render-size 512 --input-res 256 --target-res 256 --hr-res 1024 --masks 3 --split 0.8,0.1,0.1 --seed 3 "$@"
-  fi
-}
-dataset "$out/data_bare"
-dataset "$out/data_lit" --unwrap-lit --lights 2
+data="$out/data"
+if [ ! -f "$data/test/manifest.json" ] || ! grep -q '"complete": true' "$data/test/manifest.json"; then
+  echo "cpu_reference_texture: texgen make-dataset" >&2
+  cpu data "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$data" \
+    --render-size 512 --input-res 256 --target-res 256 --hr-res 1024 --masks 3 --split 0.8,0.1,0.1 --seed 3
+fi

@@ -106,6 +106,10 @@ void TextureNetOptions::check() const {
   nets::require(generator == "global" || generator == "local" || generator == "uv", what,
                 "generator must be global, local or uv", "e.g. \"generator\": \"global\"");
   nets::require(res >= 16, what, "res must be at least 16", "e.g. --res 1024");
+  nets::require(lambda_gan >= 0 && lambda_feat >= 0 && lambda_perceptual >= 0 && lambda_l1 >= 0, what,
+                "the loss weights must not be negative", "e.g. --lambda-l1 10");
+  nets::require(lambda_gan + lambda_feat + lambda_perceptual + lambda_l1 > 0, what, "every loss weight is 0",
+                "give at least one, e.g. --lambda-l1 10");
 }
 
 namespace {
@@ -115,6 +119,7 @@ const auto kTextureFields = [](auto& v, auto& o) {
   v("generator_options", o.generator_options);
   v("discriminator_options", o.discriminator_options);
   v("res", o.res);
+  v("lambda_gan", o.lambda_gan);
   v("lambda_feat", o.lambda_feat);
   v("lambda_perceptual", o.lambda_perceptual);
   v("lambda_l1", o.lambda_l1);
@@ -129,13 +134,19 @@ const auto kTextureFields = [](auto& v, auto& o) {
 void to_json(nlohmann::json& j, const TextureNetOptions& o) { json_options::write(j, o, kTextureFields); }
 void from_json(const nlohmann::json& j, TextureNetOptions& o) { json_options::read(j, o, "texture model", kTextureFields); }
 
-torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01) {
+torch::Tensor uv_layout(const torch::Tensor& inputs) {
+  const int64_t normal = 7;  // unwrap 3, confidence 1, mm_albedo 3, then mm_normal (input_maps())
+  return (inputs.narrow(1, normal, 3) > -1).any(1, true).to(inputs.dtype());
+}
+
+torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01, const torch::Tensor& layout) {
   const int64_t albedo = 4;  // unwrap 3, confidence 1, then mm_albedo (input_maps())
   auto diffuse = (inputs.narrow(1, albedo, 3) + 1) * 0.5;
   auto normal = torch::zeros_like(diffuse);
   normal.narrow(1, 0, 2).fill_(0.5);
   normal.narrow(1, 2, 1).fill_(1);
-  auto constants = truth01.narrow(1, 6, 2).mean({2, 3}, true).expand({-1, -1, truth01.size(2), truth01.size(3)});
+  auto grey = truth01.narrow(1, 6, 2);
+  auto constants = ((grey * layout).sum({2, 3}, true) / layout.sum({2, 3}, true).clamp_min(1)).expand_as(grey);
   return torch::cat({diffuse, normal, constants}, 1);
 }
 
@@ -173,16 +184,23 @@ Pix2PixHDTask::Pix2PixHDTask(TextureNetOptions options, OcclusionSampler occlusi
     : options_(std::move(options)), occlusion_(std::move(occlusion)) {
   options_.check();
   G_ = make_texture_generator(options_);
+  if (adversarial()) make_discriminator();
+  if (options_.lambda_perceptual > 0) vgg_ = losses::Vgg16Features();
+}
+
+bool Pix2PixHDTask::adversarial() const { return options_.lambda_gan > 0 || options_.lambda_feat > 0; }
+
+void Pix2PixHDTask::make_discriminator() {
   nets::MultiscaleDiscriminatorOptions d;
   nlohmann::json dj = options_.discriminator_options;
   dj["in_channels"] = total_channels(input_maps()) + total_channels(output_maps());
   nets::from_json(dj, d);
   d.get_interm_feat = true;
   D_ = nets::MultiscaleDiscriminator(d);
-  if (options_.lambda_perceptual > 0) vgg_ = losses::Vgg16Features();
 }
 
 std::map<std::string, std::shared_ptr<torch::nn::Module>> Pix2PixHDTask::modules() {
+  if (!D_) return {{"G", G_}};
   return {{"G", G_}, {"D", D_.ptr()}};
 }
 
@@ -190,8 +208,11 @@ std::vector<train::OptimizerSpec> Pix2PixHDTask::optimizers() {
   train::Schedule schedule;
   schedule.kind = "linear";
   schedule.decay_start = options_.decay_start >= 0 ? options_.decay_start : options_.steps / 2;
-  return {adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule),
-          adam("D", D_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule)};
+  std::vector<train::OptimizerSpec> specs = {
+      adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule)};
+  // Without the adversarial and feature-matching terms nothing reads D: it is neither built nor trained.
+  if (D_) specs.push_back(adam("D", D_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule));
+  return specs;
 }
 
 torch::Tensor Pix2PixHDTask::input(const data::Batch& batch, const torch::Tensor& mask) const {
@@ -221,18 +242,23 @@ train::Losses Pix2PixHDTask::loss(size_t phase, const data::Batch& batch) {
   if (phase == 0) {
     auto fake = run_generator(*G_, in);
     cached_fake_ = fake.detach();
-    auto pred_fake = D_->forward(torch::cat({in, fake}, 1));
-    losses::MultiscaleOutputs pred_real;
-    {
-      torch::NoGradGuard no_grad;
-      pred_real = D_->forward(torch::cat({in, real}, 1));
-    }
     train::Losses out;
-    out["gan"] = losses::gan_loss(pred_fake, true, losses::GanKind::Lsgan, false);
-    out["feat"] = losses::feature_matching(pred_fake, pred_real, options_.lambda_feat);
+    if (D_) {
+      auto pred_fake = D_->forward(torch::cat({in, fake}, 1));
+      losses::MultiscaleOutputs pred_real;
+      {
+        torch::NoGradGuard no_grad;
+        pred_real = D_->forward(torch::cat({in, real}, 1));
+      }
+      out["gan"] = options_.lambda_gan * losses::gan_loss(pred_fake, true, losses::GanKind::Lsgan, false);
+      out["feat"] = losses::feature_matching(pred_fake, pred_real, options_.lambda_feat);
+    }
     if (options_.lambda_perceptual > 0)
       out["vgg"] = options_.lambda_perceptual * perceptual_all(vgg_, (fake + 1) * 0.5, (real + 1) * 0.5);
-    if (options_.lambda_l1 > 0) out["l1"] = options_.lambda_l1 * losses::l1(fake, real);
+    if (options_.lambda_l1 > 0) {  // over the UV layout: the texels outside it are never drawn
+      auto layout = uv_layout(in).expand_as(fake);
+      out["l1"] = options_.lambda_l1 * ((fake - real).abs() * layout).sum() / layout.sum().clamp_min(1);
+    }
     return out;
   }
   auto pred_fake = D_->forward(torch::cat({in, cached_fake_}, 1));
@@ -247,12 +273,17 @@ std::map<std::string, double> Pix2PixHDTask::evaluate(const data::Batch& batch) 
   auto real = (target(batch).to(device) + 1) * 0.5;
   auto f = split_maps(fake, output_maps());
   auto r = split_maps(real, output_maps());
-  auto b = split_maps(mm_only_maps(input(batch).to(device), real), output_maps());
+  auto x = input(batch).to(device);
+  auto layout = uv_layout(x);
+  auto b = split_maps(mm_only_maps(x, real, layout), output_maps());
   std::map<std::string, double> out;
   for (const auto& m : output_maps()) {
-    out["psnr_" + m.name] = losses::psnr(f[m.name], r[m.name]).mean().item<double>();
-    out["psnr_mm_" + m.name] = losses::psnr(b[m.name], r[m.name]).mean().item<double>();
+    out["psnr_" + m.name] = losses::psnr(f[m.name], r[m.name], layout).mean().item<double>();
+    out["psnr_mm_" + m.name] = losses::psnr(b[m.name], r[m.name], layout).mean().item<double>();
   }
+  // The UV net's start: the unwrap where seen over the 3DMM albedo.
+  auto start = (uv_base(x).narrow(1, 0, 3) + 1) * 0.5;
+  out["psnr_unwrap_diffuse"] = losses::psnr(start, r["diffuse"], layout).mean().item<double>();
   return out;
 }
 

@@ -42,9 +42,12 @@ torch::Tensor occlude(const torch::Tensor& inputs01, const torch::Tensor& mask);
 
 // The maps a renderer has without texture inference, the baseline every texture net must beat: the 3DMM albedo as
 // the diffuse, the flat tangent-space normal, and for roughness and specular (which the 3DMM does not model) the best
-// constant, the truth's own mean over each sample. From the stacked inputs in [−1, 1] and the truth in [0, 1]
-// ([B, 8, H, W]); [B, 8, H, W] in [0, 1].
-torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01);
+// constant, the truth's own mean over each sample's layout. From the stacked inputs in [−1, 1], the truth in [0, 1]
+// ([B, 8, H, W]) and the layout; [B, 8, H, W] in [0, 1].
+torch::Tensor mm_only_maps(const torch::Tensor& inputs, const torch::Tensor& truth01, const torch::Tensor& layout);
+// The texels of the model's UV layout, where the 3DMM normal map is drawn: [B, 1, H, W], 0 or 1, from the stacked
+// inputs in [−1, 1]. The texture evaluation scores maps over these texels, as `bareskin evaluate` does.
+torch::Tensor uv_layout(const torch::Tensor& inputs);
 
 // ---- pix2pixHD ----
 struct TextureNetOptions {
@@ -54,6 +57,7 @@ struct TextureNetOptions {
   nlohmann::json generator_options = nlohmann::json::object();      // zoo options over the defaults (ngf, ...)
   nlohmann::json discriminator_options = nlohmann::json::object();  // pix2pixhd_multiscale_d options
   int64_t res = 1024;             // the maps' side (multiple of 2^n_downsampling)
+  double lambda_gan = 1;          // the adversarial term (pix2pixHD: 1)
   double lambda_feat = 10;        // feature matching
   double lambda_perceptual = 10;  // VGG loss (pix2pixHD: λ_feat as well); 0 = off
   double lambda_l1 = 0;           // optional L1 to the targets (not in pix2pixHD; off by default)
@@ -85,6 +89,8 @@ class Pix2PixHDTask : public train::Task {
   torch::nn::Module& generator() { return *G_; }
 
  private:
+  bool adversarial() const;  // λ_gan or λ_feat > 0: D is built and trained
+  void make_discriminator();
   TextureNetOptions options_;
   OcclusionSampler occlusion_;
   std::shared_ptr<torch::nn::Module> G_;

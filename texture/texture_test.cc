@@ -221,9 +221,16 @@ TEST(UVNet, StartsAtTheUnwrapOverTheModelsMaps) {
   EXPECT_TRUE(torch::equal(y.narrow(1, 3, 3), torch::tensor({0.f, 0.f, 1.f}).view({1, 3, 1, 1}).expand_as(diffuse)));
   EXPECT_TRUE(torch::equal(y.narrow(1, 6, 2), torch::zeros_like(y.narrow(1, 6, 2))));
   auto truth = (task.target(batch) + 1) * 0.5;
-  auto mm = mm_only_maps(x, truth);
+  auto layout = torch::ones_like(truth.narrow(1, 0, 1));
+  auto mm = mm_only_maps(x, truth, layout);
   EXPECT_TRUE(torch::allclose(mm.narrow(1, 0, 3), (x.narrow(1, 4, 3) + 1) * 0.5));
   EXPECT_TRUE(torch::allclose(mm.narrow(1, 6, 1).mean({2, 3}), truth.narrow(1, 6, 1).mean({2, 3})));
+  // Masked PSNR: only the masked texels count.
+  auto a = torch::zeros({1, 1, 4, 4}), c = torch::zeros({1, 1, 4, 4}), half = torch::zeros({1, 1, 4, 4});
+  c.narrow(3, 2, 2).fill_(1);
+  half.narrow(3, 0, 2).fill_(1);
+  c[0][0][0][0] = 0.1;
+  EXPECT_NEAR(losses::psnr(a, c, half).item<double>(), 10 * std::log10(8 / 0.01), 1e-4);
   auto e = task.evaluate(batch);
   for (const char* m : {"diffuse", "normal", "roughness", "specular"}) EXPECT_TRUE(e.count(std::string("psnr_mm_") + m));
   o.generator_options = {{"ngf", 4}, {"num_downs", 6}};

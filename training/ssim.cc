@@ -63,4 +63,11 @@ torch::Tensor psnr(const torch::Tensor& a, const torch::Tensor& b, double data_r
   return 10 * torch::log10(data_range * data_range / mse);
 }
 
+torch::Tensor psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask, double data_range) {
+  check_pair(a, b, "psnr");
+  const torch::Tensor m = mask.expand_as(a);
+  const torch::Tensor mse = ((a - b).pow(2) * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
+  return 10 * torch::log10(data_range * data_range / mse);
+}
+
 }  // namespace bareskin::losses

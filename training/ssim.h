@@ -25,5 +25,8 @@ torch::Tensor ssim(const torch::Tensor& a, const torch::Tensor& b, const SsimOpt
 
 // Peak signal-to-noise ratio per image, [B], in dB: 10·log10(L² / mean((a − b)²)) (inf for identical images).
 torch::Tensor psnr(const torch::Tensor& a, const torch::Tensor& b, double data_range = 1.0);
+// The same over the texels where `mask` ([B, 1, H, W], 0 or 1) is 1: the mean squared error over those texels and all
+// channels.
+torch::Tensor psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask, double data_range = 1.0);
 
 }  // namespace bareskin::losses
