@@ -15,8 +15,45 @@ namespace {
 struct Common {
   texture::TrainRunOptions run;
   TrainerFlags t;
-  std::string model, generator, discriminator;
+  std::string model, generator, discriminator, profile;
 };
+
+// --profile: "paper" keeps pix2pixHD's and SRGAN's sizes and recipes (the defaults of every flag); "cpu" is what a
+// 2-core CPU trains in minutes and still beats the 3DMM-only maps and bicubic on held-out subjects (docs/texture.md,
+// "Profiles", gives the chart it was chosen from).
+const std::vector<Profile>& texture_profiles() {
+  static const std::vector<Profile> profiles = {
+      {"paper", "pix2pixHD's GlobalGenerator ngf 64 at 1K with its GAN, feature-matching and VGG losses", {}},
+      {"cpu", "the UV net (a U-Net of width 16 correcting the unwrap and the 3DMM's maps) at 128², L1 on the UV "
+              "layout alone (no discriminator), lr 1e-3, 1500 steps of 4",
+       {{"--arch", "uv"},
+        {"--res", "128"},
+        {"--generator", R"({"ngf": 16})"},
+        {"--lambda-gan", "0"},
+        {"--lambda-feat", "0"},
+        {"--lambda-perceptual", "0"},
+        {"--lambda-l1", "10"},
+        {"--lr", "1e-3"},
+        {"--batch", "4"},
+        {"--steps", "1500"}}},
+  };
+  return profiles;
+}
+
+const std::vector<Profile>& upscale_profiles() {
+  static const std::vector<Profile> profiles = {
+      {"paper", "MSRResNet 64 features, 16 blocks; the GAN phase from a pixel-loss run (--init)", {}},
+      {"cpu", "MSRResNet 16 features, 4 blocks, the pixel-loss phase alone (MSE over the bicubic base), lr 2e-3, "
+              "600 steps of 2 crops of 128²",
+       {{"--phase", "l1"},
+        {"--generator", R"({"num_feat": 16, "num_block": 4})"},
+        {"--patch", "128"},
+        {"--lr", "2e-3"},
+        {"--batch", "2"},
+        {"--steps", "600"}}},
+  };
+  return profiles;
+}
 
 // Flags both trainings share.
 void add_common(CLI::App* app, Common& c) {
@@ -72,7 +109,10 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   t->add_option("--lr", tex_model->lr, "Adam learning rate")->capture_default_str();
   t->add_option("--decay-start", tex_model->decay_start, "Step where the linear decay starts (-1: half the run)")
       ->capture_default_str();
-  t->footer("Example: bareskin train texture --data textures/train --val textures/val --masks textures/masks "
+  add_profile_flag(*t, tex->profile, texture_profiles());
+  t->footer("Example: bareskin train texture --profile cpu --data textures/train --val textures/val --masks "
+            "textures/masks --model model.safetensors -o runs/tex\n"
+            "         bareskin train texture --data textures/train --val textures/val --masks textures/masks "
             "--model model.safetensors -o runs/tex --res 1024 --steps 200000");
 
   auto up = std::make_shared<Common>();
@@ -94,12 +134,16 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   u->add_option("--lambda-gan", up_model->lambda_gan, "Adversarial weight")->capture_default_str();
   u->add_option("--lambda-perceptual", up_model->lambda_perceptual, "VGG loss weight")->capture_default_str();
   u->add_option("--lr", up_model->lr, "Adam learning rate")->capture_default_str();
-  u->footer("Example: bareskin train upscale --map diffuse --phase l1 --data textures/train -o runs/up_l1\n"
+  add_profile_flag(*u, up->profile, upscale_profiles());
+  u->footer("Example: bareskin train upscale --profile cpu --map diffuse --data textures/train --val textures/val "
+            "-o runs/up_diffuse\n"
+            "         bareskin train upscale --map diffuse --phase l1 --data textures/train -o runs/up_l1\n"
             "         bareskin train upscale --map diffuse --phase gan --init runs/up_l1 --data textures/train "
             "-o runs/up");
 
   return [&globals, t, u, tex, tex_model, up, up_model] {
     if (t->parsed()) {
+      tex->run.extra["profile"] = apply_profile(*t, tex->profile, texture_profiles());
       finish_common(*tex, globals);
       tex_model->generator_options = json_flag(tex->generator, "--generator", "{\"ngf\": 16}");
       tex_model->discriminator_options = json_flag(tex->discriminator, "--discriminator", "{\"ngf\": 16}");
@@ -108,6 +152,7 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
       return true;
     }
     if (u->parsed()) {
+      up->run.extra["profile"] = apply_profile(*u, up->profile, upscale_profiles());
       finish_common(*up, globals);
       up_model->generator_options = json_flag(up->generator, "--generator", "{\"ngf\": 16}");
       up_model->discriminator_options = json_flag(up->discriminator, "--discriminator", "{\"ngf\": 16}");

@@ -5,11 +5,12 @@
 #      from their truth (tests/python/truth_registered.py: the template on the true correspondence, the true maps in
 #      the template UV), then `texgen make-dataset` (the diffuse-only unwrap, what BareSkinNet hands over), split by
 #      subject 80/10/10;
-#   2. pix2pixHD and the UV net (`train texture --profile cpu`) on both unwraps, SRGAN x4 on the diffuse,
-#      roughness and specular, scored against the 3DMM-only maps and bicubic;
-#   3. Table 1 (`bareskin evaluate`) on faces with makeup of the test subjects, with the G of bench/cpu_reference.sh.
+#   2. the texture net (`train texture --profile cpu`: the UV net) and SRGAN x4 (`train upscale --profile cpu`) on
+#      the diffuse, roughness and specular, their validation curves against the 3DMM-only maps and bicubic (eval.csv);
+#   3. Table 1 (`bareskin evaluate`) on faces with makeup of the test subjects, with the G and F of
+#      bench/cpu_reference.sh (CPU_REFERENCE=<its out/>).
 # Every stage is skipped when its output exists; trainings continue with --resume.
-#   bash bench/cpu_reference_texture.sh <bin/> <demo out/> <out/> [subjects]
+#   [CPU_REFERENCE=<bench/cpu_reference.sh out/>] bash bench/cpu_reference_texture.sh <bin/> <demo out/> <out/> [subjects]
 set -euo pipefail
 bin=$1 demo=$2 out=$3 subjects=${4:-60}
 bareskin="$bin/bareskin"
@@ -41,4 +42,49 @@ if [ ! -f "$data/test/manifest.json" ] || ! grep -q '"complete": true' "$data/te
   echo "cpu_reference_texture: texgen make-dataset" >&2
   cpu data "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$data" \
     --render-size 512 --input-res 256 --target-res 256 --hr-res 1024 --masks 3 --split 0.8,0.1,0.1 --seed 3
+fi
+
+# 2. The texture net and the upscalers (--profile cpu), validated on the val subjects --------------------------------
+train() {  # train RUN command...: one training, resumed when its checkpoint exists, skipped when it finished
+  local run=$1
+  shift
+  [ -f "$run/.complete" ] && return 0
+  local resume=()
+  [ -f "$run/checkpoint.safetensors" ] && resume=(--resume)
+  echo "cpu_reference_texture: $(basename "$run")" >&2
+  cpu "$(basename "$run")" "$bareskin" -q --threads 2 "$@" -o "$run" "${resume[@]}"
+  touch "$run/.complete"
+}
+train "$out/tex" train texture --profile cpu --data "$data/train" --val "$data/val" --masks "$data/masks" \
+  --model "$model" --eval-every 100 --sample-every 500 --checkpoint-every 100 --log-every 50
+upscalers=()
+for map in diffuse roughness specular; do
+  train "$out/up_$map" train upscale --profile cpu --map "$map" --data "$data/train" --val "$data/val" --model "$model" \
+    --eval-every 100 --sample-every 600 --checkpoint-every 100 --log-every 50
+  upscalers+=("$out/up_$map")
+done
+
+# 3. Table 1 on faces with makeup of the test subjects (column b against their true maps), with the G and F of
+# bench/cpu_reference.sh (<ref>/G_seed0, <ref>/F) and, when <ref>/G_before exists (a G trained as the paper's stage
+# 1, towards the before-makeup photo: it removes makeup and keeps the light), with that G too.
+ref=${CPU_REFERENCE:-}
+if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
+  find="$here/../scripts/demo/14_texture_find.py"
+  if [ ! -f "$out/faces/.complete" ]; then
+    subjects=$($py "$find" --subjects "$data/test")
+    rm -rf "$out/faces" "$out/test_registered" && mkdir -p "$out/test_registered"
+    for s in $subjects; do ln -s "$(cd "$out/registered/$s" && pwd)" "$out/test_registered/$s"; done
+    n=$(echo $subjects | wc -w)
+    cpu faces "$bareskin" -q --threads 2 texgen faces --registered "$out/test_registered" --model "$model" \
+      --mm-subjects 1 --count $((8 * n + 8)) --val 0 --test "$n" --seed 14 --align truth -o "$out/faces"
+    touch "$out/faces/.complete"
+  fi
+  split=$($py "$find" --split-of "$out/faces" "scan/$(ls "$out/test_registered" | head -1)")
+  for g in G_seed0 G_before; do
+    [ -d "$ref/$g" ] && [ ! -f "$out/table1_$g/table.md" ] || continue
+    echo "cpu_reference_texture: Table 1 with $g" >&2
+    cpu "table1_$g" "$bareskin" -q --threads 2 evaluate --faces "$split" --textures "$data/test" --model "$model" \
+      --texture "$out/tex" --upscale "${upscalers[@]}" --bareskin "$ref/$g" --teacher "$ref/F" --max-samples 40 \
+      -o "$out/table1_$g"
+  done
 fi

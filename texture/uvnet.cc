@@ -34,6 +34,7 @@ UVNetImpl::UVNetImpl(const nlohmann::json& unet, int64_t res) {
   nets::UNetOptions options;
   nets::from_json(o, options);
   unet_ = register_module("unet", nets::UNet(options));
+  prior_ = register_parameter("prior", torch::zeros({1, 8, res, res}));
   // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: its up-convolution is the last
   // layer; zeroed, the net starts at exactly the base.
   torch::NoGradGuard no_grad;
@@ -46,6 +47,8 @@ UVNetImpl::UVNetImpl(const nlohmann::json& unet, int64_t res) {
   BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
 }
 
-torch::Tensor UVNetImpl::forward(const torch::Tensor& inputs) { return uv_base(inputs) + unet_->forward(inputs); }
+torch::Tensor UVNetImpl::forward(const torch::Tensor& inputs) {
+  return uv_base(inputs) + prior_ + unet_->forward(inputs);
+}
 
 }  // namespace bareskin::texture

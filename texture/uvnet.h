@@ -4,9 +4,9 @@
 //   diffuse   = the unwrapped photo where it was seen, the 3DMM albedo elsewhere  (+ Δ)
 //   normal    = the flat tangent-space normal (0, 0, 1)                          (+ Δ)
 //   roughness, specular = mid-grey                                               (+ Δ)
-// Δ comes from pix2pix's U-Net (training/nets/unet.h) on the 13 input channels, its last layer zeroed at the start.
-// The same U-Net with bilinear up-convolutions and no normalisation; docs/texture.md gives the chart it was chosen
-// from.
+// Δ is a learnt UV prior (one value per texel and channel: what every face shares at that place of the layout, e.g.
+// the oily T-zone's roughness) plus pix2pix's U-Net (training/nets/unet.h) on the 13 input channels, with bilinear
+// up-convolutions and no normalisation; both start at zero. docs/texture.md gives the chart it was chosen from.
 #pragma once
 #include <torch/torch.h>
 
@@ -27,6 +27,7 @@ class UVNetImpl : public torch::nn::Module {
 
  private:
   nets::UNet unet_{nullptr};
+  torch::Tensor prior_;  // [1, 8, res, res]
 };
 TORCH_MODULE(UVNet);
 

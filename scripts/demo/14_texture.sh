@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Demo §14: texture inference — tiny pix2pixHD and SRGAN trainings on the texture shards of §10–13, the end-to-end
+# Demo §14: texture inference — small CPU-profile trainings of the texture net and SRGAN on the texture shards of §10–13, the end-to-end
 # figure on a held-out face with makeup (with and without BareSkinNet), Table 1 at demo size, and `bareskin run` on a
 # real photo. Usage: bash scripts/demo/14_texture.sh <bin> <out>. Every stage is skipped when its output exists.
 source "$(dirname "$0")/lib.sh"
@@ -8,15 +8,14 @@ here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$dir"
 stage() { echo "demo §14: $*" >&2; }
 
-# Sizes (2 cores, 180 s for the whole section): nets at 64² maps (pix2pixHD ngf 16, 3 downsamplings, 3 blocks;
-# MSRResNet 16 features, 4 blocks), a few hundred steps, and no perceptual term (VGG16 on the four maps costs ~20x the
-# tiny generator's step; the tests and the paper-size runs keep it) but an L1 term x10 and a higher rate (5e-4), so
-# that 200 steps converge at all; the paper's nets and recipe are the defaults at 1K and 4K.
-RES=${DEMO_TEX_RES:-64}
-STEPS=${DEMO_TEX_STEPS:-200}
+# Sizes (2 cores, about 180 s for the whole section): the CPU profiles of `train texture` and `train upscale`
+# (docs/texture.md, "Profiles": the UV net at 128², L1 on the UV layout; MSRResNet 16 features, 4 blocks, the pixel
+# loss over bicubic) for a few hundred steps; the paper's nets and recipe are the defaults (--profile paper) at 1K
+# and 4K.
+RES=${DEMO_TEX_RES:-128}
+STEPS=${DEMO_TEX_STEPS:-300}
 UP_STEPS=${DEMO_UP_STEPS:-300}
-UP_GAN_STEPS=${DEMO_UP_GAN_STEPS:-40}
-SAMPLES=${DEMO_TABLE1_SAMPLES:-8}  # faces with makeup per Table 1 (each: 4 pipelines at 64², ~0.5 s each)
+SAMPLES=${DEMO_TABLE1_SAMPLES:-8}  # faces with makeup per Table 1 (each: 4 pipelines)
 THREADS=${DEMO_THREADS:-2}
 export OMP_WAIT_POLICY=PASSIVE
 
@@ -25,26 +24,20 @@ eval "$($py "$here/14_texture_find.py" "$out")"
 model="$out/model/model.safetensors"
 [ -n "${TEX_TRAIN:-}" ] || { echo "error: $out: no texture shards (texgen make-dataset, §10–13); run the demo's earlier sections" >&2; exit 3; }
 
-# 1. pix2pixHD ------------------------------------------------------------------------------------------------------
+# 1. The texture net ------------------------------------------------------------------------------------------------
 if [ ! -f "$dir/tex/checkpoint.safetensors" ]; then
-  stage "pix2pixHD at ${RES}², $STEPS steps"
+  stage "texture net (--profile cpu) at ${RES}², $STEPS steps"
   masks=(); [ -n "${TEX_MASKS:-}" ] && masks=(--masks "$TEX_MASKS")
-  timed "tex train" "$bareskin" -q --threads "$THREADS" train texture --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} \
-    "${masks[@]}" --model "$model" -o "$dir/tex" --res "$RES" --steps "$STEPS" --batch 2 \
-    --generator '{"ngf": 16, "n_downsampling": 3, "n_blocks": 3}' --discriminator '{"ndf": 16, "n_layers": 2}' \
-    --lambda-perceptual 0 --lambda-l1 10 --lr 5e-4 --log-every 10 --eval-every 100 --sample-every 100 --checkpoint-every 100
+  timed "tex train" "$bareskin" -q --threads "$THREADS" train texture --profile cpu --data "$TEX_TRAIN" \
+    ${TEX_VAL:+--val "$TEX_VAL"} "${masks[@]}" --model "$model" -o "$dir/tex" --res "$RES" --steps "$STEPS" \
+    --log-every 10 --eval-every 100 --sample-every "$STEPS" --checkpoint-every 100
 fi
-# 2. SRGAN x4 on the diffuse: pixel-loss pre-training (MSE, bicubic base: docs/texture.md), then the GAN phase -------
+# 2. SRGAN x4 on the diffuse (--profile cpu: the pixel-loss phase over the bicubic base, docs/texture.md) ------------
 if [ ! -f "$dir/up/checkpoint.safetensors" ]; then
-  stage "SRGAN x4 (diffuse), $UP_STEPS + $UP_GAN_STEPS steps"
-  gen='{"num_feat": 16, "num_block": 4}'
-  timed "up l1" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase l1 --data "$TEX_TRAIN" \
-    ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up_l1" --steps "$UP_STEPS" --batch 2 --generator "$gen" --lr 2e-3 \
-    --log-every 20 --eval-every "$UP_STEPS" --sample-every "$UP_STEPS" --checkpoint-every "$UP_STEPS"
-  timed "up gan" "$bareskin" -q --threads "$THREADS" train upscale --map diffuse --phase gan --init "$dir/up_l1" \
-    --data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up" --steps "$UP_GAN_STEPS" --batch 2 \
-    --generator "$gen" --discriminator '{"num_feat": 16}' --lambda-perceptual 0 --log-every 10 \
-    --eval-every "$UP_GAN_STEPS" --sample-every "$UP_GAN_STEPS" --checkpoint-every "$UP_GAN_STEPS"
+  stage "SRGAN x4 (diffuse, --profile cpu), $UP_STEPS steps"
+  timed "up" "$bareskin" -q --threads "$THREADS" train upscale --profile cpu --map diffuse --data "$TEX_TRAIN" \
+    ${TEX_VAL:+--val "$TEX_VAL"} --model "$model" -o "$dir/up" --steps "$UP_STEPS" --log-every 20 \
+    --eval-every 100 --sample-every "$UP_STEPS" --checkpoint-every 100
 fi
 # 3. End to end on a held-out face with makeup, with and without BareSkinNet; bareskin run on a real photo ----------
 bsn=(); [ -n "${BSN_RUN:-}" ] && bsn=(--bareskin "$BSN_RUN")
@@ -97,6 +90,6 @@ if [ -n "${BSN_RUN:-}" ] && [ -n "${TEX_TEST:-}" ] && [ -d "$registered" ] && [ 
     "${teacher[@]}" -o "$dir/table1_truth"
 fi
 # 5. Figures and the report fragment -------------------------------------------------------------------------------
-$py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" "$UP_GAN_STEPS" \
+$py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" \
   > "$out/sections/14_texture.html"
 stage "wrote $out/sections/14_texture.html"

@@ -7,7 +7,7 @@
   14_texture_find.py --subjects SPLIT         the subjects of a shard split (json "subject"), one a line, sorted
   14_texture_find.py --split-of FACES SUBJECT the split folder of a faces set (FACES/{train,val,test}) that holds
                                               SUBJECT's samples
-  14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES UP_GAN_STEPS   figures into OUT/img, the HTML
+  14_texture_find.py --report OUT DIR RES STEPS UP_STEPS SAMPLES   figures into OUT/img, the HTML
                                               fragment on stdout"""
 import csv
 import glob
@@ -143,42 +143,42 @@ def md_table_to_html(md):
     return out + "</table>" + "".join(f"<p>{html.escape(t)}</p>" for t in text)
 
 
-def report(out, d, res, steps, up_steps, samples, up_gan_steps):
+def report(out, d, res, steps, up_steps, samples):
     img = os.path.join(out, "img")
     rel = os.path.relpath(d, out)
-    parts = [f"<h2>14. Texture inference: pix2pixHD, SRGAN ×4, <code>bareskin run</code>, Table 1</h2>",
-             f"<p>Demo sizes, chosen to fit 180 s on 2 cores: pix2pixHD at {res}² maps (GlobalGenerator ngf 16, 3 "
-             f"downsamplings, 3 residual blocks; 2-scale discriminator ndf 16), {steps} steps of batch 2; SRGAN ×4 on "
-             f"the diffuse (MSRResNet 16 features, 4 blocks, a residual over bicubic that starts at bicubic) {up_steps} "
-             f"MSE pre-training steps at Adam 2e-3, then {up_gan_steps} GAN steps, on 128² crops of batch 2. The paper's nets are the zoo defaults at 1K → 4K (<code>train --list-models</code>). "
-             "The perceptual terms (VGG16 with seeded random weights, vgg16-random: no ImageNet weights ship here) are off "
-             "at this size: on the four maps they cost about 20 times the tiny generator's step; the tests train with "
-             "them. Instead, an L1 term ×10 (not in pix2pixHD) and Adam 5e-4 let 200 steps converge at all. "
-             "At these sizes the maps are blurry: the figures show the pipeline working end to end, not the paper's "
-             "quality.</p>"]
+    parts = [f"<h2>14. Texture inference: the UV net, SRGAN ×4, <code>bareskin run</code>, Table 1</h2>",
+             f"<p>Demo sizes, the CPU profiles (<code>--profile cpu</code>, docs/texture.md) shortened to fit about "
+             f"180 s on 2 cores: the texture net is the UV net (a U-Net of width 16 that corrects the unwrap over the "
+             f"3DMM albedo, a flat normal and grey roughness and specular; L1 on the UV layout, no discriminator) at "
+             f"{res}² maps, {steps} steps of batch 4; SRGAN ×4 on the diffuse (MSRResNet 16 features, 4 blocks, a "
+             f"residual over bicubic that starts at bicubic) {up_steps} MSE steps at Adam 2e-3 on 128² crops of batch "
+             "2. The paper's pix2pixHD and SRGAN are <code>--profile paper</code>, at 1K → 4K. The validation split "
+             "holds subjects the nets never saw.</p>"]
     tex = os.path.join(d, "tex")
     ev = last_eval(tex)
-    if ev:
-        parts.append("<p>Held-out PSNR of the four maps after training: " + ", ".join(
-            f"{k.replace('psnr_', '')} {v:.2f} dB" for k, v in sorted(ev.items()) if k.startswith("psnr_")) + ".</p>")
+    if ev and "psnr_mm_diffuse" in ev:
+        cells = "".join(f"<tr><td>{m}</td><td>{ev['psnr_' + m]:.2f}</td><td>{ev['psnr_mm_' + m]:.2f}</td></tr>"
+                        for m in ("diffuse", "normal", "roughness", "specular"))
+        parts.append("<table><tr><th>held-out map (val subjects)</th><th>UV net, PSNR dB</th><th>3DMM-only maps "
+                     "(albedo, flat normal, the truth's mean roughness and specular)</th></tr>" + cells + "</table>"
+                     f"<p>The unwrap over the 3DMM albedo (the UV net's start) scores {ev['psnr_unwrap_diffuse']:.2f} "
+                     "dB on the diffuse. The synthetic scans' normal maps are flat at this size, so the flat normal is "
+                     "already the truth.</p>")
     grids = sorted(glob.glob(os.path.join(tex, "samples", "step_*.png")))
-    parts.append(f"<figure><img src='{rel}/tex/losses.svg' style='width:420px'><figcaption>pix2pixHD losses "
-                 "(G: LSGAN, feature matching; D: real, fake)</figcaption></figure>")
+    parts.append(f"<figure><img src='{rel}/tex/losses.svg' style='width:420px'><figcaption>texture net loss (L1 on the "
+                 "UV layout)</figcaption></figure>")
     if grids:
         parts.append(f"<figure><img src='{os.path.relpath(grids[-1], out)}' style='width:420px'><figcaption>validation "
                      "samples, last step: rows unwrap | 3DMM albedo | output | truth (diffuse); confidence | 3DMM "
                      "normal | output | truth (normal); roughness output | truth | specular output | truth"
                      "</figcaption></figure>")
     up = last_eval(os.path.join(d, "up"))
-    parts.append(f"<figure><img src='{rel}/up/losses.svg' style='width:420px'><figcaption>SRGAN GAN phase losses"
+    parts.append(f"<figure><img src='{rel}/up/losses.svg' style='width:420px'><figcaption>SRGAN loss (MSE)"
                  "</figcaption></figure>")
-    pre = last_eval(os.path.join(d, "up_l1"))
     if up:
         parts.append(f"<p>SRGAN ×4 on the held-out (val) diffuse map, 1024² from its 256² box-filtered version: bicubic "
-                     f"{up.get('psnr_bicubic', float('nan')):.2f} dB, after the MSE pre-training "
-                     f"{pre.get('psnr_srgan', float('nan')):.2f} dB, after the GAN phase "
-                     f"{up.get('psnr_srgan', float('nan')):.2f} dB (the largest maps the demo data has; the paper's are 4K)."
-                     "</p>")
+                     f"{up.get('psnr_bicubic', float('nan')):.2f} dB, SRGAN {up.get('psnr_srgan', float('nan')):.2f} dB "
+                     "(the largest maps the demo data has; the paper's are 4K).</p>")
     rows = []
     for variant in ("with", "without"):
         a = os.path.join(d, f"avatar_heldout_{variant}")
@@ -209,7 +209,7 @@ def report(out, d, res, steps, up_steps, samples, up_gan_steps):
         parts.append(f"<h3>Table 1 against the true maps (column b): faces of the texture test subject ({subjects})</h3>"
                      "<p>The held-out faces above belong to subjects without true maps in the texture test split, so "
                      "column (b) is measured on faces rendered here (<code>texgen faces</code>, the texture test "
-                     "subject only, new makeup, light and pose draws): held out from pix2pixHD and SRGAN; at demo "
+                     "subject only, new makeup, light and pose draws): held out from the texture net and SRGAN; at demo "
                      "size the faces and texture splits are drawn separately, so BareSkinNet may have seen other "
                      "images of this subject.</p>" + md_table_to_html(open(t1b).read()))
     a = os.path.join(d, "avatar_astronaut")
