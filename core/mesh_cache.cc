@@ -1,13 +1,11 @@
 #include "core/mesh_cache.h"
 
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <optional>
+#include <vector>
 
 #include "core/error.h"
 #include "core/files.h"
@@ -33,49 +31,57 @@ struct Header {
 };
 static_assert(sizeof(Header) == 8 + 4 + 4 + 8 + 8 + 5 * 8, "no padding in the header");
 
-// A file's bytes, mapped read-only with its pages loaded in one call: reading a 14 MB OBJ into a fresh string costs a
-// page fault per 4 KB on our VMs, more than the hash. Empty when the file cannot be opened or mapped.
-class MappedFile {
+// FNV-1a over 8-byte words, then the last bytes one by one (a byte-wise FNV-1a costs 20 ms over a 65k-vertex OBJ;
+// this a few), fed in pieces of any size: the result is that of the bytes end to end.
+class WordHash {
  public:
-  explicit MappedFile(const std::string& path) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return;
-    struct stat st;
-    if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0) {
-      void* p = ::mmap(nullptr, size_t(st.st_size), PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd, 0);
-      if (p != MAP_FAILED) data_ = static_cast<const char*>(p), size_ = size_t(st.st_size);
+  void add(const char* p, size_t n) {
+    while (n > 0 && pending_size_ > 0) {  // complete the word started by the last piece
+      pending_[pending_size_++] = *p++;
+      --n;
+      if (pending_size_ == 8) {
+        mix(pending_);
+        pending_size_ = 0;
+      }
     }
-    ::close(fd);
+    for (; n >= 8; p += 8, n -= 8) mix(p);
+    std::memcpy(pending_, p, n);
+    pending_size_ = n;
   }
-  ~MappedFile() {
-    if (data_) ::munmap(const_cast<char*>(data_), size_);
-  }
-  MappedFile(const MappedFile&) = delete;
-  MappedFile& operator=(const MappedFile&) = delete;
-  const char* data() const { return data_; }
-  size_t size() const { return size_; }
+  uint64_t value() const { return fnv1a(pending_, pending_size_, h_); }
 
  private:
-  const char* data_ = nullptr;
-  size_t size_ = 0;
-};
-
-// A hash of bytes: FNV-1a over 8-byte words, then the tail byte by byte (a byte-wise FNV-1a costs 20 ms over a
-// 65k-vertex OBJ; this a few).
-uint64_t hash_bytes(const char* data, size_t size) {
-  uint64_t h = kFnv1aBasis;
-  const size_t words = size / 8;
-  for (size_t i = 0; i < words; ++i) {
+  void mix(const char* p) {
     uint64_t w;
-    std::memcpy(&w, data + 8 * i, 8);
-    h = (h ^ w) * 1099511628211ull;
+    std::memcpy(&w, p, 8);
+    h_ = (h_ ^ w) * 1099511628211ull;
   }
-  return fnv1a(data + 8 * words, size - 8 * words, h);
-}
+  uint64_t h_ = kFnv1aBasis;
+  char pending_[8];
+  size_t pending_size_ = 0;
+};
 
 struct Source {
   uint64_t size, hash;
 };
+
+// The size and hash of the file at `path`, read in 1 MB pieces (a 14 MB OBJ read into one fresh buffer costs a page
+// fault per 4 KB on our VMs, more than the hash); nothing when it is no regular file or cannot be read whole.
+std::optional<Source> source_of(const std::string& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::is_regular_file(path, ec) ? std::filesystem::file_size(path, ec) : 0;
+  std::ifstream in(path, std::ios::binary);
+  if (ec || size == 0 || !in) return std::nullopt;
+  std::vector<char> piece(size_t(1) << 20);
+  WordHash hash;
+  uint64_t read = 0;
+  while (in.read(piece.data(), std::streamsize(piece.size())) || in.gcount() > 0) {
+    hash.add(piece.data(), size_t(in.gcount()));
+    read += uint64_t(in.gcount());
+  }
+  if (read != size) return std::nullopt;  // it changed while being read
+  return Source{size, hash.value()};
+}
 
 template <typename Matrix>
 void append(std::string& out, const Matrix& m) {
@@ -97,24 +103,31 @@ std::string encode(const Mesh& mesh, const Source& source) {
   append(out, mesh.UV);
   append(out, mesh.FUV);
   append(out, mesh.N);
-  const uint64_t check = hash_bytes(out.data(), out.size());
+  WordHash check_hash;
+  check_hash.add(out.data(), out.size());
+  const uint64_t check = check_hash.value();
   out.append(reinterpret_cast<const char*>(&check), sizeof(check));
   return out;
 }
 
+// Reads `rows` rows of `m` from `in` straight into the matrix, and hashes them.
 template <typename Matrix>
-void take(const char* bytes, size_t& at, int64_t rows, Matrix& m) {
+bool take(std::ifstream& in, int64_t rows, Matrix& m, WordHash& hash) {
   m.resize(rows, Matrix::ColsAtCompileTime);
   const size_t n = size_t(m.size()) * sizeof(typename Matrix::Scalar);
-  std::memcpy(m.data(), bytes + at, n);
-  at += n;
+  if (!in.read(reinterpret_cast<char*>(m.data()), std::streamsize(n))) return false;
+  hash.add(reinterpret_cast<const char*>(m.data()), n);
+  return true;
 }
 
-// The mesh of `cache` when it is a whole copy, of this reader version, of the file `source` describes.
-std::optional<Mesh> decode(const MappedFile& cache, const Source& source, const std::string& path) {
+// The mesh of the cache file when it is a whole copy, of this reader version, of the file `source` describes.
+std::optional<Mesh> decode(const std::string& cache_path, const Source& source, const std::string& path) {
+  std::error_code ec;
+  const uint64_t cache_size = std::filesystem::file_size(cache_path, ec);
+  std::ifstream in(cache_path, std::ios::binary);
   Header h;
-  if (cache.size() < sizeof(h) + sizeof(uint64_t)) return std::nullopt;
-  std::memcpy(&h, cache.data(), sizeof(h));
+  if (ec || !in || cache_size < sizeof(h) + sizeof(uint64_t)) return std::nullopt;
+  if (!in.read(reinterpret_cast<char*>(&h), sizeof(h))) return std::nullopt;
   if (std::memcmp(h.magic, kMagic, sizeof(kMagic)) != 0 || h.version != kReaderVersion || h.byte_order != kByteOrder ||
       h.source_size != source.size || h.source_hash != source.hash)
     return std::nullopt;
@@ -124,17 +137,15 @@ std::optional<Mesh> decode(const MappedFile& cache, const Source& source, const 
     if (h.rows[k] < 0 || h.rows[k] > (int64_t(1) << 31)) return std::nullopt;
     expected += uint64_t(h.rows[k]) * columns[k] * scalar[k];
   }
-  if (expected != cache.size()) return std::nullopt;
-  uint64_t check;
-  std::memcpy(&check, cache.data() + cache.size() - sizeof(check), sizeof(check));
-  if (check != hash_bytes(cache.data(), cache.size() - sizeof(check))) return std::nullopt;
+  if (expected != cache_size) return std::nullopt;
+  WordHash hash;
+  hash.add(reinterpret_cast<const char*>(&h), sizeof(h));
   Mesh mesh;
-  size_t at = sizeof(h);
-  take(cache.data(), at, h.rows[0], mesh.V);
-  take(cache.data(), at, h.rows[1], mesh.F);
-  take(cache.data(), at, h.rows[2], mesh.UV);
-  take(cache.data(), at, h.rows[3], mesh.FUV);
-  take(cache.data(), at, h.rows[4], mesh.N);
+  uint64_t check = 0;
+  if (!take(in, h.rows[0], mesh.V, hash) || !take(in, h.rows[1], mesh.F, hash) || !take(in, h.rows[2], mesh.UV, hash) ||
+      !take(in, h.rows[3], mesh.FUV, hash) || !take(in, h.rows[4], mesh.N, hash) ||
+      !in.read(reinterpret_cast<char*>(&check), sizeof(check)) || check != hash.value())
+    return std::nullopt;
   try {
     validate(mesh, path);  // the checksum holds, so only a copy written wrongly could fail here
   } catch (const InvalidInput&) {
@@ -150,16 +161,12 @@ std::string mesh_cache_path(const std::string& path) { return path + ".cache"; }
 Mesh read_mesh_cached(const std::string& path, MeshCacheUse* use) {
   MeshCacheUse ignored;
   MeshCacheUse& said = use ? *use : ignored;
-  const auto source_of = [&]() -> std::optional<Source> {
-    const MappedFile file(path);
-    if (!file.data()) return std::nullopt;
-    return Source{file.size(), hash_bytes(file.data(), file.size())};
-  };
-  const std::optional<Source> source = source_of();
+  const std::optional<Source> source = source_of(path);
   if (!source) return read_mesh(path);  // missing, unreadable, empty, a folder: read_mesh names the problem
   const std::string cache_path = mesh_cache_path(path);
-  if (const MappedFile cache(cache_path); cache.data()) {
-    if (std::optional<Mesh> mesh = decode(cache, *source, path)) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(cache_path, ec)) {
+    if (std::optional<Mesh> mesh = decode(cache_path, *source, path)) {
       said = MeshCacheUse::kHit;
       return std::move(*mesh);
     }
@@ -169,7 +176,7 @@ Mesh read_mesh_cached(const std::string& path, MeshCacheUse* use) {
   said = MeshCacheUse::kNotWritten;
   try {
     // Only when the file is still what was hashed (another process may have replaced it meanwhile).
-    const std::optional<Source> after = source_of();
+    const std::optional<Source> after = source_of(path);
     if (after && after->size == source->size && after->hash == source->hash) {
       write_file_atomic(cache_path, encode(mesh, *source));
       said = MeshCacheUse::kWritten;

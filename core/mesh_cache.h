@@ -1,7 +1,7 @@
 // A binary copy of what read_mesh makes of a mesh file, kept beside the file (<file>.cache), so that the commands
 // that read an avatar folder again and again (makeup apply, relight, viewer) take milliseconds for its 65k-vertex
-// mesh.obj instead of the OBJ reader's second. The copy names the file's size and FNV-1a hash, the reader version and
-// a checksum of its own bytes: a changed file, a copy from another reader version, a truncated or corrupt copy are
+// mesh.obj instead of the OBJ reader's second. The copy names the file's size and hash, the reader version and a
+// checksum of its own bytes: a changed file, a copy from another reader version, a truncated or corrupt copy are
 // all ignored (the file is read and the copy written anew), so the result is read_mesh's, bit for bit, or an error
 // of read_mesh's. docs/file_formats.md, "Mesh cache".
 #pragma once
