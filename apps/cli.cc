@@ -1,10 +1,13 @@
 #include "apps/cli.h"
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -14,7 +17,10 @@
 #include "core/files.h"
 #include "core/memory_limit.h"
 #include "core/parallel.h"
-#ifdef BARESKIN_WITH_DETECT
+// The trainings' --dist-timeout (training/ranks.h), where this executable holds the trainings: the Torch side is built
+// and this is not the light bareskin (BARESKIN_TORCH_EXECUTABLE names the sibling that holds them; apps/main.cc).
+#if defined(BARESKIN_WITH_DETECT) && !defined(BARESKIN_TORCH_EXECUTABLE)
+#define BARESKIN_HOLDS_TRAININGS
 #include "training/ranks.h"
 #endif
 
@@ -24,6 +30,33 @@
 
 namespace bareskin::cli {
 namespace {
+
+// Thrown in the light bareskin when a command line turns out to be the Torch executable's: its command is one of the
+// commands without a setup here (as CLI11 meets it, before its flags), or its --config file has a section for one (so
+// that the executable that knows those flags checks them, as it always did). run() then hands the line over.
+struct TorchSideCommandLine {};
+
+bool torch_side(const std::string& command) {
+  return std::any_of(commands().begin(), commands().end(),
+                     [&](const Command& c) { return command == c.name && !c.setup; });
+}
+
+#ifdef BARESKIN_TORCH_EXECUTABLE
+// The process becomes the Torch executable beside this one, with the same arguments (after a command link's name was
+// put in): the same pid, streams, environment, output and exit code. Returns only when that cannot run.
+int run_torch_side(std::vector<char*> args) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  std::string path = (self.parent_path() / BARESKIN_TORCH_EXECUTABLE).string();
+  args[0] = path.data();
+  args.push_back(nullptr);
+  execv(path.c_str(), args.data());
+  std::cerr << "error: " << path << ": " << std::strerror(errno)
+            << "; the commands that reach the Torch side run in that executable, which belongs beside bareskin: "
+               "rebuild or reinstall the tool (make install puts both in PREFIX/bin)\n";
+  return kIoError;
+}
+#endif
 
 bool is_internal_option(const CLI::Option* opt) {
   const std::string name = opt->get_name(false, true);
@@ -98,6 +131,8 @@ std::vector<CLI::ConfigItem> JsonConfig::from_config(std::istream& input) const 
   }
   std::vector<CLI::ConfigItem> items;
   flatten(j, {}, items);
+  for (const CLI::ConfigItem& item : items)
+    if (!item.parents.empty() && torch_side(item.parents.front())) throw TorchSideCommandLine{};
   return items;
 }
 
@@ -128,7 +163,7 @@ void add_trainer_flags(CLI::App& app, TrainerFlags& f, bool steps) {
   app.add_option("--eval-every", f.eval_every, "Steps between validation metrics (0: never)")->capture_default_str();
   app.add_option("--sample-every", f.sample_every, "Steps between sample grids (0: never)")->capture_default_str();
   app.add_flag("--resume", f.resume, "Continue the run in the output folder from its checkpoint");
-#ifdef BARESKIN_WITH_DETECT  // the trainings are built with LibTorch
+#ifdef BARESKIN_HOLDS_TRAININGS
   app.add_option_function<int>("--dist-timeout", dist::set_timeout_seconds,
                                "Started as several ranks (torchrun, srun): seconds a rank waits for the others before "
                                "it stops with one line")
@@ -206,6 +241,10 @@ int run(int argc, char** argv) {
       ->group("Global");
   for (const Command& c : commands()) {
     CLI::App* sub = app.add_subcommand(c.name, c.summary)->group(c.group);
+    if (!c.setup) {  // the Torch executable's command (apps/main.cc): handed over as soon as it is met
+      sub->preparse_callback([](size_t) { throw TorchSideCommandLine{}; });
+      continue;
+    }
     sub->footer("Global flags (before or after the command): -v, -q, --threads N, --max-memory 8G, --config FILE.json; "
                 "see 'bareskin --help' and docs/cli.md.");
     sub->callback([&globals, run_command = c.setup(*sub, globals)] {
@@ -237,6 +276,10 @@ int run(int argc, char** argv) {
   }
   try {
     app.parse(int(args.size()), args.data());
+#ifdef BARESKIN_TORCH_EXECUTABLE
+  } catch (const TorchSideCommandLine&) {
+    return run_torch_side(args);
+#endif
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {

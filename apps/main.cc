@@ -1,6 +1,15 @@
 // bareskin: one dispatcher for every command. Links named after a command (uvtools, render, ...) run that command.
 #include "apps/cli.h"
 
+// The light `bareskin` (BARESKIN_TORCH_EXECUTABLE names its sibling; apps/CMakeLists.txt) is built without LibTorch.
+// Its table keeps every command's name, group and summary, for --help, but the commands that reach the Torch side have
+// no setup there: apps/cli.cc hands their command lines to the sibling, which holds every command.
+#ifdef BARESKIN_TORCH_EXECUTABLE
+#define TORCH_SIDE(setup) nullptr
+#else
+#define TORCH_SIDE(setup) setup
+#endif
+
 namespace bareskin::cli {
 
 std::function<void()> setup_template_command(CLI::App&, const Globals&);
@@ -29,33 +38,34 @@ std::function<void()> setup_evaluate_command(CLI::App&, const Globals&);
 const std::vector<Command>& commands() {
   static const std::vector<Command> table = {
       {"template", "Setup", "Build the dense template face from the MediaPipe canonical face", setup_template_command},
-      {"scan", "Scans", "Synthetic scans with ground truth (synth); registration to the template (register)", setup_scan_command},
+      {"scan", "Scans", "Synthetic scans with ground truth (synth); registration to the template (register)",
+       TORCH_SIDE(setup_scan_command)},
       {"mm-build", "Model", "Build the morphable model (GPA, identity/appearance PCA, expression basis) from scans",
-       setup_mm_build_command},
+       TORCH_SIDE(setup_mm_build_command)},
       {"mm-eval", "Model", "Model metrics: compactness, generalisation, specificity (CSV, JSON, SVG charts)",
-       setup_mm_eval_command},
+       TORCH_SIDE(setup_mm_eval_command)},
       {"uvtools", "Maps",
        "UV-space tools: bake (map sets resized, seam-aware), unwarp (image into UV), mask (UV masks), mean (of maps)",
        setup_uvtools_command},
       {"mm-fit", "Model", "Fit the model to a photo: pose and shape from 68 landmarks, then appearance and light",
-       setup_mm_fit_command},
+       TORCH_SIDE(setup_mm_fit_command)},
       {"texgen", "Data", "Training data: faces with makeup and truth, texture samples, real photo pairs, contact sheets",
-       setup_texgen_command},
+       TORCH_SIDE(setup_texgen_command)},
 #ifdef BARESKIN_WITH_DETECT
       {"landmarks", "Images", "68 landmarks: in a photo (detect), on a scan (scan, calibrate), synthetic rig photos",
-       setup_landmarks_command},
+       TORCH_SIDE(setup_landmarks_command)},
       {"train", "Training", "Train F/E, BareSkinNet, pix2pixHD, SRGAN; the network zoo; run weights for Python (export)",
-       setup_train_command},
+       TORCH_SIDE(setup_train_command)},
       {"recon", "Images", "3DMM coefficients, light, mesh and a confidence from one photo by the network F or E",
-       setup_recon_command},
+       TORCH_SIDE(setup_recon_command)},
       {"demakeup", "Images", "BareSkinNet on photos: bare-skin image, 3DMM coefficients, unlit render, bare skin in UV",
-       setup_demakeup_command},
+       TORCH_SIDE(setup_demakeup_command)},
 #endif
 #ifdef BARESKIN_WITH_AVATAR
       {"run", "Avatar", "Photo -> relightable avatar: bare skin, 3DMM, four UV maps at 1K and 4K, OBJ + GLB, previews",
-       setup_run_command},
+       TORCH_SIDE(setup_run_command)},
       {"evaluate", "Avatar", "The paper's Table 1: texture maps with and without BareSkinNet (RMSE, PSNR, SSIM)",
-       setup_evaluate_command},
+       TORCH_SIDE(setup_evaluate_command)},
 #endif
       {"render", "Rendering", "Draw a mesh or the model: previews with landmarks, UV layout, camera passes (colour, depth...)",
        setup_render_command},

@@ -113,17 +113,35 @@ std::string glb_bytes(const Mesh& mesh, const PbrPngs& textures) {
   require_png(textures.specular, "specular");
 
   // glTF attributes are per vertex: one vertex per distinct (position, UV) corner pair, so UV seams split vertices.
-  Mesh m = mesh;
-  if (!m.has_normals()) m.N = vertex_normals(m.V, m.F);
+  Mesh with_normals;
+  if (!mesh.has_normals()) {
+    with_normals = mesh;
+    with_normals.N = vertex_normals(mesh.V, mesh.F);
+  }
+  const Mesh& m = mesh.has_normals() ? mesh : with_normals;
   const Eigen::MatrixX4d tangents = uv_tangents(m);
-  std::map<std::pair<int, int>, uint32_t> corner;
+  // The glTF vertex of each (position, UV) pair, numbered as first met: found through the UV index (a UV index
+  // nearly always belongs to one position), the rare UV index shared by several positions through a map.
+  constexpr uint32_t kNone = ~0u;
+  std::vector<uint32_t> by_uv(size_t(m.UV.rows()), kNone);
+  std::vector<int> vertex_of;  // the position of each glTF vertex
+  std::map<std::pair<int, int>, uint32_t> shared_uv;
+  const auto corner = [&](int v, int t) -> std::pair<uint32_t, bool> {
+    const uint32_t next = uint32_t(vertex_of.size());
+    uint32_t& first = by_uv[size_t(t)];
+    if (first == kNone) return {first = next, true};
+    if (vertex_of[first] == v) return {first, false};
+    auto [it, inserted] = shared_uv.emplace(std::make_pair(v, t), next);
+    return {it->second, inserted};
+  };
   std::vector<float> positions, normals, tangent, uvs;
   std::vector<uint32_t> index;
   for (int f = 0; f < m.F.rows(); ++f)
     for (int k = 0; k < 3; ++k) {
       const int v = m.F(f, k), t = m.FUV(f, k);
-      auto [it, inserted] = corner.emplace(std::make_pair(v, t), uint32_t(corner.size()));
+      const auto [id, inserted] = corner(v, t);
       if (inserted) {
+        vertex_of.push_back(v);
         for (int c = 0; c < 3; ++c) positions.push_back(float(m.V(v, c) * 1e-3));
         for (int c = 0; c < 3; ++c) normals.push_back(float(m.N(v, c)));
         Eigen::Vector4d tg = tangents.row(t);
@@ -132,7 +150,7 @@ std::string glb_bytes(const Mesh& mesh, const PbrPngs& textures) {
         uvs.push_back(float(m.UV(t, 0)));
         uvs.push_back(float(1 - m.UV(t, 1)));
       }
-      index.push_back(it->second);
+      index.push_back(id);
     }
 
   Builder b;

@@ -1,6 +1,7 @@
 # `make install` / `cmake --install build [--prefix DIR]`: the tool on PATH, found data relative to it
 # (core/assets.h searches <prefix>/share/bareskin/{assets,template} beside <prefix>/bin/bareskin):
-#   bin/bareskin and its command links (render, scan, uvtools);
+#   bin/bareskin and its command links (render, scan, uvtools), and bin/bareskin-torch where the Torch side is built
+#     (bareskin hands it the commands that reach the Torch side: apps/CMakeLists.txt);
 #   share/bareskin/assets: the setup assets `make deps` fetched, each folder with its licence (NOTICE / LICENSE);
 #   share/bareskin/template: the default template face, built at install time by the installed binary from those
 #     assets (BARESKIN_INSTALL_TEMPLATE_VERTICES, a cache variable or the environment at install time; default the
@@ -12,6 +13,9 @@ endif()
 set(BARESKIN_INSTALL_TEMPLATE_VERTICES 65000 CACHE STRING "Vertices of the template 'make install' builds (0: none)")
 
 install(TARGETS bareskin RUNTIME DESTINATION bin)
+if(TARGET bareskin-torch)
+  install(TARGETS bareskin-torch RUNTIME DESTINATION bin)
+endif()
 foreach(alias render scan uvtools)
   install(CODE "execute_process(COMMAND \"${CMAKE_COMMAND}\" -E create_symlink bareskin
                 \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/bin/${alias}\")")

@@ -390,6 +390,8 @@ std::string triangulate_obj_polygons(const std::string& bytes, size_t& polygons,
 
 }  // namespace
 
+// core/mesh_cache.cc keeps binary copies of what this returns: bump its kReaderVersion when the result for a file
+// changes.
 Mesh read_mesh(const std::string& path) {
   std::error_code ec;  // a path without an extension that is not there was meant as a file or a folder
   if (lower_extension(path).empty() && !std::filesystem::exists(path, ec)) {

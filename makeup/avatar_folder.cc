@@ -8,7 +8,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
-#include "core/mesh_io.h"
+#include "core/mesh_cache.h"
 #include "core/parallel.h"
 #include "core/png.h"
 #include "core/png_encoding.h"
@@ -73,8 +73,9 @@ Folder read(const std::string& dir) {
     throw InvalidInput(dir + "/maps", "holds only " + std::to_string(hr) + " of the four _hr maps",
                        "give all four ×4 maps or none");
   if (hr == 4) f.maps_hr.emplace();
-  // The mesh (the longest job: first) and every map, decoded side by side.
-  std::vector<std::function<void()>> jobs = {[&] { f.mesh = read_mesh(mesh); }};
+  // The mesh (through its binary copy beside it, written the first time: core/mesh_cache.h) and every map, decoded side
+  // by side.
+  std::vector<std::function<void()>> jobs = {[&] { f.mesh = read_mesh_cached(mesh); }};
   add_set_jobs(jobs, f.maps, dir, "");
   if (f.maps_hr) add_set_jobs(jobs, *f.maps_hr, dir, "_hr");
   parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# cmake --install into a temporary prefix: the binary and its links, the assets with their licences (without the
+# cmake --install into a temporary prefix: the binaries and the links, the assets with their licences (without the
 # tests' JavaScript bundle), the docs and a default template under share/bareskin. Then the installed tool, run from /
 # with neither BARESKIN_ASSETS nor BARESKIN_TEMPLATE set, makes a small population of scans, registers it, builds a
 # model and renders it: everything it needs is found beside the executable.
@@ -14,6 +14,10 @@ for f in bin/bareskin bin/render bin/scan bin/uvtools share/bareskin/assets/medi
          share/bareskin/doc/README.md share/bareskin/doc/cli.md share/bareskin/doc/architecture.md; do
   [ -e "$prefix/$f" ] || fail "not installed: $f"
 done
+# Where the Torch side is built, bareskin hands the commands that reach it (scan, mm-build below) to bareskin-torch.
+if [ -e "$build/bin/bareskin-torch" ]; then
+  [ -x "$prefix/bin/bareskin-torch" ] || fail "not installed: bin/bareskin-torch"
+fi
 if [ -d "$share/assets/face_api" ]; then
   [ -f "$share/assets/face_api/LICENSE" ] || fail "face_api installed without its licence"
   [ ! -e "$share/assets/face_api/dist" ] || fail "the tests' JavaScript bundle was installed"
