@@ -24,10 +24,10 @@ struct Common {
 const std::vector<Profile>& texture_profiles() {
   static const std::vector<Profile> profiles = {
       {"paper", "pix2pixHD's GlobalGenerator ngf 64 at 1K with its GAN, feature-matching and VGG losses", {}},
-      {"cpu", "the UV net (a U-Net of width 16 correcting the unwrap and the 3DMM's maps) at 128², L1 on the UV "
+      {"cpu", "the UV net (a U-Net of width 16 correcting the unwrap and the 3DMM's maps) at 256², L1 on the UV "
               "layout alone (no discriminator), lr 1e-3, 1500 steps of 4",
        {{"--arch", "uv"},
-        {"--res", "128"},
+        {"--res", "256"},
         {"--generator", R"({"ngf": 16})"},
         {"--lambda-gan", "0"},
         {"--lambda-feat", "0"},
