@@ -7,7 +7,9 @@
 #   2. F: `train recon --profile cpu`, scored by `recon --eval` on the test split (against the mean face);
 #   3. G + E: `train bareskin --profile cpu` with that F, three seeds, each scored on the test split after stage 1
 #      and after stage 2 (eval_stage1.json, eval_stage2.json: against the unchanged input and each other);
-#   4. curves.html: the validation PSNR of G against steps and against CPU-minutes, seeds' spread, the input's line.
+#   4. curves.html: the validation PSNR of G against steps and against CPU-minutes, seeds' spread, the input's line;
+#   5. a G trained towards the before-makeup photo (the paper's stage 1), then bench/cpu_reference_texture.sh: the
+#      texture net and SRGAN on a texture world of their own, and Table 1 with these nets.
 # Every stage is skipped when its output exists and trainings continue with --resume, so a killed run resumes.
 #   bash bench/cpu_reference.sh <bin/> <demo out/> <out/> [samples]
 set -euo pipefail
@@ -60,4 +62,17 @@ for seed in 0 1 2; do
   fi
 done
 
+# G trained as the paper's stage 1 (towards the before-makeup photo: it removes makeup and keeps the light), for
+# column (a) of Table 1, whose reference keeps the light too.
+if [ ! -f "$out/G_before/eval.json" ]; then
+  echo "cpu_reference: train bareskin --profile cpu --target before, stage 1" >&2
+  resume=()
+  [ -f "$out/G_before/stage1/checkpoint.safetensors" ] && resume=(--resume)
+  cpu G_before "$bareskin" -q --threads 2 train bareskin --profile cpu --target before --steps2 0 --data "$out/faces" \
+    -o "$out/G_before" --eval-every 500 --sample-every 0 --checkpoint-every 100 --log-every 50 "${resume[@]}"
+fi
+
 $py "$(dirname "$0")/cpu_reference.py" "$out"
+
+# 5. Texture inference on a world of its own, and Table 1 with the G and F above.
+CPU_REFERENCE="$out" bash "$(dirname "$0")/cpu_reference_texture.sh" "$bin" "$demo" "$out/texture"

@@ -88,3 +88,5 @@ if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
       -o "$out/table1_$g"
   done
 fi
+
+$py "$here/cpu_reference_texture.py" "$out"

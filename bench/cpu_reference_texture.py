@@ -1,0 +1,58 @@
+"""Learning curves of bench/cpu_reference_texture.sh: the texture net's held-out PSNR per map against its steps, with
+the 3DMM-only maps and the unwrap it starts from, and each SRGAN's held-out PSNR against bicubic.
+    python3 bench/cpu_reference_texture.py <out/>     (writes <out>/curves_texture.png)
+"""
+import csv
+import os
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def evals(path):
+    by_step = defaultdict(dict)
+    for r in csv.DictReader(open(path)):
+        by_step[int(r["step"])][r["name"]] = float(r["value"])
+    return dict(sorted(by_step.items()))
+
+
+def main():
+    out = sys.argv[1]
+    tex = evals(os.path.join(out, "tex", "eval.csv"))
+    if not tex:
+        sys.exit(f"error: {out}/tex/eval.csv is empty; run bench/cpu_reference_texture.sh first")
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), dpi=120)
+    steps = list(tex)
+    for m, color in (("diffuse", "tab:orange"), ("roughness", "tab:green"), ("specular", "tab:purple")):
+        axes[0].plot(steps, [tex[s]["psnr_" + m] for s in steps], "o-", ms=3, color=color, label=f"UV net, {m}")
+        axes[0].axhline(tex[steps[-1]]["psnr_mm_" + m], color=color, ls="--", lw=1, label=f"3DMM-only, {m}")
+    axes[0].axhline(tex[steps[-1]]["psnr_unwrap_diffuse"], color="tab:orange", ls=":", lw=1,
+                    label="unwrap over 3DMM albedo")
+    axes[0].set_xlabel("step")
+    axes[0].set_ylabel("held-out PSNR, UV layout (dB)")
+    axes[0].set_title("texture net (--profile cpu), validation subjects", fontsize=9)
+    axes[0].legend(fontsize=6, loc="lower right")
+    for m, color in (("diffuse", "tab:orange"), ("roughness", "tab:green"), ("specular", "tab:purple")):
+        path = os.path.join(out, f"up_{m}", "eval.csv")
+        if not os.path.exists(path):
+            continue
+        up = evals(path)
+        s = list(up)
+        axes[1].plot(s, [up[k]["psnr_srgan"] for k in s], "o-", ms=3, color=color, label=f"SRGAN, {m}")
+        axes[1].axhline(up[s[-1]]["psnr_bicubic"], color=color, ls="--", lw=1, label=f"bicubic, {m}")
+    axes[1].set_xlabel("step")
+    axes[1].set_ylabel("held-out PSNR ×4 (dB)")
+    axes[1].set_title("SRGAN ×4 (--profile cpu), validation subjects' true maps", fontsize=9)
+    axes[1].legend(fontsize=6, loc="lower right")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "curves_texture.png"))
+
+
+if __name__ == "__main__":
+    main()
