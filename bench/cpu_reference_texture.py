@@ -2,22 +2,16 @@
 the 3DMM-only maps and the unwrap it starts from, and each SRGAN's held-out PSNR against bicubic.
     python3 bench/cpu_reference_texture.py <out/>     (writes <out>/curves_texture.png)
 """
-import csv
 import os
 import sys
-from collections import defaultdict
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-
-def evals(path):
-    by_step = defaultdict(dict)
-    for r in csv.DictReader(open(path)):
-        by_step[int(r["step"])][r["name"]] = float(r["value"])
-    return dict(sorted(by_step.items()))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from texture_profile_sweep import evals  # noqa: E402  (eval.csv by step)
 
 
 def main():
