@@ -89,6 +89,17 @@ if [ -n "${BSN_RUN:-}" ] && [ -n "${TEX_TEST:-}" ] && [ -d "$registered" ] && [ 
     --model "$model" --texture "$dir/tex" --upscale "$dir/up" --bareskin "$BSN_RUN" --max-samples "$SAMPLES" \
     "${teacher[@]}" -o "$dir/table1_truth"
 fi
+# 4c. A face of that subject end to end, with and without BareSkinNet, beside its truth (the report's truth strip).
+if [ -n "${BSN_RUN:-}" ] && [ -f "$dir/truth_subjects.txt" ] && [ ! -d "$dir/avatar_truth_without" ]; then
+  first=$(cut -d' ' -f1 "$dir/truth_subjects.txt")
+  $py "$here/14_texture_find.py" --extract "$($py "$here/14_texture_find.py" --split-of "$dir/truth_faces" \
+    "scan/$first")" "$dir/truth_face.png" "scan/$first"
+  for variant in with without; do
+    flag=("${bsn[@]}"); [ "$variant" = without ] && flag=(--no-bareskin)
+    timed "run truth" "$bareskin" -q --threads "$THREADS" run "$dir/truth_face.png" -o "$dir/avatar_truth_$variant" \
+      --landmarks "$dir/truth_face_lm.json" "${common[@]}" "${flag[@]}"
+  done
+fi
 # 5. Figures and the report fragment -------------------------------------------------------------------------------
 $py "$here/14_texture_find.py" --report "$out" "$dir" "$RES" "$STEPS" "$UP_STEPS" "$SAMPLES" \
   > "$out/sections/14_texture.html"

@@ -3,7 +3,7 @@
   14_texture_find.py OUT                      shell assignments: the texture splits, masks, held-out faces, the
                                               BareSkinNet run and the reconstruction run F under OUT, found by manifest
                                               kind/split and checkpoint task
-  14_texture_find.py --extract FACES PNG      the first sample's makeup.png of a faces split
+  14_texture_find.py --extract FACES PNG [SUBJECT]   the first sample's makeup.png of a faces split (of SUBJECT)
   14_texture_find.py --subjects SPLIT         the subjects of a shard split (json "subject"), one a line, sorted
   14_texture_find.py --split-of FACES SUBJECT the split folder of a faces set (FACES/{train,val,test}) that holds
                                               SUBJECT's samples
@@ -59,20 +59,30 @@ def find(out):
         print(f"{key}='{value}'")
 
 
-def extract(faces, png):
-    """The first sample's makeup.png, and its landmarks (aligned px) beside it as <png stem>_lm.json."""
+def first_sample(faces, subject=None):
+    """The members of the first sample of a faces split (of `subject`, when given), by suffix."""
     manifest = json.load(open(os.path.join(faces, "manifest.json")))
-    with tarfile.open(os.path.join(faces, manifest["shards"][0]["name"])) as tar:
-        members = {}
-        for member in tar:
-            key, _, suffix = member.name.partition(".")
-            if members and key != members["key"]:
-                break
-            members["key"] = key
-            members[suffix] = tar.extractfile(member).read()
-    if "makeup.png" not in members or "json" not in members:
-        sys.exit(f"error: {faces}: the first sample has no makeup.png or json")
+    for shard in manifest["shards"]:
+        with tarfile.open(os.path.join(faces, shard["name"])) as tar:
+            samples = {}
+            for member in tar:
+                key, _, suffix = member.name.partition(".")
+                samples.setdefault(key, {})[suffix] = tar.extractfile(member).read()
+            for members in samples.values():
+                if "json" in members and (subject is None or json.loads(members["json"]).get("subject") == subject):
+                    return members
+    sys.exit(f"error: {faces}: no sample{' of ' + subject if subject else ''}")
+
+
+def extract(faces, png, subject=None):
+    """The first sample's makeup.png (of `subject`, when given), its landmarks (aligned px) beside it as
+    <png stem>_lm.json and its bare-skin truth as <png stem>_bare.png."""
+    members = first_sample(faces, subject)
+    if "makeup.png" not in members:
+        sys.exit(f"error: {faces}: the sample has no makeup.png")
     open(png, "wb").write(members["makeup.png"])
+    if "bare.png" in members:
+        open(png[:-4] + "_bare.png", "wb").write(members["bare.png"])
     points = json.loads(members["json"])["landmarks"]
     json.dump({"scheme": "ibug68", "units": "px", "points": points}, open(png[:-4] + "_lm.json", "w"))
 
@@ -97,8 +107,11 @@ def split_of(faces, subject):
 
 
 def tile(path, size=150, grey=False):
+    import numpy as np
     from PIL import Image
     image = Image.open(path)
+    if image.mode.startswith("I"):  # 16-bit (the registered scans' grey maps): to 8 bits
+        image = Image.fromarray((np.asarray(image, dtype=np.float64) / 257).clip(0, 255).astype(np.uint8))
     image = image.convert("L").convert("RGB") if grey else image.convert("RGB")
     return image.resize((size, size), Image.BILINEAR)
 
@@ -191,6 +204,28 @@ def report(out, d, res, steps, up_steps, samples):
         parts.append("<p>End to end on a held-out synthetic face with makeup (<code>bareskin run</code> on its aligned "
                      "makeup image): input | bare skin | 3DMM fit | the four maps | relit under three lights.</p>")
         parts += rows
+    truth_rows = []
+    for variant in ("with", "without"):
+        a = os.path.join(d, f"avatar_truth_{variant}")
+        if os.path.isdir(a):
+            target = os.path.join(img, f"texture_truth_{variant}.png")
+            strip(avatar_columns(a), target)
+            truth_rows.append(f"<figure><img src='img/{os.path.basename(target)}' style='width:100%;max-width:1500px'>"
+                              f"<figcaption>{variant} BareSkinNet</figcaption></figure>")
+    if truth_rows:
+        subject = open(os.path.join(d, "truth_subjects.txt")).read().split()[0]
+        maps = os.path.join(out, "registered", subject)
+        target = os.path.join(img, "texture_truth.png")
+        strip([("input (aligned)", os.path.join(d, "truth_face.png"), False),
+               ("bare skin, truth", os.path.join(d, "truth_face_bare.png"), False), ("", None, False)] +
+              [(f"{m}, truth", os.path.join(maps, f"{m}.png"), m in ("roughness", "specular"))
+               for m in ("diffuse", "normal", "roughness", "specular")], target)
+        truth_rows.append("<figure><img src='img/texture_truth.png' style='width:100%;max-width:1500px'>"
+                          f"<figcaption>the truth: the face's bare skin and {html.escape(subject)}'s true maps"
+                          "</figcaption></figure>")
+        parts.append("<p>A face of the texture test subject (held out from the texture net and SRGAN) with makeup, "
+                     "with and without BareSkinNet, and the truth.</p>")
+        parts += truth_rows
     t1 = os.path.join(d, "table1", "table.md")
     if os.path.exists(t1):
         parts.append(f"<h3>Table 1 at demo size ({samples} held-out samples)</h3>"
@@ -230,7 +265,7 @@ def report(out, d, res, steps, up_steps, samples):
 
 if __name__ == "__main__":
     if sys.argv[1] == "--extract":
-        extract(sys.argv[2], sys.argv[3])
+        extract(*sys.argv[2:5])
     elif sys.argv[1] == "--subjects":
         print("\n".join(split_subjects(sys.argv[2])))
     elif sys.argv[1] == "--split-of":
