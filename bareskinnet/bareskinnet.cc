@@ -189,18 +189,6 @@ torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, 
   return apply_head(images, G.forward(images * 2 - 1), head);
 }
 
-void zero_last_layer(nets::UNetImpl& G) {
-  // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: index 3 is the last layer.
-  torch::NoGradGuard no_grad;
-  int zeroed = 0;
-  for (auto& p : G.named_parameters())
-    if (p.key().rfind("model.model.3.", 0) == 0) {
-      p.value().zero_();
-      ++zeroed;
-    }
-  BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
-}
-
 nlohmann::json generator_options(const nlohmann::json& g, int64_t size, const std::string& head) {
   nlohmann::json o = nets::find_model("unet256").defaults;
   o["num_downs"] = std::max(5, int(std::lround(std::log2(double(size)))));
@@ -235,7 +223,7 @@ BareSkinTask::BareSkinTask(Options options, ReconNet teacher, ReconNet student, 
   d.update(options_.d);
   nets_->D = std::dynamic_pointer_cast<nets::PatchGANImpl>(nets::find_model("patchgan").make(d));
   BS_CHECK(nets_->G && nets_->D, "the zoo's unet256 / patchgan have unexpected types");
-  if (options_.head != "image") zero_last_layer(*nets_->G);
+  if (options_.head != "image") nets::zero_last_layer(*nets_->G);
   if (options_.ema > 0) {
     // The average's net is made with the random stream put back afterwards, so that everything drawn later (the
     // LPIPS trunk, dropout) is the same with and without --ema-g: the average never changes how G trains.

@@ -288,8 +288,6 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
 // (training sees the raw value; inference clamps). apply_head: the same from the U-Net's Tanh output `y`.
 torch::Tensor generator_forward(nets::UNetImpl& G, const torch::Tensor& images, const std::string& head);
 torch::Tensor apply_head(const torch::Tensor& images, const torch::Tensor& y, const std::string& head);
-// Zeroes the U-Net's last layer (weights and bias): with the "residual" and "affine" heads G is then the identity.
-void zero_last_layer(nets::UNetImpl& G);
 
 // The U-Net options for a training size and head: the zoo's unet256 with num_downs = log2(size) (≥ 5) and the
 // head's output channels, overridden by `g`.

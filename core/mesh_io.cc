@@ -272,7 +272,9 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
   };
   const char* p = bytes.data();
   const char* const end = p + bytes.size();
-  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r'; };
+  // Whitespace as OpenMesh's reader (a C++ stream) splits it: form feed and vertical tab included, or a line such
+  // as "f\f/8c" would pass here as an unknown keyword and reach the reader as a face without corners (its assert).
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; };
   while (p < end) {
     const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
     if (!eol) eol = end;

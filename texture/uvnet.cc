@@ -26,25 +26,16 @@ UVNetImpl::UVNetImpl(const nlohmann::json& unet, int64_t res) {
   o.update(unet);
   o["in_channels"] = 13;
   o["out_channels"] = 8;
-  const int64_t multiple = int64_t(1) << o["num_downs"].get<int>();
+  nets::UNetOptions options;
+  nets::from_json(o, options);  // InvalidInput for a bad key, type or value
+  const int64_t multiple = int64_t(1) << options.num_downs;
   if (res % multiple != 0)
     throw InvalidInput("texture model", "res " + std::to_string(res) + " is not a multiple of 2^num_downs = " +
                                             std::to_string(multiple),
                        "pick --res as a multiple of " + std::to_string(multiple) + " or set num_downs");
-  nets::UNetOptions options;
-  nets::from_json(o, options);
   unet_ = register_module("unet", nets::UNet(options));
   prior_ = register_parameter("prior", torch::zeros({1, 8, res, res}));
-  // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: its up-convolution is the last
-  // layer; zeroed, the net starts at exactly the base.
-  torch::NoGradGuard no_grad;
-  int zeroed = 0;
-  for (auto& p : unet_->named_parameters())
-    if (p.key().rfind("model.model.3.", 0) == 0) {
-      p.value().zero_();
-      ++zeroed;
-    }
-  BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
+  nets::zero_last_layer(*unet_);  // Δ starts at zero: the net starts at its base
 }
 
 torch::Tensor UVNetImpl::forward(const torch::Tensor& inputs) {

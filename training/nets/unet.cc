@@ -100,6 +100,18 @@ torch::Tensor UNetBlockImpl::forward(torch::Tensor x) {
   return torch::cat({x, model_->forward(x)}, 1);
 }
 
+void zero_last_layer(UNetImpl& net) {
+  // The outermost block's Sequential is [downconv, submodule, ReLU, upconv, Tanh]: index 3 is the last layer.
+  torch::NoGradGuard no_grad;
+  int zeroed = 0;
+  for (auto& p : net.named_parameters())
+    if (p.key().rfind("model.model.3.", 0) == 0) {
+      p.value().zero_();
+      ++zeroed;
+    }
+  BS_CHECK(zeroed > 0, "the U-Net has no outermost up-convolution (model.model.3)");
+}
+
 UNetImpl::UNetImpl(const UNetOptions& o) : options_(o) {
   o.check();
   using Kind = UNetBlockImpl::Kind;

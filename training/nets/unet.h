@@ -76,6 +76,10 @@ class UNetImpl : public torch::nn::Module {
 };
 TORCH_MODULE(UNet);
 
+// Zeroes the outermost up-convolution (weights and bias), the net's last layer: its output is then 0 for every input
+// (tanh(0)), so a net that adds it to a base (BareSkinNet's residual and affine heads, the UV net) starts at the base.
+void zero_last_layer(UNetImpl& net);
+
 // A trained U-Net for inference only: the same function as UNetImpl::forward in eval mode (dropout off, batch norm
 // with its running statistics), computed faster on the CPU. Ours, not the reference's:
 //  - every batch norm is folded into the convolution before it (w·s, (b − mean)·s + β with s = γ / √(var + ε));
