@@ -136,6 +136,19 @@ def avatar_columns(a):
             ("relit 2", f"{a}/preview_light2.png", False), ("relit 3", f"{a}/preview_light3.png", False)]
 
 
+def variant_strips(d, img, name, caption):
+    """The strips of the avatar folders <d>/avatar_<name>_{with,without} that exist, as HTML figures."""
+    rows = []
+    for variant in ("with", "without"):
+        a = os.path.join(d, f"avatar_{name}_{variant}")
+        if os.path.isdir(a):
+            target = os.path.join(img, f"texture_{name}_{variant}.png")
+            strip(avatar_columns(a), target)
+            rows.append(f"<figure><img src='img/{os.path.basename(target)}' style='width:100%;max-width:1500px'>"
+                        f"<figcaption>{caption}{variant} BareSkinNet</figcaption></figure>")
+    return rows
+
+
 def last_eval(run):
     values = {}
     path = os.path.join(run, "eval.csv")
@@ -192,26 +205,12 @@ def report(out, d, res, steps, up_steps, samples):
         parts.append(f"<p>SRGAN ×4 on the held-out (val) diffuse map, 1024² from its 256² box-filtered version: bicubic "
                      f"{up.get('psnr_bicubic', float('nan')):.2f} dB, SRGAN {up.get('psnr_srgan', float('nan')):.2f} dB "
                      "(the largest maps the demo data has; the paper's are 4K).</p>")
-    rows = []
-    for variant in ("with", "without"):
-        a = os.path.join(d, f"avatar_heldout_{variant}")
-        if os.path.isdir(a):
-            target = os.path.join(img, f"texture_heldout_{variant}.png")
-            strip(avatar_columns(a), target)
-            rows.append(f"<figure><img src='img/{os.path.basename(target)}' style='width:100%;max-width:1500px'>"
-                        f"<figcaption>held-out face with makeup, {variant} BareSkinNet</figcaption></figure>")
+    rows = variant_strips(d, img, "heldout", "held-out face with makeup, ")
     if rows:
         parts.append("<p>End to end on a held-out synthetic face with makeup (<code>bareskin run</code> on its aligned "
                      "makeup image): input | bare skin | 3DMM fit | the four maps | relit under three lights.</p>")
         parts += rows
-    truth_rows = []
-    for variant in ("with", "without"):
-        a = os.path.join(d, f"avatar_truth_{variant}")
-        if os.path.isdir(a):
-            target = os.path.join(img, f"texture_truth_{variant}.png")
-            strip(avatar_columns(a), target)
-            truth_rows.append(f"<figure><img src='img/{os.path.basename(target)}' style='width:100%;max-width:1500px'>"
-                              f"<figcaption>{variant} BareSkinNet</figcaption></figure>")
+    truth_rows = variant_strips(d, img, "truth", "")
     if truth_rows:
         subject = open(os.path.join(d, "truth_subjects.txt")).read().split()[0]
         maps = os.path.join(out, "registered", subject)
