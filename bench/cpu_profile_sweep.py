@@ -12,13 +12,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 
-def main():
-    out, names = sys.argv[1], sys.argv[2:]
+def cpu_seconds(out):
+    """CPU seconds (user + system) per name of <out>/cpu.txt (lines "NAME user system wall" of /usr/bin/time)."""
     cpu = defaultdict(float)
     for line in open(os.path.join(out, "cpu.txt")):
         parts = line.split()
         if len(parts) == 4 and not line.startswith("Command"):
             cpu[parts[0]] += float(parts[1]) + float(parts[2])
+    return cpu
+
+
+def main():
+    out, names = sys.argv[1], sys.argv[2:]
+    cpu = cpu_seconds(out)
     rows = []
     for n in names:
         p = os.path.join(out, n, "eval.json")

@@ -13,6 +13,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cpu_profile_sweep import cpu_seconds  # noqa: E402
+
 MAPS = ("diffuse", "normal", "roughness", "specular")
 
 
@@ -25,11 +28,7 @@ def evals(path):
 
 def main():
     out, names = sys.argv[1], sys.argv[2:]
-    cpu = defaultdict(float)
-    for line in open(os.path.join(out, "cpu.txt")):
-        parts = line.split()
-        if len(parts) == 4 and not line.startswith("Command"):
-            cpu[parts[0]] += float(parts[1]) + float(parts[2])
+    cpu = cpu_seconds(out)
     runs = {n: evals(os.path.join(out, n, "eval.csv")) for n in names if os.path.exists(os.path.join(out, n, "eval.csv"))}
     runs = {n: e for n, e in runs.items() if e}
     if not runs:
