@@ -17,6 +17,7 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
     std::string model, texture, bareskin, teacher, device = "cpu";
     std::vector<std::string> upscale;
     texture::EvaluateOptions evaluate;
+    bool no_face_masks = false;
   };
   auto opt = std::make_shared<Options>();
   app.add_option("--faces", opt->evaluate.faces, "Held-out faces split (texgen faces: makeup, before, json)")
@@ -33,6 +34,9 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
                                             "without it mm-fit");
   app.add_option("--max-samples", opt->evaluate.max_samples, "At most this many samples (0: all)")
       ->capture_default_str();
+  app.add_flag("--no-face-masks", opt->no_face_masks,
+               "Unwrap the whole face image (default: each sample's face.png, the face less its occluders, masks its "
+               "unwraps, as `run --face-mask` does)");
   app.add_option("--input-res", opt->evaluate.avatar.input_res, "UV size of the unwrap (0: the texture run's size)")
       ->capture_default_str();
   add_device_option(app, opt->device);
@@ -42,6 +46,7 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
     set_torch_threads(globals);
     opt->device = parse_device(opt->device).str();
     keep_freed_memory();
+    opt->evaluate.face_masks = !opt->no_face_masks;
     const MorphableModel model = read_model(opt->model);
     const auto nets = texture::load_avatar_nets(opt->model, opt->texture, opt->upscale, opt->device, opt->teacher);
     const auto G = texture::load_demakeup(opt->bareskin, opt->device);

@@ -21,7 +21,7 @@ namespace bareskin::cli {
 
 std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   struct Options {
-    std::string photo, output, model, texture, bareskin, teacher, device = "cpu", weights, landmarks,
+    std::string photo, output, model, texture, bareskin, teacher, device = "cpu", weights, landmarks, face_mask,
         sr_maps = "diffuse,roughness,specular";
     std::vector<std::string> upscale;
     bool no_bareskin = false, no_upscale = false;
@@ -59,6 +59,9 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
   app.add_option("--landmarks", opt->landmarks,
                  "The photo's 68 landmarks (a landmark file, px): used instead of the detector (e.g. for aligned shards)");
   app.add_option("--weights", opt->weights, "face-api's tfjs models (default: face_api/ in the assets)");
+  app.add_option("--face-mask", opt->face_mask,
+                 "The photo's face segmentation (grey PNG at the photo's size, white = face skin, eyes, brows, lips; "
+                 "black = hair, glasses, hands, background): unwrap texels touching black are left to the texture net");
   app.footer("Example: bareskin run photo.png -o avatar/ --model model.safetensors --texture runs/tex "
              "--upscale runs/up_diffuse --bareskin runs/bsn --teacher runs/F\nExit 3 (nothing written) for a photo without a face "
              "or runs that do not fit each other or the model.");
@@ -68,13 +71,14 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     keep_freed_memory();
     if (opt->no_bareskin == !opt->bareskin.empty())
       throw CLI::ValidationError("run", "give exactly one of --bareskin RUN and --no-bareskin");
-    std::vector<std::string> inputs = {opt->photo,   opt->model,     opt->texture, opt->bareskin,
-                                       opt->teacher, opt->landmarks, opt->weights};
+    std::vector<std::string> inputs = {opt->photo,     opt->model,   opt->texture,  opt->bareskin,
+                                       opt->teacher,   opt->landmarks, opt->weights, opt->face_mask};
     inputs.insert(inputs.end(), opt->upscale.begin(), opt->upscale.end());
     check_output_apart(opt->output, inputs);
     opt->avatar.sr_maps = texture::parse_map_list(opt->sr_maps, "--sr-maps");
     const Image photo = read_image(opt->photo);
     detect::check_photo(photo, opt->photo);  // before the nets load
+    const Image face_mask = opt->face_mask.empty() ? Image() : texture::read_face_mask(opt->face_mask, photo);
     const auto t0 = std::chrono::steady_clock::now();
     nlohmann::json load;  // wall seconds per part of the loading
     auto lap = [&load, t = t0](const char* part) mutable {
@@ -106,12 +110,13 @@ std::function<void()> setup_run_command(CLI::App& app, const Globals& globals) {
     const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     opt->avatar.upscale = !opt->no_upscale;
     const auto t1 = std::chrono::steady_clock::now();
-    const texture::Avatar avatar = texture::avatar_from_photo(photo, opt->photo, detector, model, nets, G, opt->avatar);
+    const texture::Avatar avatar = texture::avatar_from_photo(photo, opt->photo, detector, model, nets, G, opt->avatar,
+                                                                  face_mask);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     texture::write_avatar(opt->output, avatar,
                           {{"photo", opt->photo}, {"model", opt->model}, {"texture", opt->texture},
                            {"upscale", opt->upscale}, {"bareskin", opt->no_bareskin ? "" : opt->bareskin},
-                           {"teacher", opt->teacher},
+                           {"teacher", opt->teacher}, {"face_mask", opt->face_mask},
                            {"sr_maps", opt->sr_maps}, {"device", opt->device}, {"load_seconds", load_seconds},
                            {"load_seconds_by_part", load}, {"pipeline_seconds", seconds}},
                           std::max(1, globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency())));

@@ -33,6 +33,13 @@
 namespace bareskin::texture {
 namespace {
 
+// The first channel of an image (a mask given as grey, grey + alpha or RGB), in [0, 1] as stored.
+Image first_channel(const Image& image) {
+  Image out(image.width, image.height, 1, ColorSpace::Data);
+  for (size_t i = 0; i < out.pixels.size(); ++i) out.pixels[i] = image.pixels[i * size_t(image.channels)];
+  return out;
+}
+
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 double cpu_now() { return double(std::clock()) / CLOCKS_PER_SEC; }  // the process's CPU time, all threads
@@ -110,13 +117,16 @@ Demakeup load_demakeup(const std::string& run, const std::string& device) {
 }
 
 Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& landmarks, const MorphableModel& model,
-                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options) {
+                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options,
+                           const Image& face_mask) {
   const TextureNet& net = nets.texture;
   const std::map<std::string, Upscaler>& upscalers = nets.upscalers;
   Avatar a;
   a.aligned = as_srgb(aligned_in);
   if (a.aligned.width != detect::kAlignedSize || a.aligned.height != detect::kAlignedSize)
     throw InvalidInput("aligned face", "is not 256²", "align photos with detect/align.h first");
+  if (!face_mask.empty() && (face_mask.width != a.aligned.width || face_mask.height != a.aligned.height))
+    throw InvalidInput("face mask", "is not the aligned face's size (256²)", "give the mask of the same photo");
   a.landmarks = landmarks;
   StageTimer t{a};
   a.bare = G ? as_srgb(G(a.aligned)) : a.aligned;
@@ -165,6 +175,8 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   const int res = options.input_res > 0 ? options.input_res : int(net.options.res);
   UnwarpOptions uo;
   uo.size = res;
+  const Image inside = face_mask.empty() ? Image() : first_channel(face_mask);
+  if (!inside.empty()) uo.inside = &inside;
   const UnwarpResult uw = unwarp(a.bare, posed, camera, uo);
   a.unwrap = to_srgb(uw.colour);
   a.confidence = uw.confidence;
@@ -206,7 +218,7 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
 
 Avatar avatar_from_photo(const Image& photo, const std::string& source, const FaceFinder& detector,
                          const MorphableModel& model, const AvatarNets& nets, const Demakeup& G,
-                         const AvatarOptions& options) {
+                         const AvatarOptions& options, const Image& face_mask) {
   const auto t = Clock::now();
   const double cpu = cpu_now();
   detect::check_photo(photo, source);
@@ -215,11 +227,26 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
   if (faces.empty()) throw InvalidInput(source, "has no face the detector finds", "give a photo with a visible face");
   const detect::Similarity similarity = detect::alignment(faces.front());
   const Image aligned = detect::warp_aligned(srgb, similarity, detect::kAlignedSize);
+  if (!face_mask.empty() && (face_mask.width != photo.width || face_mask.height != photo.height))
+    throw InvalidInput("face mask", fmt::format("is {}x{}, the photo {}x{}", face_mask.width, face_mask.height,
+                                                photo.width, photo.height),
+                       "give the face segmentation of this photo, at its size");
+  const Image aligned_mask =
+      face_mask.empty() ? Image() : detect::warp_aligned(first_channel(face_mask), similarity, detect::kAlignedSize);
   const double detect_seconds = since(t), detect_cpu = cpu_now() - cpu;
-  Avatar a = avatar_from_aligned(aligned, detect::transform(similarity, faces.front()), model, nets, G, options);
+  Avatar a = avatar_from_aligned(aligned, detect::transform(similarity, faces.front()), model, nets, G, options,
+                                 aligned_mask);
   a.seconds["detect_align"] = detect_seconds;
   a.cpu_seconds["detect_align"] = detect_cpu;
   return a;
+}
+
+Image read_face_mask(const std::string& path, const Image& photo) {
+  const Image mask = read_image(path);
+  if (mask.width != photo.width || mask.height != photo.height)
+    throw InvalidInput(path, fmt::format("is {}x{}, the photo {}x{}", mask.width, mask.height, photo.width, photo.height),
+                       "give the face segmentation of this photo, at its size");
+  return first_channel(mask);
 }
 
 std::set<std::string> parse_map_list(const std::string& list, const std::string& option) {
@@ -433,6 +460,7 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
   data::LoaderOptions lo;
   lo.dataset = options.faces;
   lo.required = {"makeup.png", "before.png", "json"};
+  if (options.face_masks) lo.required.push_back("face.png");
   lo.batch_size = 1;
   lo.shuffle_buffer = 0;
   data::ShardLoader faces(lo);
@@ -460,10 +488,12 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     const Image before = tensor_image(b.at("before"), ColorSpace::sRGB);
     // (a) the before image without G for both rows (the paper's wording); (a') the before image through the same
     // pipeline as the row (with G for the with-G row), which asks whether the output is stable under makeup.
-    const auto ref = as_tensors(avatar_from_aligned(before, lm, model, nets, {}, ao).maps);
-    const auto ref_with = as_tensors(avatar_from_aligned(before, lm, model, nets, G, ao).maps);
-    const auto without = as_tensors(avatar_from_aligned(makeup, lm, model, nets, {}, ao).maps);
-    const auto with = as_tensors(avatar_from_aligned(makeup, lm, model, nets, G, ao).maps);
+    // The face less its occluders: the same pixels in the makeup and before images (makeup is a layer on the skin).
+    const Image mask = options.face_masks ? tensor_image(b.at("face"), ColorSpace::Data) : Image();
+    const auto ref = as_tensors(avatar_from_aligned(before, lm, model, nets, {}, ao, mask).maps);
+    const auto ref_with = as_tensors(avatar_from_aligned(before, lm, model, nets, G, ao, mask).maps);
+    const auto without = as_tensors(avatar_from_aligned(makeup, lm, model, nets, {}, ao, mask).maps);
+    const auto with = as_tensors(avatar_from_aligned(makeup, lm, model, nets, G, ao, mask).maps);
     for (const auto& [condition, maps, same] :
          {std::tuple{"without", &without, &ref}, std::tuple{"with", &with, &ref_with}}) {
       for (const auto& m : output_maps()) {
@@ -510,12 +540,13 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
   };
   const std::string coefficients_from = nets.F ? "F" : "mm-fit";
   nlohmann::json summary = {{"samples", n}, {"skipped_without_makeup", skipped}, {"maps_size", res}, {"subjects_with_truth", truth.size()},
-                            {"coefficients_from", coefficients_from}};
+                            {"coefficients_from", coefficients_from}, {"face_masks", options.face_masks}};
   std::string md = fmt::format(
       "Table 1 protocol on {} held-out samples with makeup ({} without makeup passed over), maps {}², coefficients by "
-      "{} (RMSE on the 0–255 scale, PSNR dB, SSIM; over the UV layout).\n\n| metric | against | w/o BareSkinNet | w/ BareSkinNet | better |\n"
+      "{}, {} (RMSE on the 0–255 scale, PSNR dB, SSIM; over the UV layout).\n\n| metric | against | w/o BareSkinNet | w/ BareSkinNet | better |\n"
       "|---|---|---|---|---|\n",
-      n, skipped, res, coefficients_from == "F" ? "the network F" : "mm-fit");
+      n, skipped, res, coefficients_from == "F" ? "the network F" : "mm-fit",
+      options.face_masks ? "unwraps masked by each face's face.png" : "unwraps unmasked");
   std::string csv = "metric,map,against,without,with\n";
   std::map<std::string, int> improved, total;  // per column: "ref" (a), "same" (a'), "truth" (b)
   const std::map<std::string, std::string> column_name = {{"ref", "(a) before-makeup output, without G"},

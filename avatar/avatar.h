@@ -78,14 +78,24 @@ AvatarNets load_avatar_nets(const std::string& model_path, const std::string& te
 
 // The whole pipeline on an already aligned 256² face with its 68 landmarks (aligned pixels); `G` may be empty
 // (--no-bareskin). The coefficients come from nets.F on G's image (the aligned face without G) when it is given,
-// else from mm-fit's landmark fit on the landmarks and photometric fit on G's image. Deterministic.
+// else from mm-fit's landmark fit on the landmarks and photometric fit on G's image. `face_mask` (optional, 256²,
+// first channel): the face's own pixels, 1 where the face is seen and nothing covers it (a face segmentation: no hair,
+// glasses, hands or background); the unwrap counts a texel whose sample touches a pixel below 1 as unseen, so the
+// texture net fills it as it fills the masks it was trained with instead of copying the occluder into the maps.
+// InvalidInput for a mask of another size. Deterministic.
 Avatar avatar_from_aligned(const Image& aligned, const detect::Landmarks68& landmarks, const MorphableModel& model,
-                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options);
+                           const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options,
+                           const Image& face_mask = {});
 
 // The pipeline on a photo: the best face of `detector`, aligned; InvalidInput naming `source` when there is none.
+// `face_mask` (optional): the photo's face segmentation at the photo's size, aligned with the photo.
 Avatar avatar_from_photo(const Image& photo, const std::string& source, const FaceFinder& detector,
                          const MorphableModel& model, const AvatarNets& nets, const Demakeup& G,
-                         const AvatarOptions& options);
+                         const AvatarOptions& options, const Image& face_mask = {});
+
+// `run --face-mask`: the segmentation of `photo` read from `path` (grey, or its first channel), values in [0, 1].
+// InvalidInput naming the file when it cannot be read or is not the photo's size.
+Image read_face_mask(const std::string& path, const Image& photo);
 
 // Writes the avatar folder atomically (AtomicDirectory: all or nothing). Each map is encoded once, the 2K-and-larger
 // ones with core/png_encoding.h's fast encoding, on `threads` threads; the GLB embeds the map files' own PNG bytes.
@@ -104,13 +114,15 @@ struct EvaluateOptions {
   std::string textures;   // the texture split of the same subjects (true maps by json "subject"); optional
   std::string output;     // report folder: table.md, table.csv, per_sample.csv, charts
   int64_t max_samples = 0;  // 0: all
+  bool face_masks = true;   // each sample's face.png (the face less its occluders) masks its unwraps
   AvatarOptions avatar;
 };
 // Runs the pipeline on every sample's makeup image with and without G and on its before image without and with G;
 // RMSE (0–255), PSNR, SSIM per map against three references: (a) the before image's maps without G for both rows
 // (the paper's wording), (a') the before image's maps through the row's own pipeline (with G for the with-G row:
 // stability under makeup), (b) the true maps; SRGAN vs bicubic vs the true 4K diffuse where the texture split has
-// it. Returns the summary table as JSON.
+// it. With face_masks, the sample's face.png is every unwrap's face mask (the segmentation `run --face-mask` takes).
+// Returns the summary table as JSON.
 nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableModel& model, const AvatarNets& nets,
                                const Demakeup& G);
 

@@ -90,3 +90,6 @@ if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
 fi
 
 $py "$here/cpu_reference_texture.py" "$out"
+for table in "$out"/table1_*/; do  # Table 1's gains with their 95% intervals over subjects
+  if [ -f "$table/per_sample.csv" ]; then $py "$here/table1_intervals.py" "$table"; fi
+done

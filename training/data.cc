@@ -253,6 +253,11 @@ struct ShardLoader::Pipeline {
             if (!sample.members.count(member))
               throw InvalidInput(file, "sample '" + sample.key + "' has no member '" + member + "'",
                                  "regenerate the shard (its generator resumes) or drop it from manifest.json");
+          if (!options.decode.empty())
+            for (auto it = sample.members.begin(); it != sample.members.end();)
+              it = std::find(options.decode.begin(), options.decode.end(), it->first) == options.decode.end()
+                       ? sample.members.erase(it)
+                       : std::next(it);
           std::pair<shards::Sample, std::string> item{std::move(sample), file};
           if (options.shuffle_buffer <= 0) {
             if (!emit(std::move(item))) return;

@@ -53,6 +53,9 @@ const std::vector<int64_t>& ibug68_mirror();
 struct LoaderOptions {
   std::string dataset;                // folder with manifest.json, or one .tar shard
   std::vector<std::string> required;  // member suffixes every sample must have, e.g. {"makeup.png", "json"}
+  // Member suffixes decoded (empty: all); the others are dropped undecoded as they are read, so a task that uses one
+  // map of samples carrying many (an upscaler on 4K texture samples) neither decodes nor holds the rest.
+  std::vector<std::string> decode;
   int64_t batch_size = 4;
   uint64_t seed = 0;
   int rank = 0, world = 1;

@@ -347,10 +347,17 @@ train::TrainResult train_upscale(const TrainRunOptions& run, UpscaleOptions mode
   }
   TrainRunOptions one = run;
   one.batch = 1;
-  PatchSource train_data(std::make_unique<data::ShardLoader>(loader(run.data, one, {model.map + ".png"}, true)),
-                         model.map, model.patch, run.batch, run.pool, run.crops_per_map);
+  // Only this map is decoded (the 4K one where the samples have it): the other members of a texture sample are ~4x
+  // its size at 4K.
+  auto map_loader = [&](const std::string& dataset, const TrainRunOptions& r, bool shuffle) {
+    data::LoaderOptions o = loader(dataset, r, {model.map + ".png"}, shuffle);
+    o.decode = {model.map + ".png", model.map + "_hr.png", "json"};
+    return std::make_unique<data::ShardLoader>(o);
+  };
+  PatchSource train_data(map_loader(run.data, one, true), model.map, model.patch, run.batch, run.pool,
+                         run.crops_per_map);
   std::unique_ptr<data::ShardLoader> val;
-  if (!run.val.empty()) val = std::make_unique<data::ShardLoader>(loader(run.val, run, {model.map + ".png"}, false));
+  if (!run.val.empty()) val = map_loader(run.val, run, false);
   train::seed_everything(run.seed);
   SrganTask task(model);
   if (!run.init.empty() && !run.resume) {

@@ -8,7 +8,8 @@
 # - SRGAN ×4 (`train upscale`, pixel-loss phase) beats bicubic on the held-out subjects' true diffuse maps;
 # - `bareskin run` on a held-out subject's bare-skin face image from `texgen faces` writes a complete avatar folder
 #   whose GLB the independent reader (tests/python/glb_oracle.py) accepts and whose diffuse map is closer to the
-#   subject's true diffuse than the 3DMM's mean albedo is.
+#   subject's true diffuse than the 3DMM's mean albedo is; with `--face-mask` hiding the whole face nothing is
+#   unwrapped, and a mask of another size is refused (exit 3, nothing written).
 # A broken loss or a detached gradient leaves the UV net at its start (grey roughness and specular) and SRGAN at
 # bicubic, which fails here.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -112,4 +113,27 @@ psnr = lambda a: -10 * np.log10(((a - truth)[layout] ** 2).mean())
 print(f"run's diffuse vs the truth: {psnr(out):.2f} dB; the 3DMM mean albedo: {psnr(mean):.2f} dB")
 assert psnr(out) > psnr(mean) + 1, (psnr(out), psnr(mean))
 PY
+# --face-mask: a mask that hides the whole face leaves every texel unseen (the net fills the whole layout); a mask
+# of another size than the photo's is refused with exit 3 and nothing written.
+"$py" - "$work/face.png" "$work/black.png" "$work/small.png" <<'PY' || fail "could not write the masks"
+import sys
+import numpy as np
+from skimage import io
+h, w = io.imread(sys.argv[1]).shape[:2]
+io.imsave(sys.argv[2], np.zeros((h, w), np.uint8), check_contrast=False)
+io.imsave(sys.argv[3], np.full((h // 2, w), 255, np.uint8), check_contrast=False)
+PY
+"$bin" -q --threads 2 run "$work/face.png" --landmarks "$work/face_lm.json" --model "$model" --texture "$work/tex" \
+  --no-upscale --no-bareskin --preview-size 64 --face-mask "$work/black.png" -o "$work/masked" || fail "run --face-mask"
+"$py" - "$work/avatar/unwrap.png" "$work/masked/unwrap.png" <<'PY' || fail "the face mask did not empty the unwrap"
+import sys
+from skimage import io
+seen, masked = (io.imread(f)[..., :3].max() for f in sys.argv[1:3])
+assert seen > 0 and masked == 0, (seen, masked)
+PY
+"$bin" -q run "$work/face.png" --landmarks "$work/face_lm.json" --model "$model" --texture "$work/tex" --no-upscale \
+  --no-bareskin --face-mask "$work/small.png" -o "$work/bad_mask" 2> "$work/bad_mask.err"
+rc=$?
+[ $rc -eq 3 ] && [ ! -e "$work/bad_mask" ] && grep -q "small.png" "$work/bad_mask.err" ||
+  fail "a face mask of the wrong size: exit $rc, $(cat "$work/bad_mask.err")"
 echo "texture learning: ok"
