@@ -1,6 +1,7 @@
 // bareskin relight: an avatar folder rendered with its four maps under a chosen light (makeup/relight.h); also exports
 // the photo's fitted light as SH JSON and an equirectangular EXR.
 #include "apps/cli.h"
+#include "core/parallel.h"
 #include "makeup/relight.h"
 
 namespace bareskin::cli {
@@ -21,6 +22,7 @@ std::function<void()> setup_relight_command(CLI::App& app, const Globals& global
   app.footer("Without --light/--env/--direction the photo's fitted light (coefficients.json) is used.\n"
              "Example:\n  bareskin relight out/avatar --direction 0.5,0.6,1 --view 30,0 -o relit.png\ndocs/relight.md.");
   return [opt] {
+    keep_freed_memory();  // the render's fresh buffers in huge pages
     looks::relight_command(*opt);
     spdlog::info("relight: {}{}", opt->output, opt->export_light.empty() ? "" : " + light in " + opt->export_light);
   };

@@ -16,7 +16,6 @@
 #include "core/log.h"
 #include "core/mesh_io.h"
 #include "core/png.h"
-#include "core/png_encoding.h"
 #include "core/svg_chart.h"
 #include "render/camera.h"
 #include "render/shade.h"
@@ -58,7 +57,6 @@ struct StageTimer {
 };
 
 constexpr uint64_t kPreviewLightSeed = 2022;  // preview lights: texgen's lights 0–2 of this seed
-constexpr int kFastPngSize = 2048;             // maps this wide and wider use core/png_encoding.h's fast encoding
 
 Image rgb_only(const Image& image) {
   if (image.channels == 3) return image;
@@ -307,8 +305,8 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   if (a.coefficients.gamma) looks::write_light_files(d, *a.coefficients.gamma, looks::kLightEnvWidth);  // for engines
   write_mesh(d + "/mesh.obj", a.mesh);
   // Each map is encoded once, on `threads` threads, largest first; the GLB embeds the files' bytes (its roughness
-  // texture is the grey roughness PNG itself, glb.h) plus one grey+alpha specular texture. The 4K maps use the fast
-  // encoding (one row filter, zlib's run-length strategy: bench/BENCHMARKS.md gives its time and size).
+  // texture is the grey roughness PNG itself, glb.h) plus one grey+alpha specular texture (core/png_encoding.h's
+  // encoding: bench/BENCHMARKS.md gives its time and size).
   const bool hr = !a.maps_hr.empty();
   const auto& glb_maps = hr ? a.maps_hr : a.maps;
   std::map<std::string, std::string> png;  // file name under maps/ -> bytes
@@ -317,10 +315,8 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   for (const auto& [name, image] : a.maps) png[name + ".png"];
   std::vector<std::function<void()>> jobs;
   auto encode = [&](std::string& bytes, const Image& image, const std::string& path) {
-    PngEncoding encoding;
-    encoding.fast = image.width >= kFastPngSize;
-    jobs.push_back([&bytes, &image, path, encoding] {
-      bytes = encode_png(image, 8, encoding);
+    jobs.push_back([&bytes, &image, path] {
+      bytes = encode_png(image, 8);
       if (!path.empty()) write_file_atomic(path, bytes);
     });
   };

@@ -97,8 +97,8 @@ Avatar avatar_from_photo(const Image& photo, const std::string& source, const Fa
 // InvalidInput naming the file when it cannot be read or is not the photo's size.
 Image read_face_mask(const std::string& path, const Image& photo);
 
-// Writes the avatar folder atomically (AtomicDirectory: all or nothing). Each map is encoded once, the 2K-and-larger
-// ones with core/png_encoding.h's fast encoding, on `threads` threads; the GLB embeds the map files' own PNG bytes.
+// Writes the avatar folder atomically (AtomicDirectory: all or nothing). Each map is encoded once (core/png_encoding.h),
+// on `threads` threads; the GLB embeds the map files' own PNG bytes.
 void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::json& report, int threads = 2);
 
 // The map types of a comma-separated list ("diffuse,normal"); InvalidInput naming `option` for an unknown one.

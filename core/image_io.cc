@@ -1,6 +1,7 @@
 #include "core/image_io.h"
 
 #include <OpenImageIO/imageio.h>
+#include <png.h>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -179,6 +180,12 @@ Image read_image(const std::string& path, std::optional<ColorSpace> assume) {
   return image;
 }
 
+void ImageWriteOptions::check() const {
+  if (jpeg_quality < 1 || jpeg_quality > 100)
+    throw InvalidInput("jpeg_quality", "must be in [1, 100] (got " + std::to_string(jpeg_quality) + ")", "e.g. 95");
+  png.check();
+}
+
 namespace {
 
 // Opens an OpenImageIO output on `file`'s temporary with our conventions: storage type from the options or the
@@ -186,6 +193,7 @@ namespace {
 std::unique_ptr<OIIO::ImageOutput> open_output(const std::string& path, const AtomicFile& file, int width, int height,
                                                int channels, ColorSpace space, const ImageWriteOptions& options,
                                                OIIO::ImageSpec& spec) {
+  options.check();
   const std::string ext = lower_extension(path);
   PixelType type = PixelType::UInt8;
   if (options.type) {
@@ -205,6 +213,13 @@ std::unique_ptr<OIIO::ImageOutput> open_output(const std::string& path, const At
     spec.attribute("compression", "zip");
   }
   if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", "jpeg:" + std::to_string(options.jpeg_quality));
+  if (ext == ".png") {  // the settings of encode_png with options.png (core/png.cc)
+    if (!options.compression.empty())
+      throw InvalidInput(path, "PNG takes no compression '" + options.compression + "'", "set ImageWriteOptions::png");
+    spec.attribute("png:compressionLevel", options.png.level);
+    spec.attribute("compression", options.png.fast ? "rle" : "default");
+    spec.attribute("png:filter", options.png.fast ? PNG_FILTER_SUB : PNG_ALL_FILTERS);
+  }
   if (options.tiled || options.mipmap) {
     if (!out->supports("tiles")) throw InvalidInput(path, "format cannot store tiles", "write .exr or .tif");
     spec.tile_width = spec.tile_height = 64;

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "core/image.h"
+#include "core/png_encoding.h"
 
 namespace bareskin {
 
@@ -29,8 +30,12 @@ struct ImageWriteOptions {
   std::optional<PixelType> type;  // default: uint8 for PNG/JPEG, uint16 for TIFF, half for EXR
   bool tiled = false;             // EXR/TIFF: 64x64 tiles
   bool mipmap = false;            // EXR/TIFF: full mip chain (implies tiled)
-  std::string compression;        // e.g. "zip", "piz", "dwaa"; empty: the format's default (EXR: zip)
-  int jpeg_quality = 95;
+  std::string compression;        // EXR/TIFF: e.g. "zip", "piz", "dwaa"; empty: the format's default (EXR: zip)
+  int jpeg_quality = 95;          // JPEG: 1-100
+  // PNG: zlib level and row filters. The default is the project's one PNG encoding (core/png_encoding.h), the one
+  // encode_png uses too, so a PNG written here and one encoded in memory from the same pixels are written alike.
+  PngEncoding png;
+  void check() const;  // InvalidInput naming the option
 };
 
 // Writes atomically; pixel values are stored as given (convert with to_srgb/to_linear first) and the file is tagged

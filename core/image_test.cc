@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/image_io.h"
+#include "core/png.h"
 #include "core/test_util.h"
 
 namespace bareskin {
@@ -127,6 +128,40 @@ TEST(Image, CorruptFilesAreInvalidInputAndOutputIsAtomic) {
   EXPECT_THROW(write_image("/nonexistent_dir/a.png", gradient(4, 4, 3, ColorSpace::sRGB)), IoError);
   const size_t before = testing::count_files(dir);
   EXPECT_THROW(write_image(dir + "/a.xyz", gradient(4, 4, 3, ColorSpace::sRGB)), InvalidInput);
+  EXPECT_EQ(testing::count_files(dir), before) << "no partial output";
+}
+
+// write_image's PNG and encode_png's share the project's encoding (core/png_encoding.h): the same compressed rows
+// (IDAT) from the same pixels, the default and the filter search alike; bad options are InvalidInput, no file left.
+TEST(Image, PngFilesAreEncodedAsInMemory) {
+  const std::string dir = testing::temp_dir();
+  const auto idat = [](const std::string& png) {
+    std::string rows;
+    for (size_t at = 8; at + 12 <= png.size();) {
+      const auto* p = reinterpret_cast<const unsigned char*>(png.data() + at);
+      const size_t length = (size_t(p[0]) << 24) | (size_t(p[1]) << 16) | (size_t(p[2]) << 8) | p[3];
+      if (png.compare(at + 4, 4, "IDAT") == 0) rows += png.substr(at + 8, length);
+      at += 12 + length;
+    }
+    return rows;
+  };
+  const Image img = gradient(61, 47, 3, ColorSpace::sRGB);
+  for (const bool fast : {true, false}) {
+    ImageWriteOptions w;
+    w.png.fast = fast;
+    write_image(dir + "/p.png", img, w);
+    const std::string rows = idat(read_file(dir + "/p.png"));
+    EXPECT_FALSE(rows.empty());
+    EXPECT_EQ(rows, idat(encode_png(img, 8, w.png))) << "fast " << fast;
+  }
+  const size_t before = testing::count_files(dir);
+  ImageWriteOptions bad;
+  bad.png.level = 10;
+  EXPECT_THROW(write_image(dir + "/bad.png", img, bad), InvalidInput);
+  bad = {};
+  bad.jpeg_quality = 0;
+  EXPECT_THROW(write_image(dir + "/bad.jpg", img, bad), InvalidInput);
+  EXPECT_THROW(encode_png(img, 8, PngEncoding{-1, true}), InvalidInput);
   EXPECT_EQ(testing::count_files(dir), before) << "no partial output";
 }
 

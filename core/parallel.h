@@ -17,8 +17,9 @@ void parallel_for(int64_t begin, int64_t end, const std::function<void(int64_t, 
 // Makes the allocator keep freed memory for reuse, in one heap for all threads, instead of returning it to the system
 // or giving each thread its own heap: jobs that allocate and free many large buffers on several threads (4K maps, net
 // activations) otherwise pay a page fault for every fresh page, which on small VMs costs more than the arithmetic
-// (make-dataset with 4K targets: bench/BENCHMARKS.md). Call it before starting threads, in
-// one-shot commands (run, evaluate, texgen make-dataset).
+// (make-dataset with 4K targets: bench/BENCHMARKS.md). The heap's first ~2 GB are given transparent huge pages, so
+// fresh memory faults 2 MB at a time (makeup apply, relight: bench/BENCHMARKS.md). Call it before starting threads,
+// in one-shot commands (run, evaluate, texgen make-dataset, makeup apply, relight).
 void keep_freed_memory();
 
 }  // namespace bareskin

@@ -116,6 +116,11 @@ Image decode_png(const std::string& bytes, const std::string& source) {
   return image;
 }
 
+void PngEncoding::check() const {
+  if (level < 0 || level > 9)
+    throw InvalidInput("png level", "must be in [0, 9] (got " + std::to_string(level) + ")", "zlib's levels; 3 is ours");
+}
+
 std::string encode_png(const Image& image, int bits) { return encode_png(image, bits, PngEncoding{}); }
 
 std::string encode_png(const Image& image, int bits, const PngEncoding& encoding) {
@@ -140,6 +145,7 @@ std::string encode_png_samples(const unsigned char* data, int width, int height,
                                const PngEncoding& encoding) {
   BS_CHECK(channels >= 1 && channels <= 4, "PNG holds 1-4 channels");
   BS_CHECK(bits == 8 || bits == 16, "PNG bit depth is 8 or 16");
+  encoding.check();
   static const int kColorType[] = {PNG_COLOR_TYPE_GRAY, PNG_COLOR_TYPE_GRAY_ALPHA, PNG_COLOR_TYPE_RGB,
                                    PNG_COLOR_TYPE_RGBA};
   const size_t row_bytes = size_t(width) * size_t(channels) * size_t(bits / 8);
@@ -159,7 +165,7 @@ std::string encode_png_samples(const unsigned char* data, int width, int height,
   png_set_write_fn(png, &out, write_callback, nullptr);
   png_set_IHDR(png, info, width, height, bits, kColorType[channels - 1], PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_set_compression_level(png, encoding.level);  // shards favour speed; level 3 is ~2x faster than 6 for a few % size
+  png_set_compression_level(png, encoding.level);
   if (encoding.fast) {
     png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
     png_set_compression_strategy(png, Z_RLE);

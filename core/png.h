@@ -11,7 +11,8 @@ namespace bareskin {
 // Decodes PNG bytes. `source` names the file or shard member in the error (InvalidInput) for corrupt data.
 Image decode_png(const std::string& bytes, const std::string& source);
 
-// Encodes 1-4 channels at 8 or 16 bits, values clamped to [0, 1] and rounded.
+// Encodes 1-4 channels at 8 or 16 bits, values clamped to [0, 1] and rounded, with the project's PNG encoding
+// (core/png_encoding.h).
 std::string encode_png(const Image& image, int bits = 8);
 
 }  // namespace bareskin

@@ -103,6 +103,17 @@ void check_look(const makeup::MakeupLook& look, const Look& source, const std::s
 
 }  // namespace
 
+void ApplyOptions::check() const {
+  if (avatar.empty()) throw InvalidInput("avatar", "is missing", "give the avatar folder bareskin run wrote");
+  if (output.empty()) throw InvalidInput("-o", "is missing", "give the output folder");
+  if (preview_size < 16 || preview_size > 4096)
+    throw InvalidInput("--preview-size", "must be in [16, 4096] pixels (got " + std::to_string(preview_size) + ")",
+                       "e.g. --preview-size 512");
+  if (max_layer_size < 16 || max_layer_size > 8192)
+    throw InvalidInput("--max-layer-size", "must be in [16, 8192] texels (got " + std::to_string(max_layer_size) + ")",
+                       "e.g. --max-layer-size 2048");
+}
+
 MadeUp apply_look(const avatar_folder::Folder& bare, const makeup::MakeupRegions& regions,
                   const makeup::MakeupLook& look) {
   MadeUp out{makeup::paint(regions, look, makeup::skin_tone(regions, bare.maps.diffuse)), bare};
@@ -130,7 +141,8 @@ Image before_after_sheet(const std::vector<Image>& before, const std::vector<Ima
 
 nlohmann::json apply_command(const ApplyOptions& o) {
   const auto t0 = Clock::now();
-  // Everything checked first: looks, regions, the folder, the template, the output path.
+  // Everything checked first: the options, looks, regions, the folder, the template, the output path.
+  o.check();
   const std::vector<Look> looks = resolve_looks(o.looks);
   const std::set<makeup::Region> keep = o.regions.empty() ? std::set<makeup::Region>{} : parse_region_list(o.regions);
   std::vector<makeup::MakeupLook> layers;
@@ -138,7 +150,6 @@ nlohmann::json apply_command(const ApplyOptions& o) {
     layers.push_back(restrict_regions(l.layers, keep));
     check_look(layers.back(), l, o.regions);
   }
-  if (o.output.empty()) throw InvalidInput("-o", "is missing", "give the output folder");
   check_output_apart(o.output, {o.avatar});
   const avatar_folder::Folder bare = avatar_folder::read(o.avatar);
   const TemplateFace face = avatar_face(bare, o.template_dir);
@@ -188,8 +199,7 @@ nlohmann::json apply_command(const ApplyOptions& o) {
                                            after);
     if (viewer) {  // this look first, then the bare maps and the photo's unwrap
       ViewerInputs in{&bare, {{looks[i].name, &m.folder.maps, nullptr}, {"bare", &bare.maps, nullptr}}, photo};
-      if (m.folder.maps.diffuse.width < avatar_folder::kFastPngWidth)  // the page's encoding: the same bytes
-        in.variants[0].diffuse_png = pngs.at("diffuse"), in.variants[0].roughness_png = pngs.at("roughness");
+      in.variants[0].diffuse_png = pngs.at("diffuse"), in.variants[0].roughness_png = pngs.at("roughness");
       if (!unwrap.empty()) in.variants.push_back({"photo unwrap", nullptr, &unwrap});
       write_file_atomic(dir + "/viewer.html", viewer_html(in));
       if (looks.size() > 1) made_up.push_back(m.folder.maps);

@@ -23,6 +23,7 @@ struct ApplyOptions {
   std::string template_dir;     // --template: the template the avatar's model was built on (landmark vertex ids)
   int preview_size = 512;       // previews and the before/after tiles
   int max_layer_size = 2048;    // the look is painted at min(map size, this); larger maps sample it bilinearly
+  void check() const;           // InvalidInput naming the flag
 };
 
 // The look on one avatar's maps: the painted layer and the made-up copy of the folder. `regions` must be built on

@@ -11,7 +11,6 @@
 #include "core/mesh_cache.h"
 #include "core/parallel.h"
 #include "core/png.h"
-#include "core/png_encoding.h"
 #include "morphable/coefficients.h"
 #include "texgen/texture_sample.h"
 
@@ -22,6 +21,14 @@ namespace {
 
 constexpr uint64_t kPreviewLightSeed = 2022;  // as avatar/avatar.cc
 
+// The first channel alone: roughness and specular are grey, which a file may hold as RGB.
+Image first_channel(const Image& m) {
+  Image g(m.width, m.height, 1, ColorSpace::Data);
+  for (size_t i = 0; i < size_t(m.width) * m.height; ++i) g.pixels[i] = m.pixels[i * size_t(m.channels)];
+  return g;
+}
+
+// A map as the renders use it: diffuse linear RGB, normal Data RGB, roughness and specular Data grey.
 Image read_map(const std::string& path, const std::string& name, int channels) {
   if (!fs::exists(path))
     throw InvalidInput(path, "is missing: an avatar folder holds the four maps (diffuse, normal, roughness, specular)",
@@ -32,10 +39,10 @@ Image read_map(const std::string& path, const std::string& name, int channels) {
                        "give the map bareskin run wrote");
   if (name == "diffuse") {
     if (m.color_space != ColorSpace::sRGB) m.color_space = ColorSpace::sRGB;
-    m = to_linear(m);
-  } else {
-    m.color_space = ColorSpace::Data;
+    return to_linear(m);
   }
+  m.color_space = ColorSpace::Data;
+  if (channels == 1 && m.channels > 1) return first_channel(m);
   return m;
 }
 
@@ -51,12 +58,6 @@ void check_set(const MapSet& s, const std::string& dir, const std::string& suffi
   for (const Image* m : {&s.normal, &s.roughness, &s.specular})
     if (m->width != s.diffuse.width || m->height != s.diffuse.height)
       throw InvalidInput(dir + "/maps", "the" + suffix + " maps differ in size", "give the maps bareskin run wrote");
-}
-
-Image grey(const Image& m) {
-  Image g(m.width, m.height, 1, ColorSpace::Data);
-  for (size_t i = 0; i < size_t(m.width) * m.height; ++i) g.pixels[i] = m.pixels[i * size_t(m.channels)];
-  return g;
 }
 
 }  // namespace
@@ -85,12 +86,6 @@ Folder read(const std::string& dir) {
   if (!f.mesh.has_normals()) f.mesh.N = vertex_normals(f.mesh.V, f.mesh.F);
   check_set(f.maps, dir, "");
   if (f.maps_hr) check_set(*f.maps_hr, dir, "_hr");
-  f.maps.roughness = grey(f.maps.roughness);
-  f.maps.specular = grey(f.maps.specular);
-  if (f.maps_hr) {
-    f.maps_hr->roughness = grey(f.maps_hr->roughness);
-    f.maps_hr->specular = grey(f.maps_hr->specular);
-  }
   return f;
 }
 
@@ -130,7 +125,7 @@ std::map<std::string, std::string> write(const std::string& out, const Folder& f
     fs::copy(entry.path(), fs::path(out) / name, fs::copy_options::recursive);
   }
   make_directories(out + "/maps");
-  // Every map encoded once, in parallel, the 2K-and-larger ones with the fast encoding (as bareskin run does).
+  // Every map encoded once, in parallel (as bareskin run does).
   std::map<std::string, std::string> png;
   std::vector<std::pair<std::string, const Image*>> jobs;
   const Image diffuse = to_srgb(f.maps.diffuse), diffuse_hr = f.maps_hr ? to_srgb(f.maps_hr->diffuse) : Image();
@@ -144,11 +139,7 @@ std::map<std::string, std::string> write(const std::string& out, const Folder& f
   jobs.push_back({"glb_specular", &specular_glb_map});
   for (const auto& j : jobs) png[j.first];  // the map's nodes exist before the threads fill them
   parallel_for(0, int64_t(jobs.size()), [&](int64_t b, int64_t e) {
-    for (int64_t i = b; i < e; ++i) {
-      PngEncoding encoding;
-      encoding.fast = jobs[size_t(i)].second->width >= kFastPngWidth;
-      png.at(jobs[size_t(i)].first) = encode_png(*jobs[size_t(i)].second, 8, encoding);
-    }
+    for (int64_t i = b; i < e; ++i) png.at(jobs[size_t(i)].first) = encode_png(*jobs[size_t(i)].second, 8);
   });
   const std::string specular_glb = png.at("glb_specular");
   png.erase("glb_specular");

@@ -15,7 +15,6 @@
 
 namespace bareskin::avatar_folder {
 
-constexpr int kFastPngWidth = 2048;  // maps this wide and wider are written with PNG's fast encoding
 inline const std::array<const char*, 4> kMapNames = {"diffuse", "normal", "roughness", "specular"};
 
 struct MapSet {
@@ -41,8 +40,7 @@ Folder read(const std::string& dir);
 // (relative path -> bytes) into `out` (an existing, empty folder being built, e.g. an AtomicDirectory's path), with
 // every other file of the source folder `folder.dir` copied beside them (the aligned photo, coefficients, unwrap, ...).
 // `previews`: the folder's previews(preview_lights()) when the caller has them, else empty (made at 512²).
-// Returns the maps' PNG bytes by name ("diffuse", "roughness_hr", ...): encode_png(·, 8), the fast encoding from
-// kFastPngWidth on.
+// Returns the maps' PNG bytes by name ("diffuse", "roughness_hr", ...): encode_png(·, 8).
 std::map<std::string, std::string> write(const std::string& out, const Folder& folder, const std::map<std::string, std::string>& extra,
            const std::vector<Image>& previews = {});
 

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 
 #include "core/error.h"
 #include "core/files.h"
@@ -162,6 +163,19 @@ TEST(MakeupApply, BadInputLeavesNoOutput) {
   Scratch s;
   const std::string avatar = make_avatar(s.dir + "/avatar", false);
   const std::string out = s.dir + "/out";
+  const auto bad_option = [&](const std::function<void(ApplyOptions&)>& change, const std::string& flag) {
+    ApplyOptions o = options(avatar, out, "natural", "");
+    change(o);
+    try {
+      apply_command(o);
+      ADD_FAILURE() << flag << " was accepted";
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find(flag), std::string::npos) << e.what();
+    }
+  };
+  bad_option([](ApplyOptions& o) { o.preview_size = 0; }, "--preview-size");
+  bad_option([](ApplyOptions& o) { o.max_layer_size = 100000; }, "--max-layer-size");
+  bad_option([](ApplyOptions& o) { o.output.clear(); }, "-o");
   EXPECT_THROW(apply_command(options(avatar, out, "natural", "lips,ears")), InvalidInput);
   EXPECT_THROW(apply_command(options(avatar, out, "no_such_look", "")), InvalidInput);
   EXPECT_THROW(apply_command(options(avatar, out, "smoky_eyes", "lips")), InvalidInput);  // keeps no layer
@@ -276,6 +290,19 @@ TEST(Relight, FurnaceKeepsAlbedoAndTheKeyLightMovesTheHighlight) {
   EXPECT_GT(mean_x("1,0,0.4"), mean_x("-1,0,0.4") + 5);
   o.direction = "0,0,0";
   EXPECT_THROW(relight(o), InvalidInput);
+  o.direction = "1,0";
+  EXPECT_THROW(o.check(), InvalidInput);
+  o.direction = "1,0,0";
+  o.check();
+  for (const auto& change : std::vector<std::function<void(RelightOptions&)>>{
+           [](RelightOptions& r) { r.size = 8; }, [](RelightOptions& r) { r.view = "30"; },
+           [](RelightOptions& r) { r.ambient = -1; }, [](RelightOptions& r) { r.export_width = 63; },
+           [&](RelightOptions& r) { r.env = s.dir + "/white.exr"; }}) {  // with --direction: two lights
+    RelightOptions r = o;
+    change(r);
+    EXPECT_THROW(r.check(), InvalidInput);
+    EXPECT_THROW(relight(r), InvalidInput);
+  }
   o.direction.clear();
   write_file_atomic(s.dir + "/bad.exr", "not an image");
   o.env = s.dir + "/bad.exr";

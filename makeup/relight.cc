@@ -68,11 +68,33 @@ ShLight env_light(const std::string& path) {
   }
 }
 
+// --direction as a vector (not normalised) and --view as yaw, pitch: InvalidInput naming the flag.
+Eigen::Vector3d key_direction(const std::string& text) {
+  const auto d = numbers(text, 3, "--direction", "give x,y,z towards the light, e.g. 0.4,0.5,1");
+  const Eigen::Vector3d dir(d[0], d[1], d[2]);
+  if (dir.norm() < 1e-9) throw InvalidInput("--direction", "is the zero vector", "give x,y,z towards the light");
+  return dir;
+}
+std::vector<double> view_angles(const std::string& text) {
+  return numbers(text, 2, "--view", "give yaw,pitch in degrees, e.g. 30,10");
+}
+
 }  // namespace
 
-PbrLight chosen_light(const RelightOptions& o) {
-  const int given = int(!o.light.empty()) + int(!o.env.empty()) + int(!o.direction.empty());
+void RelightOptions::check() const {
+  const int given = int(!light.empty()) + int(!env.empty()) + int(!direction.empty());
   if (given > 1) throw InvalidInput("--light/--env/--direction", "more than one light given", "give one of them");
+  if (!direction.empty()) key_direction(direction);
+  if (!(intensity >= 0) || !(ambient >= 0))
+    throw InvalidInput("--intensity/--ambient", "must be ≥ 0", "give a non-negative light");
+  view_angles(view);
+  if (size < 16 || size > 8192) throw InvalidInput("--size", "must be in [16, 8192]", "");
+  if (export_width < 4 || export_width > 4096 || export_width % 2)
+    throw InvalidInput("--export-width", "must be even and in [4, 4096]", "");
+}
+
+PbrLight chosen_light(const RelightOptions& o) {
+  o.check();
   PbrLight light;
   if (!o.light.empty()) {
     if (!fs::exists(o.light)) throw InvalidInput(o.light, "does not exist", "give a JSON list of 27 SH coefficients");
@@ -80,11 +102,7 @@ PbrLight chosen_light(const RelightOptions& o) {
   } else if (!o.env.empty()) {
     light.sh = env_light(o.env);
   } else if (!o.direction.empty()) {
-    const auto d = numbers(o.direction, 3, "--direction", "give x,y,z towards the light, e.g. 0.4,0.5,1");
-    const Eigen::Vector3d dir(d[0], d[1], d[2]);
-    if (dir.norm() < 1e-9) throw InvalidInput("--direction", "is the zero vector", "give x,y,z towards the light");
-    if (!(o.intensity >= 0) || !(o.ambient >= 0))
-      throw InvalidInput("--intensity/--ambient", "must be ≥ 0", "give a non-negative light");
+    const Eigen::Vector3d dir = key_direction(o.direction);
     light.sh = sh_from_direction(dir, Eigen::Vector3d::Constant(o.intensity));
     for (int c = 0; c < 3; ++c) light.sh[size_t(9 * c)] += o.ambient / sh_scales().k0;
     light.key = {dir.normalized(), Eigen::Vector3d::Constant(o.intensity)};
@@ -95,9 +113,8 @@ PbrLight chosen_light(const RelightOptions& o) {
 }
 
 Frame relight(const RelightOptions& o) {
-  if (o.size < 16 || o.size > 8192) throw InvalidInput("--size", "must be in [16, 8192]", "");
-  const auto yp = numbers(o.view, 2, "--view", "give yaw,pitch in degrees, e.g. 30,10");
-  const PbrLight light = chosen_light(o);
+  const PbrLight light = chosen_light(o);  // checks the options
+  const auto yp = view_angles(o.view);
   const avatar_folder::Folder f = avatar_folder::read(o.avatar);
   return render_pbr(f.mesh, orbit_camera(o.size, yp[0], yp[1], Eigen::Vector3d::Zero()), f.best().view(), light);
 }
@@ -112,10 +129,9 @@ void write_light_files(const std::string& dir, const ShLight& light, int width) 
 }
 
 void relight_command(const RelightOptions& o) {
+  o.check();
   if (o.output.empty() && o.export_light.empty()) throw InvalidInput("-o", "is missing", "give -o image.png and/or --export-light DIR");
   if (!o.export_light.empty()) {
-    if (o.export_width < 4 || o.export_width > 4096 || o.export_width % 2)
-      throw InvalidInput("--export-width", "must be even and in [4, 4096]", "");
     const ShLight photo = avatar_folder::photo_light(o.avatar);
     if (!o.output.empty()) check_output_file(o.output);
     const Frame frame = o.output.empty() ? Frame{} : relight(o);

@@ -23,6 +23,8 @@ struct RelightOptions {
   int size = 1024;
   std::string export_light;    // a folder: light_sh.json + light_env.exr of the photo's fitted light
   int export_width = kLightEnvWidth;  // width of the exported equirectangular map
+  // InvalidInput naming the flag: more than one light, a bad number or size (relight_command also needs an output).
+  void check() const;
 };
 
 // The light the options choose (one of light / env / direction, else the photo's): InvalidInput for more than one,

@@ -19,8 +19,8 @@ struct ViewerVariant {
   std::string name;                 // "bare", a look's name, "photo unwrap"
   const avatar_folder::MapSet* maps = nullptr;  // diffuse, roughness, specular used (the normal map stays the bare one)
   const Image* diffuse_only = nullptr;          // or a diffuse alone (sRGB or linear), e.g. the photo's unwrap
-  // `maps`' diffuse (sRGB) and roughness as encode_png(·, 8) with the default encoding wrote them, where the caller
-  // has them (the page then holds these bytes); empty: encoded here.
+  // `maps`' diffuse (sRGB) and roughness as encode_png(·, 8) wrote them, where the caller has them (the page then
+  // holds these bytes); empty: encoded here.
   std::string diffuse_png, roughness_png;
 };
 

@@ -55,10 +55,8 @@ std::string numbered(const std::string& prefix, int n) {
 
 uint64_t fnv1a(const std::string& s) { return bareskin::fnv1a(s.data(), s.size()); }
 
-// Members are encoded with one row filter and run-length deflate (core/png_encoding.h): ~3x faster than the default
-// and smaller on these maps; the bytes depend only on the pixels.
-const PngEncoding kMemberEncoding{3, true};
-std::string png8(const Image& img) { return encode_png(img, 8, kMemberEncoding); }
+// Members in the project's PNG encoding (core/png_encoding.h); the bytes depend only on the pixels.
+std::string png8(const Image& img) { return encode_png(img, 8); }
 
 json vec(const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); }
 
@@ -178,7 +176,7 @@ std::string baked_member(Image image) {
     for (size_t c = 0; c < C; ++c) samples[i + c] = (c < colour ? as_colour : as_data)(image.pixels[i + c]);
   const int width = image.width, height = image.height;
   std::vector<float>().swap(image.pixels);  // the float map goes before deflate
-  return encode_png_samples(samples.get(), width, height, int(C), 8, kMemberEncoding);
+  return encode_png_samples(samples.get(), width, height, int(C), 8, PngEncoding{});
 }
 
 // The subject's four maps baked to the target sizes (in memory, through the cached layout raster) as PNG members, on
