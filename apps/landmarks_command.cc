@@ -69,11 +69,7 @@ detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
 }
 
 std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {
-  struct Options {
-    std::string photo, output, draw, weights, device = "cpu";
-    detect::DetectOptions detect;
-  };
-  auto opt = std::make_shared<Options>();
+  auto opt = std::make_shared<detect::PhotoLandmarksOptions>();
   app.require_subcommand(1);
   CLI::App* d = app.add_subcommand("detect", "Find faces and their 68 landmarks in a photo (face-api's networks)");
   d->add_option("photo", opt->photo, "Photo (PNG, JPEG, TIFF, EXR; grey, RGB or RGBA; 8/16-bit or float)")->required();
@@ -89,7 +85,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
       ->check(CLI::Range(0.0, 1.0));
   d->add_option("--max-faces", opt->detect.max_faces, "Keep at most this many faces (0: all)")->capture_default_str()
       ->check(CLI::Range(0, 100000));
-  add_device_option(*d, opt->device);
+  add_device_option(*d, opt->device_name);
 
   auto sc = std::make_shared<detect::ScanLandmarkFilesOptions>();
   sc->multiview.views = 1;
@@ -129,12 +125,7 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
   s->add_option("--save-views", sc->save_views, "Also write the views (view_NN.png) and their cameras (cameras.json) to "
                                                 "this folder: a synthetic capture");
 
-  struct CalibrateOptions {
-    std::string scans, output, weights;
-    detect::MultiviewOptions multiview;
-    int count = 0;
-  };
-  auto ca = std::make_shared<CalibrateOptions>();
+  auto ca = std::make_shared<detect::CalibrationFilesOptions>();
   CLI::App* c = app.add_subcommand("calibrate", "Learn the detector's landmark convention against known 3D landmarks "
                                                 "(scan folders with landmarks.json) for `landmarks scan --calibration`");
   c->add_option("--scans", ca->scans, "Folder of scan folders (mesh, diffuse map, landmarks.json)")->required();
@@ -170,36 +161,17 @@ std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& glob
     set_torch_threads(globals);
     if (p->parsed()) {
       cp->capture.backdrop = !cp->no_backdrop;
-      cp->capture.check();
-      check_output_apart(cp->output, {cp->scan, cp->texture});
-      const TexturedScan scan = read_textured_scan(cp->scan, cp->texture);
-      write_synthetic_capture(scan.mesh, scan.diffuse ? &*scan.diffuse : nullptr, cp->output, cp->capture);
+      write_synthetic_capture(cp->scan, cp->texture, cp->output, cp->capture);
       return;
     }
-    if (c->parsed()) {
-      check_output_file(ca->output);
-      check_output_apart(ca->output, {ca->scans});
-      const detect::FaceApi net(ca->weights.empty() ? detect::default_face_api_folder() : ca->weights);
-      write_file_atomic(ca->output,
-                        landmark_calibration_json(detect::calibrate_on_scans(net, ca->scans, ca->count, ca->multiview)));
-      spdlog::info("landmarks calibrate: -> {}", ca->output);
-      return;
-    }
+    if (c->parsed()) return detect::write_calibration(*ca);
     if (s->parsed()) {
       sc->colmap.threads = globals.threads;
       detect::scan_landmark_files(*sc);
       return;
     }
-    const torch::Device device = parse_device(opt->device);
-    detect::PhotoLandmarksOptions d;
-    d.photo = opt->photo;
-    d.output = opt->output;
-    d.draw = opt->draw;
-    d.weights = opt->weights;
-    d.device = device;
-    d.device_name = opt->device;
-    d.detect = opt->detect;
-    detect::detect_photo_landmarks(d);
+    opt->device = parse_device(opt->device_name);
+    detect::detect_photo_landmarks(*opt);
   };
 }
 

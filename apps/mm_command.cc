@@ -1,57 +1,18 @@
 // bareskin mm-build / mm-eval: the morphable model from registered scans (registering what is not yet registered),
 // and its metrics (compactness, generalisation, specificity; per region).
-#include <chrono>
-#include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
+#include <string>
 
 #include "apps/detector.h"
-#include "apps/model_input.h"
-#include "core/error.h"
-#include "core/files.h"
-#include "core/image_io.h"
-#include "core/mesh_io.h"
-#include "morphable/build.h"
-#include "morphable/coefficients.h"
-#include "morphable/export.h"
-#include "core/landmarks.h"
+#include "core/progress.h"
 #include "morphable/fit.h"
 #include "morphable/metrics.h"
-#include "scan/blendshapes.h"
-#include "scan/register_folder.h"
+#include "scan/model_files.h"
 
 namespace bareskin::cli {
-namespace {
-
-namespace fs = std::filesystem;
-
-// Registered subject folders under `dir`: the ones holding a mesh.
-std::vector<std::string> registered_subjects(const std::string& dir) {
-  if (!fs::is_directory(dir)) throw IoError(dir, "is not a folder", "give registered scans, or scans to register");
-  std::vector<std::string> out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_directory() && (fs::exists(e.path() / "mesh.ply") || fs::exists(e.path() / "mesh.obj"))) {
-      out.push_back(e.path().string());
-    }
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::string stem_path(const std::string& model_path) {
-  const fs::path p(model_path);
-  return (p.parent_path() / p.stem()).string();
-}
-
-}  // namespace
 
 std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globals) {
-  struct Options {
-    std::string scans, registered, output = "model.safetensors", template_dir, blendshapes, export_obj;
-    int maps_res = 1024;
-    BuildOptions build;
-  };
-  auto opt = std::make_shared<Options>();
+  auto opt = std::make_shared<ModelFilesOptions>();
   app.add_option("scans", opt->scans,
                  "Scans to register first (scan folders; already registered ones are reused). Omit to build from "
                  "--registered alone");
@@ -82,89 +43,19 @@ std::function<void()> setup_mm_build_command(CLI::App& app, const Globals& globa
       ->group("Model");
   app.add_option("--export-obj", opt->export_obj, "Also write OBJs of the mean and of +-3 sd, and appearance PNGs, here");
   return [opt, shape_k, app_k, exp_k, &globals] {
-    const auto t0 = std::chrono::steady_clock::now();
-    opt->build.check();
     opt->build.exact.shape = shape_k->count() > 0;
     opt->build.exact.appearance = app_k->count() > 0;
     opt->build.exact.expression = exp_k->count() > 0;
-    const fs::path out_dir = fs::path(opt->output).parent_path();
-    if (opt->registered.empty()) opt->registered = (out_dir / "registered").string();
-    opt->template_dir = find_template_folder(opt->template_dir);
-    const TemplateFace face = read_template_folder(opt->template_dir);
-
-    std::vector<std::string> subjects;
-    double register_seconds = 0;
-    if (!opt->scans.empty()) {
-      RegisterFolderOptions reg;
-      reg.scans = opt->scans;
-      reg.output = opt->registered;
-      reg.maps.resolution = opt->maps_res;
-      if (opt->maps_res > 0) reg.maps.check();
-      if (opt->build.appearance_components > 0 && opt->maps_res == 0) {
-        throw InvalidInput("", "--maps-res 0 leaves no diffuse maps for the appearance model",
-                           "give --maps-res 1024, or --appearance-components 0");
-      }
-      reg.detect = scan_landmark_detector(globals);
-      ProgressBar register_bar = globals.progress("scan register");
-      subjects = register_folder(face, reg, register_bar.callback());
-      register_bar.finish();
-      globals.write_resolved_config(reg.output + "/config.json");
-      register_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    } else {
-      subjects = registered_subjects(opt->registered);
-    }
-    std::vector<NamedShape> blendshapes;
-    for (const Blendshape& b : opt->blendshapes.empty() ? make_blendshapes(face) : read_blendshapes(opt->blendshapes)) {
-      blendshapes.push_back({b.name, b.delta});
-    }
-
-    ProgressBar bar = globals.progress("mm-build");
-    BuildReport report;
-    MorphableModel model = build_model(face, subjects, blendshapes, opt->build, report, bar.callback());
-    bar.finish();
-    model.metadata["provenance"] = fmt::format("bareskin mm-build {}: {} subjects from {}, template {}", BARESKIN_VERSION,
-                                               subjects.size(), opt->registered, opt->template_dir);
-    model.metadata["config"] = nlohmann::json{{"procrustes_scale", opt->build.procrustes_scale},
-                                              {"shape_variance", opt->build.shape_variance},
-                                              {"appearance_resolution", opt->build.appearance_resolution},
-                                              {"blendshapes", opt->blendshapes.empty() ? "template set" : opt->blendshapes}}
-                                   .dump();
-    const auto t_write = std::chrono::steady_clock::now();
-    if (!out_dir.empty()) make_directories(out_dir.string());
-    write_model(opt->output, model);
-    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_write).count();
-    if (!opt->export_obj.empty()) export_model_previews(opt->export_obj, model);
-
-    nlohmann::json summary = {
-        {"model", opt->output},
-        {"subjects", report.subjects},
-        {"components", {{"shape", model.shape_basis.rows()}, {"expression", model.expression_basis.rows()},
-                        {"appearance", model.appearance_basis.rows()}}},
-        {"variance_explained", {{"shape", report.shape_variance_explained},
-                                {"appearance", report.appearance_variance_explained}}},
-        {"gpa_iterations", report.gpa_iterations},
-        {"appearance_subjects", report.appearance_subjects},
-        {"subjects_without_diffuse", report.subjects_without_diffuse},
-        {"notes", report.notes},
-        {"seconds", {{"register", register_seconds},
-                     {"read_shapes", report.seconds_read_shapes},
-                     {"gpa", report.seconds_gpa},
-                     {"shape_pca", report.seconds_shape_pca},
-                     {"read_maps", report.seconds_read_maps},
-                     {"appearance_pca", report.seconds_appearance_pca},
-                     {"expression", report.seconds_expression},
-                     {"write", write_seconds},
-                     {"total", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()}}}};
-    write_file_atomic(stem_path(opt->output) + ".build.json", summary.dump(1) + "\n");
-    globals.write_resolved_config(stem_path(opt->output) + ".config.json");
-    spdlog::info("mm-build: {} subjects -> {} ({} identity, {} expression, {} appearance components; {:.1f}% / {:.1f}% "
-                 "of shape / appearance variance); {:.1f} s (read {:.1f}, GPA {:.1f}, PCA {:.1f}, maps {:.1f}, "
-                 "appearance PCA {:.1f})",
-                 report.subjects, opt->output, model.shape_basis.rows(), model.expression_basis.rows(),
-                 model.appearance_basis.rows(), 100 * report.shape_variance_explained,
-                 100 * report.appearance_variance_explained, summary["seconds"]["total"].get<double>(),
-                 report.seconds_read_shapes, report.seconds_gpa, report.seconds_shape_pca, report.seconds_read_maps,
-                 report.seconds_appearance_pca);
+    opt->generator = std::string("bareskin mm-build ") + BARESKIN_VERSION;
+    ModelFilesHooks hooks;
+    hooks.progress = [&globals](const std::string& stage) {
+      auto bar = std::make_shared<ProgressBar>(stage, !globals.quiet());  // finished when the stage drops it
+      return ProgressCallback([bar](int64_t done, int64_t total, const std::string& s) { bar->update(done, total, s); });
+    };
+    if (!opt->scans.empty()) hooks.detect = scan_landmark_detector(globals);
+    hooks.registered = [&globals](const std::string& folder) { globals.write_resolved_config(folder + "/config.json"); };
+    const std::string stem = build_model_files(*opt, hooks);
+    globals.write_resolved_config(stem + ".config.json");
   };
 }
 
@@ -185,14 +76,8 @@ std::function<void()> setup_mm_eval_command(CLI::App& app, const Globals& global
   };
 }
 
-std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals) {
-  struct Options {
-    std::string image, model, landmarks, output = "fit.json", view = "front", trace, skin_mask;
-    LandmarkFitOptions fit;
-    PhotometricFitOptions photo;
-    bool no_photometric = false;
-  };
-  auto opt = std::make_shared<Options>();
+std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals&) {
+  auto opt = std::make_shared<FitFilesOptions>();
   app.add_option("image", opt->image, "The (square) image the landmarks belong to")->required();
   app.add_option("--model", opt->model, "Model from 'bareskin mm-build'")->required();
   app.add_option("--landmarks", opt->landmarks, "68 iBUG landmarks in the image (JSON or .pts, pixels)")->required();
@@ -218,60 +103,7 @@ std::function<void()> setup_mm_fit_command(CLI::App& app, const Globals& globals
   app.add_flag("--no-photometric", opt->no_photometric, "Landmarks only: no delta or gamma")->group("Photometric");
   app.add_option("--trace", opt->trace,
                  "Accuracy per iteration and time: a CSV, and beside it <stem>_landmarks.svg and <stem>_photometric.svg");
-  return [opt, &globals] {
-    opt->fit.check();
-    check_output_file(opt->output);
-    check_output_apart(opt->output, {opt->image, opt->model, opt->landmarks, opt->skin_mask});
-    if (!opt->trace.empty()) {
-      check_output_file(opt->trace);
-      check_output_apart(opt->trace, {opt->image, opt->model, opt->landmarks, opt->skin_mask, opt->output});
-    }
-    const ImageFileInfo info = probe_image(opt->image);
-    if (info.width != info.height) throw InvalidInput(opt->image, "is not square", "give the square crop");
-    const Landmarks lm = read_image_landmarks(opt->landmarks, info.width, info.height);
-    const MorphableModel model = read_model(opt->model);
-    const Camera camera = command_camera(model.topology, true, opt->view, "pinhole", info.width);
-    const auto t0 = std::chrono::steady_clock::now();
-    const LandmarkFit fit = fit_landmarks(model, lm.points, camera, opt->fit);
-    PhotometricFit photo;
-    if (!opt->no_photometric) {
-      Image image = read_image(opt->image);
-      if (image.color_space == ColorSpace::sRGB) image = to_linear(image);
-      const Mesh posed = posed_mesh(model, to_coefficients(fit));
-      Image skin;
-      if (!opt->skin_mask.empty()) {
-        skin = read_image(opt->skin_mask);
-        if (skin.width != info.width || skin.height != info.height) {
-          throw InvalidInput(opt->skin_mask, "is " + std::to_string(skin.width) + "x" + std::to_string(skin.height) +
-                                                 ", the image " + std::to_string(info.width) + "x" + std::to_string(info.height),
-                             "give a mask of the photo's size");
-        }
-        opt->photo.skin_mask = &skin;
-      }
-      photo = fit_photometric(model, posed, camera, image, opt->photo);
-    }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    Coefficients c = to_coefficients(fit);
-    c.extra = {{"landmark_rms_px", fit.rms_px},
-               {"iterations", fit.iterations},
-               {"seconds", seconds},
-               {"view", opt->view},
-               {"image_size", info.width},
-               {"terms", opt->no_photometric ? "landmarks + regularisation"
-                                             : "landmarks + regularisation, then photometric (delta, gamma)"}};
-    if (!opt->no_photometric) {
-      c.delta = photo.delta;
-      c.gamma = photo.gamma;
-      c.extra["photometric_psnr_db"] = photo.psnr_db;
-      c.extra["photometric_pixels"] = photo.pixels;
-    }
-    write_coefficients(opt->output, c);
-    if (!opt->trace.empty()) write_fit_trace(opt->trace, fit, photo);
-    spdlog::info("mm-fit: {} identity and {} expression components, landmark RMS {:.3f} px after {} iterations; "
-                 "photometric PSNR {:.1f} dB over {} pixels ({:.2f} s) -> {}",
-                 fit.alpha.size(), fit.beta.size(), fit.rms_px, fit.iterations, photo.psnr_db, photo.pixels, seconds,
-                 opt->output);
-  };
+  return [opt] { fit_files(*opt); };
 }
 
 }  // namespace bareskin::cli

@@ -20,9 +20,8 @@ namespace fs = std::filesystem;
 std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals) {
   struct Options {
     std::string input, output, run, model, device = "cpu";
-    bool refine = false, keep_going = false;
-    int refine_iterations = 30;
-    recon::ConfidenceOptions confidence;
+    bool keep_going = false;
+    recon::PhotoReconOptions photo;  // its confidence is --eval's too
     recon::EvalOptions eval;
   };
   auto o = std::make_shared<Options>();
@@ -30,14 +29,14 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
   app.add_option("-o,--output", o->output, "Output folder (per photo a subfolder when the input is a folder)")->required();
   app.add_option("--run", o->run, "The net: a 'bareskin train recon' run folder or its checkpoint")->required();
   app.add_option("--model", o->model, "The morphable model (default: the one the run was trained with)");
-  app.add_flag("--refine", o->refine, "Continue with mm-fit's fitters from the net's answer (landmarks, then appearance "
+  app.add_flag("--refine", o->photo.refine, "Continue with mm-fit's fitters from the net's answer (landmarks, then appearance "
                                       "and light)");
-  app.add_option("--refine-iterations", o->refine_iterations, "Landmark-fit iterations of --refine")->capture_default_str()
+  app.add_option("--refine-iterations", o->photo.refine_iterations, "Landmark-fit iterations of --refine")->capture_default_str()
       ->check(CLI::Range(1, 1000));
   app.add_flag("--keep-going", o->keep_going, "With a folder: report a photo that fails and go on (exit 3 at the end)");
-  app.add_option("--flag-landmark-px", o->confidence.landmark_px, "Flag answers whose landmarks are further than this "
+  app.add_option("--flag-landmark-px", o->photo.confidence.landmark_px, "Flag answers whose landmarks are further than this "
                                                                   "from the detector's (px, 256² frame)")->capture_default_str();
-  app.add_option("--flag-psnr", o->confidence.psnr_db, "Flag answers whose render matches the photo worse than this "
+  app.add_option("--flag-psnr", o->photo.confidence.psnr_db, "Flag answers whose render matches the photo worse than this "
                                                        "(dB)")->capture_default_str();
   app.add_option("--eval", o->eval.data, "Instead of photos: held-out face samples (a split of 'texgen faces') to "
                                          "measure against their truth and mm-fit (metrics.json, charts, heat maps)");
@@ -53,18 +52,12 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     if (o->input.empty() == o->eval.data.empty()) {
       throw CLI::ValidationError("recon", "give a photo (or folder), or --eval with face samples");
     }
-    if (o->eval.data.empty() && !fs::exists(o->input)) {
-      throw IoError(o->input, "does not exist", "give a photo or a folder of photos");
-    }
-    if (o->eval.data.empty() && fs::is_regular_file(o->input))
-      detect::check_photo(read_image(o->input), o->input);  // a thumbnail is refused before the run is looked for
-    const std::string model_path = recon::run_model_path(o->run, o->model);
     if (!o->eval.data.empty()) {
       recon::EvalOptions e = o->eval;
       e.run = o->run;
-      e.model = model_path;
+      e.model = o->model;
       e.output = o->output;
-      e.confidence = o->confidence;
+      e.confidence = o->photo.confidence;
       auto bar = globals.progress("recon eval");
       const nlohmann::json summary = recon::evaluate_recon(e, bar.callback());
       bar.finish();
@@ -75,11 +68,9 @@ std::function<void()> setup_recon_command(CLI::App& app, const Globals& globals)
     p.input = o->input;
     p.output = o->output;
     p.run = o->run;
-    p.model = model_path;
+    p.model = o->model;
     p.device = device;
-    p.recon.confidence = o->confidence;
-    p.recon.refine = o->refine;
-    p.recon.refine_iterations = o->refine_iterations;
+    p.recon = o->photo;
     p.keep_going = o->keep_going;
     p.quiet = globals.quiet();
     recon::reconstruct_photo_files(p);

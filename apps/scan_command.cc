@@ -1,16 +1,11 @@
 // bareskin scan: `scan synth` (a synthetic population of scans with ground truth) and `scan register` (the template
 // onto every scan of a folder: scan/register_folder.h).
-#include <atomic>
-#include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
 
 #include "apps/cli.h"
 #include "apps/detector.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "core/parallel.h"
-#include "scan/blendshapes.h"
 #include "scan/register_folder.h"
 #include "scan/synth.h"
 
@@ -135,13 +130,10 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
                   "For scans without landmarks.json: map the detected landmarks with this `landmarks calibrate` file");
   return [opt, &globals] {
     RegisterFolderOptions& f = opt->folder;
-    f.nicp.check();
     f.maps.format = parse_map_format(opt->map_format);
-    if (f.maps.resolution != 0) f.maps.check();
-    const TemplateFace face = read_template_folder(opt->template_dir);
     f.detect = scan_landmark_detector(globals, opt->landmark_calibration);
     ProgressBar bar = globals.progress("scan register");
-    register_folder(face, f, bar.callback());
+    register_folder(opt->template_dir, f, bar.callback());
     bar.finish();
     globals.write_resolved_config(f.output + "/config.json");
   };
@@ -150,11 +142,8 @@ std::function<void()> add_scan_register(CLI::App& scan, const Globals& globals) 
 }  // namespace
 
 std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) {
-  struct Options {
-    std::string template_dir, output = "scans", map_format = "png";
-    SynthOptions synth;
-  };
-  auto opt = std::make_shared<Options>();
+  auto population = std::make_shared<PopulationOptions>();
+  PopulationOptions* opt = population.get();
   app.require_subcommand(1);
   CLI::App* synth = app.add_subcommand("synth", "Make a synthetic population of scans with ground truth");
   synth->add_option("-o,--output", opt->output, "Population folder (one folder per subject + manifest.json)")
@@ -195,58 +184,14 @@ std::function<void()> setup_scan_command(CLI::App& app, const Globals& globals) 
   synth->add_option("--symmetry", opt->synth.identity.symmetry, "Mirror-symmetric share of the random field [0,1]")
       ->capture_default_str()->group("Identity");
   const std::function<void()> register_action = add_scan_register(app, globals);
-  return [opt, &globals, synth, register_action] {
+  return [population, &globals, synth, register_action] {
     if (!synth->parsed()) return register_action();
-    opt->synth.maps.format = parse_map_format(opt->map_format);
-    opt->synth.check();
-    opt->template_dir = find_template_folder(opt->template_dir);
-    const TemplateFace face = read_template_folder(opt->template_dir);
-    make_directories(opt->output);
-    // Resumable: a subject folder appears only when complete (atomic), so existing ones are skipped.
-    std::vector<int> todo;
-    for (int i = 0; i < opt->synth.count; ++i) {
-      char id[32];
-      std::snprintf(id, sizeof id, "subject_%04d", i);
-      if (!std::filesystem::exists(opt->output + "/" + id + "/truth/identity.json")) todo.push_back(i);
-    }
-    if (todo.size() < size_t(opt->synth.count)) {
-      spdlog::info("scan synth: {} of {} subjects already there, skipped", opt->synth.count - int(todo.size()), opt->synth.count);
-    }
+    population->synth.maps.format = parse_map_format(population->map_format);
     ProgressBar bar = globals.progress("scan synth");
-    std::atomic<int> done{0};
-    // Several subjects: one per thread. A single subject: its maps are baked in parallel, and the bar follows them.
-    const bool one = todo.size() == 1;
-    const ProgressCallback maps_progress = [&](int64_t d, int64_t total, const std::string&) {
-      if (one) bar.update(d, total, "map bands");
-    };
-    const auto make = [&](int64_t k) {
-      write_scan(opt->output, face, synthesize_scan(face, todo[size_t(k)], opt->synth), opt->synth, maps_progress);
-      if (!one) bar.update(++done, int64_t(todo.size()), "subjects");
-    };
-    if (one) {
-      make(0);  // on this thread, so that the bake's own parallel_for is not nested (nested loops run serially)
-    } else {
-      parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
-        for (int64_t k = b; k < e; ++k) make(k);
-      });
-    }
+    write_population(*population, bar.callback());
     bar.finish();
-    const std::vector<Blendshape> shapes = make_blendshapes(face);
-    write_blendshapes(opt->output + "/blendshapes", shapes);
-    nlohmann::json manifest;
-    manifest["format"] = "bareskin.scan_population";
-    manifest["format_version"] = 1;
-    manifest["seed"] = opt->synth.seed;
-    manifest["count"] = opt->synth.count;
-    manifest["template"] = std::filesystem::absolute(opt->template_dir).string();
-    manifest["identity_features"] = identity_feature_names();
-    manifest["blendshapes"] = int(shapes.size());
-    manifest["contents"] = "per subject mesh.obj (own topology and UV atlas), diffuse/normal/roughness/specular maps, "
-                           "landmarks.json, truth/; blendshapes/ on the template";
-    manifest["maps"] = {{"resolution", opt->synth.maps.resolution}, {"format", opt->map_format}};
-    write_file_atomic(opt->output + "/manifest.json", manifest.dump(1) + "\n");
-    globals.write_resolved_config(opt->output + "/config.json");
-    spdlog::info("scan synth: {} subjects in {}", opt->synth.count, opt->output);
+    globals.write_resolved_config(population->output + "/config.json");
+    spdlog::info("scan synth: {} subjects in {}", population->synth.count, population->output);
   };
 }
 

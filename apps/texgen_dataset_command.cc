@@ -57,15 +57,21 @@ std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_d
 std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals& globals) {
   struct Options {
     texgen::TextureDatasetOptions o;
-    double yaw_left = 30, yaw_right = 30;
-    std::string occluders = "hair,glasses,hand,hat";
-    std::vector<double> split = {0.8, 0.1, 0.1};
-    int detector_size = 416, refinements = 2;
+    double yaw_left = 0, yaw_right = 0;  // the flags' text forms of o's defaults, filled below
+    std::string occluders;
+    std::vector<double> split;
+    int detector_size = 416, refinements = 2;  // detect::ImageLandmarkOptions' (a Torch-side header)
     bool no_flip = false, no_align_shape = false;
     std::string calibration, view_calibration;
   };
   auto opt = std::make_shared<Options>();
   texgen::TextureDatasetOptions& o = opt->o;
+  for (const texgen::ViewSpec& v : o.sample.views) {
+    if (v.name == "left") opt->yaw_left = v.yaw_deg;
+    if (v.name == "right") opt->yaw_right = -v.yaw_deg;
+  }
+  for (const Occluder k : o.occluders) opt->occluders += (opt->occluders.empty() ? "" : ",") + std::string(to_string(k));
+  opt->split.assign(o.split.begin(), o.split.end());
   CLI::App* app = texgen.add_subcommand("make-dataset", "Texture-inference samples in the template UV: three renders "
                                                         "per subject, 3DMM fits, merged unwrap, 3DMM maps, baked "
                                                         "targets, occlusion masks, as shards");

@@ -2,20 +2,18 @@
 // smaller sizes in one streamed pass, seam-aware with a layout (uvtools/bake.h). `unwarp`: an image into the mesh's UV
 // through a camera, with visibility (uvtools/unwarp.h). `mask`: face-parsing labels or synthetic occluders into a UV
 // mask (uvtools/mask.h). `mean`: the mean of maps in one UV layout, in linear light (uvtools/mean.h).
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "apps/cli.h"
-#include "apps/model_input.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/mesh_io.h"
 #include "morphable/model.h"
+#include "morphable/model_input.h"
 #include "uvtools/bake.h"
 #include "uvtools/mask.h"
 #include "uvtools/mean.h"
@@ -43,54 +41,30 @@ std::vector<int> parse_sizes(const std::string& text) {
 
 std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
   struct Options {
-    std::string input, output, layout, sizes = "4096,1024";
-    MapResizeOptions resize;
+    std::string sizes;
+    BakeFilesOptions bake;
   };
   auto opt = std::make_shared<Options>();
+  for (int size : opt->bake.resize.sizes) opt->sizes += (opt->sizes.empty() ? "" : ",") + std::to_string(size);
   CLI::App* bake = uvtools.add_subcommand("bake", "Resize a set of UV maps (16K → 4K, 1K, ...) out of core, seam-aware");
-  bake->add_option("input", opt->input, "Folder with diffuse/normal/roughness/specular .exr|.tif|.png")->required();
-  bake->add_option("-o,--output", opt->output, "Output folder: <size>/<map>.<format>")->required();
+  bake->add_option("input", opt->bake.input, "Folder with diffuse/normal/roughness/specular .exr|.tif|.png")->required();
+  bake->add_option("-o,--output", opt->bake.output, "Output folder: <size>/<map>.<format>")->required();
   bake->add_option("--sizes", opt->sizes, "Output sizes, comma-separated; each must divide the input size")
       ->capture_default_str();
-  bake->add_option("--layout", opt->layout, "Mesh whose UV islands the maps follow (e.g. the template's face.obj): "
-                                            "seam-aware. Without it: a plain area-correct resize per map type");
-  bake->add_option("--format", opt->resize.format, "exr (half, zip, tiled), png or tif (16-bit)")->capture_default_str();
-  bake->add_flag("--mipmap", opt->resize.mipmap, "EXR/TIFF: also write the mip chain");
-  bake->add_flag("--toksvig", opt->resize.toksvig, "Roughness absorbs the variance of the averaged normals");
-  bake->add_option("--gutter", opt->resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
+  bake->add_option("--layout", opt->bake.layout, "Mesh whose UV islands the maps follow (e.g. the template's face.obj): "
+                                                 "seam-aware. Without it: a plain area-correct resize per map type");
+  MapResizeOptions& resize = opt->bake.resize;
+  bake->add_option("--format", resize.format, "exr (half, zip, tiled), png or tif (16-bit)")->capture_default_str();
+  bake->add_flag("--mipmap", resize.mipmap, "EXR/TIFF: also write the mip chain");
+  bake->add_flag("--toksvig", resize.toksvig, "Roughness absorbs the variance of the averaged normals");
+  bake->add_option("--gutter", resize.gutter, "Output texels filled beyond the islands")->capture_default_str();
   return [opt, bake, &globals] {
     if (!bake->parsed()) return;
-    check_output_apart(opt->output, {opt->input, opt->layout});
-    opt->resize.sizes = parse_sizes(opt->sizes);
-    opt->resize.check();
-    if (!std::filesystem::is_directory(opt->input)) {
-      throw IoError(opt->input, "is not a folder", "give the folder holding diffuse, normal, roughness, specular maps");
-    }
-    std::optional<Mesh> layout;
-    if (!opt->layout.empty()) layout = read_mesh(opt->layout);
-    const auto t0 = std::chrono::steady_clock::now();
+    opt->bake.resize.sizes = parse_sizes(opt->sizes);
     ProgressBar bar = globals.progress("uvtools bake");
-    const MapResizeReport r = resize_maps(opt->input, layout ? &*layout : nullptr, opt->resize, opt->output, bar.callback());
+    bake_files(opt->bake, bar.callback());
     bar.finish();
-    // After the bake, so that a refused input gives one line only.
-    if (!layout) spdlog::info("uvtools bake: no --layout: a plain area-correct resize per map type, without seam handling");
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    nlohmann::json j = {{"input", opt->input},           {"input_size", r.input_size},
-                        {"sizes", opt->resize.sizes},    {"maps", r.maps},
-                        {"layout", layout ? opt->layout : "none: plain resize, no seam handling"},
-                        {"island_fraction", r.island_fraction}, {"flipped_uv_triangles", r.flipped_triangles},
-                        {"overlapping_texels", r.overlapping_texels}, {"seconds", seconds}};
-    write_file_atomic(opt->output + "/bake.json", j.dump(1) + "\n");
-    globals.write_resolved_config(opt->output + "/config.json");
-    if (r.flipped_triangles) {
-      spdlog::warn("uvtools bake: {}: {} UV triangles are flipped against the others", opt->layout, r.flipped_triangles);
-    }
-    if (r.overlapping_texels) {
-      spdlog::warn("uvtools bake: {}: {} texels lie in two or more UV triangles (overlapping islands)", opt->layout,
-                   r.overlapping_texels);
-    }
-    spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({})", r.maps.size(), r.input_size, opt->sizes, seconds,
-                 layout ? fmt::format("{:.1f}% of texels in UV islands", 100 * r.island_fraction) : "no layout");
+    globals.write_resolved_config(opt->bake.output + "/config.json");
   };
 }
 

@@ -7,12 +7,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <thread>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
+#include "core/landmarks.h"
 #include "core/log.h"
 #include "core/mesh_io.h"
 #include "core/png.h"
@@ -22,6 +24,7 @@
 #include "core/shards.h"
 #include "texgen/texture_sample.h"
 #include "avatar/glb.h"
+#include "detect/face_api.h"
 #include "bareskinnet/bareskinnet.h"
 #include "makeup/relight.h"
 #include "training/checkpoint.h"
@@ -117,6 +120,7 @@ Demakeup load_demakeup(const std::string& run, const std::string& device) {
 Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& landmarks, const MorphableModel& model,
                            const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options,
                            const Image& face_mask) {
+  options.check();
   const TextureNet& net = nets.texture;
   const std::map<std::string, Upscaler>& upscalers = nets.upscalers;
   Avatar a;
@@ -245,6 +249,30 @@ Image read_face_mask(const std::string& path, const Image& photo) {
     throw InvalidInput(path, fmt::format("is {}x{}, the photo {}x{}", mask.width, mask.height, photo.width, photo.height),
                        "give the face segmentation of this photo, at its size");
   return first_channel(mask);
+}
+
+void AvatarOptions::check() const {
+  if (input_res != 0 && (input_res < 64 || input_res > 8192))
+    throw InvalidInput("--input-res", std::to_string(input_res) + " must be 0 or lie in [64, 8192]",
+                       "0 takes the texture run's size");
+  if (preview_size < 16 || preview_size > 4096)
+    throw InvalidInput("--preview-size", std::to_string(preview_size) + " is outside [16, 4096]", "e.g. 512 (default)");
+  for (const std::string& name : sr_maps) {
+    bool known = false;
+    for (const auto& m : output_maps()) known |= m.name == name;
+    if (!known)
+      throw InvalidInput("--sr-maps", "names '" + name + "', not a texture map",
+                         "list some of diffuse, normal, roughness, specular (comma-separated; empty for none)");
+  }
+  landmark_fit.check();
+  photometric.check();
+}
+
+void EvaluateOptions::check() const {
+  if (faces.empty()) throw InvalidInput("--faces", "is missing", "give the held-out faces split (texgen faces)");
+  if (output.empty()) throw InvalidInput("-o", "names no report folder", "give the report's output folder");
+  if (max_samples < 0) throw InvalidInput("--max-samples", "must not be negative", "0 takes every sample");
+  avatar.check();
 }
 
 std::set<std::string> parse_map_list(const std::string& list, const std::string& option) {
@@ -420,6 +448,7 @@ detect::Landmarks68 landmarks_of(const data::Batch& batch) {
 
 nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableModel& model, const AvatarNets& nets,
                                const Demakeup& G) {
+  options.check();
   if (!G)
     throw InvalidInput("--bareskin", "is needed: Table 1 compares the maps with and without BareSkinNet",
                        "give the BareSkinNet run (bareskin train bareskin)");
@@ -627,6 +656,63 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
   }
   out.commit();
   return summary;
+}
+
+void RunFilesOptions::check() const {
+  if (photo.empty() || output.empty() || model.empty() || texture.empty())
+    throw InvalidInput("run", "needs a photo, -o, --model and --texture", "see run --help");
+  if (threads < 1) throw InvalidInput("--threads", "must be at least 1", "e.g. --threads 2");
+  avatar.check();
+}
+
+RunFilesResult run_files(const RunFilesOptions& o) {
+  o.check();
+  std::vector<std::string> inputs = {o.photo,     o.model,     o.texture, o.bareskin,
+                                     o.teacher,   o.landmarks, o.weights, o.face_mask};
+  inputs.insert(inputs.end(), o.upscale.begin(), o.upscale.end());
+  check_output_apart(o.output, inputs);
+  const Image photo = read_image(o.photo);
+  detect::check_photo(photo, o.photo);  // before the nets load
+  const Image face_mask = o.face_mask.empty() ? Image() : read_face_mask(o.face_mask, photo);
+  const auto t0 = std::chrono::steady_clock::now();
+  nlohmann::json load;  // wall seconds per part of the loading
+  auto lap = [&load, t = t0](const char* part) mutable {
+    const auto now = std::chrono::steady_clock::now();
+    load[part] = std::chrono::duration<double>(now - t).count();
+    t = now;
+  };
+  const MorphableModel model = read_model(o.model);
+  lap("model");
+  const AvatarNets nets = load_avatar_nets(o.model, o.texture, o.upscale, o.device, o.teacher);
+  lap("nets");
+  const Demakeup G = o.bareskin.empty() ? Demakeup{} : load_demakeup(o.bareskin, o.device);
+  lap("bareskin");
+  FaceFinder detector;
+  if (!o.landmarks.empty()) {
+    const detect::Landmarks68 points = read_image_landmarks(o.landmarks, photo.width, photo.height).points;
+    detector = [points](const Image&) { return std::vector<detect::Landmarks68>{points}; };
+  } else {
+    auto face_api = std::make_shared<detect::FaceApi>(o.weights.empty() ? detect::default_face_api_folder() : o.weights);
+    detector = [face_api](const Image& srgb) {
+      std::vector<detect::Landmarks68> faces;
+      for (const detect::Face& f : face_api->detect(detect::photo_tensor(srgb, "photo"), {})) faces.push_back(f.points);
+      return faces;
+    };
+  }
+  lap("photo_detector");
+  const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto t1 = std::chrono::steady_clock::now();
+  const Avatar avatar = avatar_from_photo(photo, o.photo, detector, model, nets, G, o.avatar, face_mask);
+  RunFilesResult result;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  result.upscaled_with = avatar.upscaled_with;
+  write_avatar(o.output, avatar,
+               {{"photo", o.photo}, {"model", o.model}, {"texture", o.texture}, {"upscale", o.upscale},
+                {"bareskin", o.bareskin}, {"teacher", o.teacher}, {"face_mask", o.face_mask}, {"sr_maps", o.sr_maps},
+                {"device", o.device},
+                {"load_seconds", load_seconds}, {"load_seconds_by_part", load}, {"pipeline_seconds", result.seconds}},
+               o.threads);
+  return result;
 }
 
 }  // namespace bareskin::texture

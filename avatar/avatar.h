@@ -44,6 +44,7 @@ struct AvatarOptions {
   std::set<std::string> sr_maps = {"diffuse", "roughness", "specular"};
   LandmarkFitOptions landmark_fit;
   PhotometricFitOptions photometric;
+  void check() const;  // InvalidInput naming the flag (and the fits' check())
 };
 
 // Everything one photo gives.
@@ -104,6 +105,29 @@ void write_avatar(const std::string& dir, const Avatar& avatar, const nlohmann::
 // The map types of a comma-separated list ("diffuse,normal"); InvalidInput naming `option` for an unknown one.
 std::set<std::string> parse_map_list(const std::string& list, const std::string& option);
 
+// `bareskin run` on files: the photo read and checked, the model and the nets loaded (timed per part), the photo's
+// face found by face-api's networks from `weights` (or taken from the landmark file `landmarks`), the pipeline run and
+// the avatar folder written with its report (the inputs, sr_maps as given, the device, the load and pipeline times).
+struct RunFilesOptions {
+  std::string photo, output, model, texture;
+  std::vector<std::string> upscale;  // SRGAN runs, one per map
+  std::string bareskin;              // "" : without G
+  std::string teacher;               // "" : mm-fit's fitters instead of F
+  std::string device = "cpu";
+  std::string weights;               // face-api's tfjs models ("" = default_face_api_folder())
+  std::string landmarks;             // "" or the photo's 68 landmarks (a landmark file, px): no detector
+  std::string face_mask;             // "" or the photo's face segmentation (read_face_mask)
+  std::string sr_maps;               // the --sr-maps list as given, recorded in the report (avatar.sr_maps holds it)
+  AvatarOptions avatar;
+  int threads = 2;                   // map encoding threads
+  void check() const;                // InvalidInput naming the flag (avatar.check())
+};
+struct RunFilesResult {
+  double seconds = 0;                // the pipeline's wall time (loading not included)
+  std::string upscaled_with;
+};
+RunFilesResult run_files(const RunFilesOptions& options);
+
 // Torch tensors ↔ images ([1, C, H, W] or [C, H, W] in [0, 1]).
 Image tensor_image(const torch::Tensor& t, ColorSpace space);
 torch::Tensor image_tensor(const Image& image);
@@ -116,6 +140,7 @@ struct EvaluateOptions {
   int64_t max_samples = 0;  // 0: all
   bool face_masks = true;   // each sample's face.png (the face less its occluders) masks its unwraps
   AvatarOptions avatar;
+  void check() const;  // InvalidInput naming the flag
 };
 // Runs the pipeline on every sample's makeup image with and without G and on its before image without and with G;
 // RMSE (0–255), PSNR, SSIM per map against three references: (a) the before image's maps without G for both rows

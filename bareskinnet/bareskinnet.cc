@@ -537,7 +537,24 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
 
 }  // namespace
 
+void RunOptions::check() const {
+  task.check();
+  if (train_data.empty()) throw InvalidInput("--data", "names no training split", "give the folder 'bareskin texgen faces' wrote");
+  if (run_dir.empty()) throw InvalidInput("-o", "names no run folder", "give the run's output folder");
+  if (steps1 < 1) throw InvalidInput("--steps1", "must be at least 1", "e.g. --steps1 1500");
+  if (steps2 < 0) throw InvalidInput("--steps2", "must not be negative", "0 runs stage 1 only");
+  data::LoaderOptions loader;  // the batch and the decode threads, as the loader checks them
+  loader.batch_size = batch;
+  loader.decode_threads = decode_threads;
+  loader.check();
+  train::TrainerOptions stage = trainer;  // its run folder and steps are set per stage
+  stage.run_dir = run_dir;
+  stage.steps = steps1;
+  stage.check();
+}
+
 RunResult train_two_stages(const RunOptions& ro, const std::function<Stage2Parts()>& make_parts) {
+  ro.check();
   RunResult result;
   const std::string dir1 = ro.run_dir + "/stage1", dir2 = ro.run_dir + "/stage2";
   const std::string ck1 = train::checkpoint_path(dir1), ck2 = train::checkpoint_path(dir2);

@@ -161,6 +161,7 @@ struct RunOptions {
   train::TrainerOptions trainer;   // intervals, device, progress, resume (run_dir, steps, config are set here)
   std::string teacher, model;      // recorded in the run's configuration (demakeup's defaults)
   nlohmann::json profile = nlohmann::json::object();  // the command's --profile and the flags given over it
+  void check() const;  // InvalidInput naming the flag (and task.check(), the trainer's intervals)
 };
 void to_json(nlohmann::json& j, const RunOptions& o);
 
@@ -258,6 +259,7 @@ struct EvalOptions {
   int64_t batch = 4;
   int64_t max_samples = 0;  // 0: all
   torch::Device device = torch::kCPU;
+  void check() const;  // InvalidInput for an unknown trunk or a bad count
 };
 struct EvalResult {
   int64_t samples = 0;
@@ -279,6 +281,7 @@ struct RunEvalOptions {
   torch::Device device = torch::kCPU;
   bool required = false;  // InvalidInput when the test split is missing (else nothing is done)
   bool quiet = false;     // no summary line on stderr
+  void check() const;     // InvalidInput for an unknown trunk or a bad count
 };
 // The held-out evaluation of a run (`train bareskin`): G of `run` on <data>/test (unseen subjects and makeup styles)
 // into <run>/eval.json, with the LPIPS trunk and the split recorded.

@@ -190,7 +190,27 @@ void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Bat
 
 }  // namespace
 
+namespace {
+// "" (none), vgg16-random or facenet (training/lpips.h).
+void check_lpips_trunk(const std::string& trunk) {
+  if (!trunk.empty() && trunk != "vgg16-random" && trunk != "facenet")
+    throw InvalidInput("--lpips", "'" + trunk + "' is not an LPIPS trunk", "use vgg16-random or facenet");
+}
+}  // namespace
+
+void EvalOptions::check() const {
+  check_lpips_trunk(lpips_trunk);
+  if (batch < 1) throw InvalidInput("--batch", "must be at least 1", "give a positive batch size");
+  if (max_samples < 0) throw InvalidInput("--eval-samples", "must not be negative", "0 takes every sample");
+}
+
+void RunEvalOptions::check() const {
+  check_lpips_trunk(lpips_trunk);
+  if (max_samples < 0) throw InvalidInput("--eval-samples", "must not be negative", "0 takes every sample");
+}
+
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& eo) {
+  eo.check();
   torch::NoGradGuard no_grad;
   data::LoaderOptions lo;
   lo.dataset = split;
@@ -269,6 +289,7 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
 
 void evaluate_run(const std::string& run, const std::string& data, const RunEvalOptions& options) {
   namespace fs = std::filesystem;
+  options.check();
   const std::string test_split = (fs::path(data) / "test").string();
   if (!fs::exists(fs::path(test_split) / "manifest.json")) {
     if (options.required)

@@ -16,8 +16,32 @@
 
 namespace bareskin::bsn {
 
+void TrainBareskinOptions::check() const {
+  if (data.empty()) throw InvalidInput("--data", "is missing", "give the folder 'bareskin texgen faces' wrote");
+  if (output.empty()) throw InvalidInput("-o", "names no run folder", "give the run's output folder");
+  if (!ablation.empty()) {
+    Options row;
+    ablation_preset(ablation, row);  // InvalidInput for a row the paper does not have
+  }
+  using Flag = std::pair<const char*, const nlohmann::json*>;
+  for (const Flag& f : {Flag{"--g-options", &g}, Flag{"--d-options", &d}, Flag{"--student-options", &student},
+                        Flag{"--loss-weights", &weights}})
+    if (!f.second->is_object()) throw InvalidInput(f.first, "is not a JSON object", "give e.g. '{}'");
+  for (auto& [key, value] : weights.items()) {
+    static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
+    if (!kWeights.count(key) || !value.is_number())
+      throw InvalidInput("--loss-weights", "'" + key + "' is not a loss weight with a number",
+                         "use the keys w1, w2, w3, w_coeff, w_land, w_diff, w_light, w_reg, w_level");
+  }
+  if (steps1 < 1) throw InvalidInput("--steps1", "must be at least 1", "e.g. --steps1 1500");
+  if (steps2 < 0) throw InvalidInput("--steps2", "must not be negative", "0 runs stage 1 only");
+  if (eval_samples < 0) throw InvalidInput("--eval-samples", "must not be negative", "0 takes every sample");
+  trainer.check();
+}
+
 void train_bareskin(TrainBareskinOptions o) {
   namespace fs = std::filesystem;
+  o.check();
   const torch::Device device = parse_device(o.trainer.device);
   const shards::Splits data_splits = shards::find_splits(o.data, "give the folder 'bareskin texgen faces' wrote");
   Options task = o.task;
@@ -25,13 +49,7 @@ void train_bareskin(TrainBareskinOptions o) {
   task.d = o.d;
   if (!o.ablation.empty()) ablation_preset(o.ablation, task);
   nlohmann::json check = task;
-  for (auto& [key, value] : o.weights.items()) {
-    static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
-    if (!kWeights.count(key) || !value.is_number())
-      throw InvalidInput("--loss-weights", "'" + key + "' is not a loss weight with a number",
-                         "use the keys w1, w2, w3, w_coeff, w_land, w_diff, w_light, w_reg, w_level");
-    check[key] = value;
-  }
+  for (auto& [key, value] : o.weights.items()) check[key] = value;
   from_json(check, task);  // validates size, target, ...
   if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
   if (!o.ablation.empty() && !ablation_has_stage2(o.ablation)) o.steps2 = 0;

@@ -33,6 +33,7 @@ struct TrainBareskinOptions {
   }();
   bool quiet = false;      // no progress, no summary on stderr
   nlohmann::json profile;  // what apply_profile returned: recorded in the run's configuration
+  void check() const;      // InvalidInput naming the flag
 };
 
 // Trains the missing stages into options.output (stage1/, stage2/), then evaluates the run into eval.json (or only

@@ -510,7 +510,14 @@ Mesh read_mesh(const std::string& path) {
   return mesh;
 }
 
+void MeshWriteOptions::check() const {
+  if (precision < 1 || precision > 17)
+    throw InvalidInput("mesh precision", std::to_string(precision) + " significant digits is outside [1, 17]",
+                       "use 9 (the default) for float vertices, 17 for doubles");
+}
+
 void write_mesh(const std::string& path, const Mesh& mesh, const MeshWriteOptions& options) {
+  options.check();
   check_extension(path);
   validate(mesh, path);
   const bool ply = lower_extension(path) == ".ply";

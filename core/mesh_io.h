@@ -14,6 +14,7 @@ struct MeshWriteOptions {
   bool binary = true;        // PLY only
   bool write_normals = true; // when the mesh has normals
   int precision = 9;         // significant digits in ASCII files
+  void check() const;        // InvalidInput when precision is outside [1, 17]
 };
 
 // Writes .obj or .ply atomically. PLY holds one UV per vertex, so a mesh whose UVs have seams (FUV != F) must go to

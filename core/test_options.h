@@ -1,4 +1,4 @@
-// Tests of an options struct's JSON (core/json_options.h), shared by every module's unit tests.
+// Tests of an options struct: its JSON (core/json_options.h) and its check(), shared by every module's unit tests.
 #pragma once
 #include <gtest/gtest.h>
 
@@ -8,6 +8,23 @@
 #include "core/error.h"
 
 namespace bareskin::testing {
+
+// `valid` passes its check(); with `edit` applied, check() throws InvalidInput in one line that contains `needle`
+// (the flag or the value that is wrong).
+template <typename T, typename Edit>
+void expect_check_refuses(const T& valid, Edit edit, const std::string& needle) {
+  EXPECT_NO_THROW(valid.check()) << needle;
+  T bad = valid;
+  edit(bad);
+  try {
+    bad.check();
+    ADD_FAILURE() << "check() accepted what it should refuse (" << needle << ")";
+  } catch (const InvalidInput& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find(needle), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
 
 // `changes` (keys of T with non-default values) read over T's defaults are written back as given, with the same
 // JSON types (an integer stays an integer); to_json → from_json → to_json is the identity; an unknown key is refused

@@ -89,8 +89,15 @@ std::optional<CaptureAlignment> align_capture(const FaceApi& net, const Mesh& me
 
 }  // namespace
 
+void CaptureLandmarkOptions::check() const {
+  if (photos.empty()) throw InvalidInput("--capture", "names no folder", "pass the rig's photos' folder");
+  colmap.check();
+}
+
 nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, MultiviewScanLandmarks& m,
                                  const CaptureLandmarkOptions& c, const MultiviewOptions& options) {
+  c.check();
+  options.check();
   const std::string& capture = c.photos;
   if (!std::filesystem::is_directory(capture)) throw InvalidInput(capture, "is not a folder", "pass the photos' folder");
   int photos = 0;

@@ -20,6 +20,7 @@ struct CaptureLandmarkOptions {
   std::string photos;  // the capture folder
   std::string sparse;  // an existing COLMAP TXT model of the photos ("": run COLMAP)
   ColmapOptions colmap;
+  void check() const;  // InvalidInput naming the flag
 };
 
 // `found` holds the scan's virtual-view landmarks (detect_multiview_landmarks), the start of the alignment. On success

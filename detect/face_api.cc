@@ -250,12 +250,22 @@ std::vector<Eigen::Matrix<double, 68, 2>> FaceApi::landmarks(const torch::Tensor
   return result;
 }
 
+void DetectOptions::check() const {
+  if (input_size < 32 || input_size > 4096 || input_size % 32 != 0)
+    throw InvalidInput("the detector's input size (--input-size, --detector-size)",
+                       std::to_string(input_size) + " is not a multiple of 32 in [32, 4096]",
+                       "use e.g. 416 (default), 320 or 608");
+  if (!(min_score >= 0 && min_score <= 1))
+    throw InvalidInput("--min-score", std::to_string(min_score) + " is not a score in [0, 1]", "use e.g. 0.5 (default)");
+  if (!(iou_threshold > 0 && iou_threshold <= 1))
+    throw InvalidInput("the detector's overlap threshold", std::to_string(iou_threshold) + " is not in (0, 1]",
+                       "use e.g. 0.4 (default)");
+  if (max_faces < 0) throw InvalidInput("--max-faces", "must not be negative", "0 keeps every face");
+}
+
 std::vector<Face> FaceApi::detect(const torch::Tensor& image, const DetectOptions& options) const {
   BS_CHECK(image.dim() == 3 && image.size(2) == 3, "FaceApi::detect takes an [H, W, 3] image");
-  if (options.input_size < 32 || options.input_size > 4096 || options.input_size % 32 != 0)
-    throw InvalidInput("the detector's input size (--input-size, --detector-size)",
-                       std::to_string(options.input_size) + " is not a multiple of 32 in [32, 4096]",
-                       "use e.g. 416 (default), 320 or 608");
+  options.check();
   const int s = options.input_size;
   const int64_t h = image.size(0), w = image.size(1);
   const torch::Tensor out =

@@ -34,6 +34,7 @@ struct DetectOptions {
   double min_score = 0.5;       // detections below are dropped
   double iou_threshold = 0.4;   // non-maximum suppression
   int max_faces = 0;            // 0: all
+  void check() const;           // InvalidInput naming the flag
 };
 
 class FaceApi {

@@ -19,12 +19,18 @@
 
 namespace bareskin::detect {
 
-void detect_photo_landmarks(const PhotoLandmarksOptions& opt) {
-  for (const std::string& out : {opt.output, opt.draw}) {
-    if (!out.empty() && out == opt.photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
+void PhotoLandmarksOptions::check() const {
+  if (photo.empty()) throw InvalidInput("landmarks detect", "names no photo", "give the photo to search");
+  for (const std::string& out : {output, draw}) {
+    if (!out.empty() && out == photo) throw InvalidInput(out, "would overwrite the photo", "pick another name");
   }
-  if (lower_extension(opt.output) != ".json")
-    throw InvalidInput(opt.output, "landmarks are written as JSON", "name the output *.json");
+  if (lower_extension(output) != ".json")
+    throw InvalidInput(output, "landmarks are written as JSON", "name the output *.json");
+  detect.check();
+}
+
+void detect_photo_landmarks(const PhotoLandmarksOptions& opt) {
+  opt.check();
   FaceApi net(opt.weights.empty() ? default_face_api_folder() : opt.weights);
   net.to(opt.device);
   const Image image = read_image(opt.photo);
@@ -71,10 +77,21 @@ void detect_photo_landmarks(const PhotoLandmarksOptions& opt) {
                faces[0].score, ms, opt.device_name, opt.output);
 }
 
-void scan_landmark_files(ScanLandmarkFilesOptions o) {
-  check_output_file(o.output);
-  if (!o.uncalibrated.empty() && o.calibration.empty())
+void ScanLandmarkFilesOptions::check() const {
+  if (!uncalibrated.empty() && calibration.empty())
     throw InvalidInput("--uncalibrated", "needs --calibration (the points before it)", "pass --calibration FILE");
+  if (multiview.views == 1 && !(calibration.empty() && save_views.empty() && capture.empty()))
+    throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
+  if (!sparse.empty() && capture.empty())
+    throw InvalidInput("--sparse", "needs --capture (the photos the model was made from)", "pass --capture DIR");
+  detect.check();
+  multiview.check();
+  if (!capture.empty()) CaptureLandmarkOptions{capture, sparse, colmap}.check();
+}
+
+void scan_landmark_files(ScanLandmarkFilesOptions o) {
+  o.check();
+  check_output_file(o.output);
   if (!o.uncalibrated.empty()) check_output_file(o.uncalibrated);
   if (o.weights.empty()) o.weights = default_face_api_folder();
   const TexturedScan scan = read_textured_scan(o.scan, o.texture);
@@ -82,10 +99,6 @@ void scan_landmark_files(ScanLandmarkFilesOptions o) {
   const Image* diffuse = scan.diffuse ? &*scan.diffuse : nullptr;
   const std::string& mesh_path = scan.mesh_path;
   FaceApi net(o.weights);
-  if (o.multiview.views == 1 && !(o.calibration.empty() && o.save_views.empty() && o.capture.empty()))
-    throw InvalidInput("--views", "--calibration, --capture and --save-views need several views", "pass --views 16");
-  if (!o.sparse.empty() && o.capture.empty())
-    throw InvalidInput("--sparse", "needs --capture (the photos the model was made from)", "pass --capture DIR");
   if (o.multiview.views > 1) {
     o.multiview.triangulate.jaw = !o.no_jaw;
     o.multiview.refinements = o.detect.refinements;

@@ -21,6 +21,7 @@ struct PhotoLandmarksOptions {
   torch::Device device = torch::kCPU;
   std::string device_name = "cpu";  // as given, recorded in the file
   DetectOptions detect;
+  void check() const;  // InvalidInput naming the file or flag
 };
 
 // Writes `output` (and `draw`): {"scheme": "ibug68", "units": "px", "image", "width", "height", "points" (the best
@@ -41,6 +42,7 @@ struct ScanLandmarkFilesOptions {
   std::string save_views;      // "" or a folder for the views and their cameras (a synthetic capture)
   std::string capture, sparse;  // "" or the rig's photos (and an existing COLMAP TXT model of them)
   ColmapOptions colmap;
+  void check() const;  // InvalidInput for options that do not go together
 };
 
 // Writes `output` (and `uncalibrated`, `draw`, `save_views`). InvalidInput for options that do not go together.

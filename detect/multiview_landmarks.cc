@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/landmarks.h"
 #include "core/scan_folder.h"
 #include "detect/scan_landmarks.h"
@@ -46,8 +47,21 @@ LandmarkView detect_view(const FaceApi& net, const Image& photo_srgb, const Came
   return view;
 }
 
+void MultiviewOptions::check() const {
+  if (views < 1 || views > 100)
+    throw InvalidInput("--views", std::to_string(views) + " virtual cameras is outside [1, 100]", "use e.g. 16 (default)");
+  if (size < 128 || size > 4096)
+    throw InvalidInput("--view-size", "the render size " + std::to_string(size) + " is outside [128, 4096]",
+                       "use e.g. 384 (default)");
+  check_refinements(refinements);
+  if (!(max_yaw_deg >= 0 && max_yaw_deg <= 90) || !(max_pitch_deg >= 0 && max_pitch_deg <= 90))
+    throw InvalidInput("the view ring", "its yaw and pitch spans must lie in [0, 90] degrees", "use e.g. 40 and 25");
+  triangulate.check();
+}
+
 MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
                                                   const MultiviewOptions& options, bool keep_pictures) {
+  options.check();
   if (scan.V.rows() == 0 || scan.F.rows() == 0) throw InvalidInput("", "the scan is empty", "check the mesh file");
   const Eigen::Vector3d centre = (scan.V.colwise().minCoeff() + scan.V.colwise().maxCoeff()).transpose() / 2;
   const std::vector<Camera> cameras =
@@ -73,6 +87,7 @@ MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh
 
 LandmarkCalibration calibrate_on_scans(const FaceApi& net, const std::string& scans, int count,
                                        const MultiviewOptions& options) {
+  options.check();
   std::vector<std::string> dirs;
   if (!std::filesystem::is_directory(scans)) throw InvalidInput(scans, "is not a folder", "pass a folder of scan folders");
   for (const auto& e : std::filesystem::directory_iterator(scans))
@@ -98,6 +113,21 @@ LandmarkCalibration calibrate_on_scans(const FaceApi& net, const std::string& sc
   std::nth_element(best.begin(), best.begin() + 25, best.end());
   spdlog::info("landmarks calibrate: {} scans, leave-one-out median error over 17-67 {:.2f} mm", dirs.size(), best[25]);
   return c;
+}
+
+void CalibrationFilesOptions::check() const {
+  if (scans.empty() || output.empty()) throw InvalidInput("landmarks calibrate", "needs --scans and -o", "see --help");
+  if (count < 0) throw InvalidInput("--count", "must not be negative", "0 uses every scan");
+  multiview.check();
+}
+
+void write_calibration(const CalibrationFilesOptions& o) {
+  o.check();
+  check_output_file(o.output);
+  check_output_apart(o.output, {o.scans});
+  const FaceApi net(o.weights.empty() ? default_face_api_folder() : o.weights);
+  write_file_atomic(o.output, landmark_calibration_json(calibrate_on_scans(net, o.scans, o.count, o.multiview)));
+  spdlog::info("landmarks calibrate: -> {}", o.output);
 }
 
 Image draw_multiview(const MultiviewScanLandmarks& found) {

@@ -20,6 +20,7 @@ struct MultiviewOptions {
   int refinements = 2;     // landmark passes on the box the previous points imply
   double max_yaw_deg = 40, max_pitch_deg = 25;
   TriangulateOptions triangulate;
+  void check() const;  // InvalidInput naming the flag
 };
 
 struct MultiviewScanLandmarks {
@@ -41,6 +42,16 @@ MultiviewScanLandmarks detect_multiview_landmarks(const FaceApi& net, const Mesh
 // landmarks.json (68 points, mm), the first `count` of them in name order (0: all). InvalidInput when fewer than two.
 LandmarkCalibration calibrate_on_scans(const FaceApi& net, const std::string& scans, int count,
                                        const MultiviewOptions& options);
+
+// `landmarks calibrate` on files: calibrate_on_scans with face-api's networks from `weights`, written to `output`.
+struct CalibrationFilesOptions {
+  std::string scans, output;
+  std::string weights;  // face-api's tfjs models ("" = default_face_api_folder())
+  int count = 0;        // the first scans in name order (0: all)
+  MultiviewOptions multiview;
+  void check() const;   // InvalidInput naming the flag (multiview.check())
+};
+void write_calibration(const CalibrationFilesOptions& options);
 
 // A contact sheet of the kept pictures (grid, view order): each view's detected points in red, the triangulated
 // points projected back in green. InvalidInput when no pictures were kept.

@@ -11,8 +11,32 @@
 
 namespace bareskin::detect {
 
+// Landmark passes on the box the previous points imply: each costs a landmark net, more than a few change nothing.
+void check_refinements(int refinements) {
+  if (refinements < 0 || refinements > 10)
+    throw InvalidInput("--refinements", std::to_string(refinements) + " is outside [0, 10]", "use e.g. 2 or 3");
+}
+
+void ScanLandmarkOptions::check() const {
+  if (size < 128 || size > 4096)
+    throw InvalidInput("--size", "the render size " + std::to_string(size) + " is outside [128, 4096]",
+                       "use e.g. 512 (default)");
+  check_refinements(refinements);
+  if (!(min_score >= 0 && min_score <= 1))
+    throw InvalidInput("the scan detector's threshold", std::to_string(min_score) + " is not a score in [0, 1]",
+                       "use e.g. 0.1 (default)");
+}
+
+void ImageLandmarkOptions::check() const {
+  DetectOptions detect;
+  detect.input_size = input_size;
+  detect.check();
+  check_refinements(refinements);
+}
+
 ScanLandmarks detect_scan_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
                                     const ScanLandmarkOptions& options) {
+  options.check();
   if (scan.V.rows() == 0 || scan.F.rows() == 0) throw InvalidInput("", "the scan is empty", "check the mesh file");
   const Eigen::Vector3d centre = (scan.V.colwise().minCoeff() + scan.V.colwise().maxCoeff()).transpose() / 2;
   const Camera camera = view_camera("front", options.size, centre);
@@ -82,6 +106,7 @@ Box box_around(const Eigen::Matrix<double, 68, 2>& p) {
 
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options) {
+  options.check();
   const torch::Tensor photo = photo_tensor(image, "image");
   DetectOptions detection;
   detection.input_size = options.input_size;

@@ -16,6 +16,7 @@ struct ScanLandmarkOptions {
   int size = 512;          // render size (the face fills most of it)
   int refinements = 3;     // landmark passes, each on the box the previous points imply
   double min_score = 0.1;  // detector threshold for the first box; below it the render's coverage box is used
+  void check() const;      // InvalidInput naming the flag
 };
 
 struct ScanLandmarks {
@@ -32,6 +33,9 @@ struct ScanLandmarks {
 ScanLandmarks detect_scan_landmarks(const FaceApi& net, const Mesh& scan, const Image* diffuse,
                                     const ScanLandmarkOptions& options = {});
 
+// InvalidInput("--refinements", ...) unless 0 <= refinements <= 10.
+void check_refinements(int refinements);
+
 // face-api's detector boxes span about 1.22× the landmarks' extent, starting 0.14 (x) and 0.12 (y) of it before their
 // minimum (measured on astronaut.png): the box the landmark network expects around points it found before.
 Box box_around(const Eigen::Matrix<double, 68, 2>& points);
@@ -46,6 +50,7 @@ struct ImageLandmarkOptions {
   int refinements = 2;
   bool flip = true;
   bool coverage_fallback = false;
+  void check() const;  // InvalidInput naming the option
 };
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options);

@@ -74,8 +74,16 @@ std::set<Region> extract_regions() {
   return r;
 }
 
+void ExtractOptions::check() const {
+  if (name.empty()) throw InvalidInput("--name", "is empty", "give the look a name, e.g. --name evening");
+  if (!(min_delta_e >= 0 && min_delta_e <= 100))
+    throw InvalidInput("--min-delta-e", "must lie in [0, 100] (mean ΔE*ab)", "use e.g. 2 (default)");
+  if (min_texels < 1) throw InvalidInput("extract", "a region needs at least 1 texel", "use e.g. 12 (default)");
+}
+
 nlohmann::json extract_look(const makeup::MakeupRegions& regions, const Image& made, const Image& bare,
                             const Image* seen, const ExtractOptions& o) {
+  o.check();
   const int n = regions.uv_size;
   for (const Image* m : {&made, &bare})
     if (m->width != n || m->height != n || m->channels != 3 || m->color_space != ColorSpace::Linear)
@@ -132,6 +140,7 @@ nlohmann::json extract_look(const makeup::MakeupRegions& regions, const Image& m
 }
 
 nlohmann::json extract_command(const ExtractCommand& c) {
+  c.options.check();
   if (c.output.empty()) throw InvalidInput("-o", "is missing", "give the look file to write, e.g. look.json");
   if (lower_extension(c.output) != ".json") throw InvalidInput(c.output, "is not a .json file", "give -o look.json");
   check_output_file(c.output);

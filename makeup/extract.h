@@ -20,6 +20,7 @@ struct ExtractOptions {
   std::string name = "extracted", description;
   double min_delta_e = 2.0;  // a candidate layer is kept when its region's mean ΔE*ab (made vs base) reaches this
   int min_texels = 12;       // ... over at least this many texels seen on both
+  void check() const;        // InvalidInput naming the flag
 };
 
 // `made`, `bare`: linear RGB (3 channels) at the regions' size; `seen`: 1 channel, > 0.5 where both are known (null: all).

@@ -100,8 +100,15 @@ LandmarkFit fit_landmarks(const MorphableModel& model, const Eigen::MatrixX2d& t
   return out;
 }
 
+void PhotometricFitOptions::check() const {
+  if (appearance_components < 0) throw InvalidInput("", "--appearance-components must be >= 0", "");
+  if (!(noise > 0) || !(lighting_sd > 0)) throw InvalidInput("", "--colour-noise and --lighting-sd must be > 0", "");
+  if (iterations < 1 || iterations > 1000) throw InvalidInput("", "the photometric fit's iterations must lie in [1, 1000]", "");
+}
+
 PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, const Camera& camera, const Image& image,
                                const PhotometricFitOptions& options) {
+  options.check();
   const auto t0 = std::chrono::steady_clock::now();
   if (image.width != camera.width || image.height != camera.height || image.channels < 3) {
     throw InvalidInput("", "the image must be RGB of the camera's size", "");

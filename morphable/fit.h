@@ -67,6 +67,7 @@ struct PhotometricFitOptions {
   // parser's skin labels, so that hair, glasses or a hand over the face do not pull δ and γ); nullptr: every pixel
   // the face covers.
   const Image* skin_mask = nullptr;
+  void check() const;
 };
 
 struct PhotometricFit {
@@ -84,5 +85,21 @@ PhotometricFit fit_photometric(const MorphableModel& model, const Mesh& posed, c
 // mm-fit --trace: the CSV (stage, iteration, milliseconds since the stage began, value, unit) and beside it one chart
 // per stage that ran, <stem>_landmarks.svg and <stem>_photometric.svg: accuracy against time, a marker per iteration.
 void write_fit_trace(const std::string& csv_path, const LandmarkFit& fit, const PhotometricFit& photo);
+
+// `bareskin mm-fit` on files: a square image, its 68 landmarks (JSON or .pts, px) and a model; the landmark fit, then
+// (unless no_photometric) the photometric fit on the image (inside `skin_mask` when given), written as a coefficient
+// file (and with `trace` the trace). InvalidInput for a bad option, an image that is not square or a mask of another
+// size; nothing is written then.
+struct FitFilesOptions {
+  std::string image, model, landmarks;
+  std::string output = "fit.json";  // the coefficient file
+  std::string view = "front";       // the camera, as `render --model`: front, left or right
+  std::string trace, skin_mask;     // "" or the trace CSV; "" or the skin mask image
+  LandmarkFitOptions fit;
+  PhotometricFitOptions photo;
+  bool no_photometric = false;  // landmarks only: no δ or γ
+  void check() const;           // InvalidInput naming the flag
+};
+void fit_files(FitFilesOptions options);
 
 }  // namespace bareskin

@@ -63,8 +63,21 @@ std::vector<int> component_grid(int max_k) {
 
 }  // namespace
 
+void MetricsOptions::check() const {
+  if (samples < 1 || max_components < 1 || max_held_out < 1) {
+    throw InvalidInput("", "--samples, --max-components and --max-held-out must be >= 1", "");
+  }
+}
+
+void EvaluateModelOptions::check() const {
+  if (model.empty() || registered.empty())
+    throw InvalidInput("mm-eval", "needs the model and its registered subjects", "give --model and --registered");
+  metrics.check();
+}
+
 ModelMetrics model_metrics(const RowMatrixXf& X, const std::vector<uint8_t>& vertex_region,
                            const std::vector<std::string>& region_names, const MetricsOptions& options) {
+  options.check();
   const Eigen::Index n = X.rows(), V = X.cols() / 3;
   if (n < 4) throw InvalidInput("", "model metrics need at least 4 subjects, got " + std::to_string(n), "add subjects");
   if (Eigen::Index(vertex_region.size()) != V) throw InvalidInput("", "vertex regions do not match the shapes", "");
@@ -179,9 +192,7 @@ ModelMetrics model_metrics(const RowMatrixXf& X, const std::vector<uint8_t>& ver
 
 ModelMetrics evaluate_model(EvaluateModelOptions opt) {
   namespace fs = std::filesystem;
-  if (opt.metrics.samples < 1 || opt.metrics.max_components < 1 || opt.metrics.max_held_out < 1) {
-    throw InvalidInput("", "--samples, --max-components and --max-held-out must be >= 1", "");
-  }
+  opt.check();
   const MorphableModel model = read_model(opt.model);
   if (opt.output.empty()) opt.output = (fs::path(opt.model).parent_path() / fs::path(opt.model).stem()).string() + "_metrics";
   std::vector<std::string> dirs;

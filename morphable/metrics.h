@@ -22,6 +22,7 @@ struct MetricsOptions {
   int samples = 1000;       // specificity
   int max_held_out = 200;   // generalisation: at most this many subjects left out in turn (evenly spread)
   uint64_t seed = 1;
+  void check() const;  // InvalidInput naming the flags
 };
 
 struct ModelMetrics {
@@ -45,6 +46,7 @@ struct EvaluateModelOptions {
   std::string output;      // the report folder; "" = <model stem>_metrics beside the model
   std::string config;      // written as config.json into the report when not empty (the command's resolved flags)
   MetricsOptions metrics;
+  void check() const;  // InvalidInput naming the flag
 };
 
 // `bareskin mm-eval`: the model's subjects read from `registered`, aligned into the model frame by its own Procrustes

@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
+#include "core/error.h"
 #include "core/parallel.h"
 
 namespace bareskin {
@@ -14,7 +15,14 @@ Eigen::Matrix3Xd points(const RowMatrixXf& X, Eigen::Index row) {
 
 }  // namespace
 
+void GpaOptions::check() const {
+  if (max_iterations < 1 || max_iterations > 1000)
+    throw InvalidInput("Procrustes", "iterations must lie in [1, 1000]", "use e.g. 20 (default)");
+  if (!(tolerance_mm >= 0)) throw InvalidInput("Procrustes", "the tolerance must be >= 0 mm", "use e.g. 1e-4 (default)");
+}
+
 GpaResult generalized_procrustes(RowMatrixXf& X, const Eigen::MatrixX3d& reference, const GpaOptions& options) {
+  options.check();
   const Eigen::Index n = X.rows(), V = X.cols() / 3;
   GpaResult out;
   out.transforms.assign(size_t(n), Eigen::Matrix4d::Identity());

@@ -13,6 +13,7 @@ struct GpaOptions {
   bool scale = false;         // similarity instead of rigid
   int max_iterations = 20;
   double tolerance_mm = 1e-4;  // RMS change of the mean between iterations
+  void check() const;          // InvalidInput when out of range
 };
 
 struct GpaResult {

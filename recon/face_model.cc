@@ -336,7 +336,16 @@ torch::Tensor smooth_basis(const torch::Tensor& points, int K, int channels, tor
 
 }  // namespace
 
+void ToyModelOptions::check() const {
+  if (grid < 2 || grid > 1024) throw InvalidInput("toy model", "the grid must have 2 to 1024 cells a side", "e.g. 48");
+  if (id < 1 || exp < 1 || app < 1)
+    throw InvalidInput("toy model", "needs at least one identity, expression and appearance component", "e.g. 6, 4, 3");
+  if (resolution < 8 || resolution > 4096)
+    throw InvalidInput("toy model", "the appearance image must be 8 to 4096 texels a side", "e.g. 64");
+}
+
 void save_toy_model(const std::string& path, const ToyModelOptions& o) {
+  o.check();
   torch::Generator gen = at::detail::createCPUGenerator(o.seed);
   const int n = o.grid, side = n + 1;
   const int64_t V = int64_t(side) * side;

@@ -125,6 +125,7 @@ struct ToyModelOptions {
   int id = 6, exp = 4, app = 3;
   int resolution = 64;  // appearance image
   uint64_t seed = 1;
+  void check() const;   // InvalidInput when out of range
 };
 void save_toy_model(const std::string& path, const ToyModelOptions& options = {});
 

@@ -329,11 +329,21 @@ torch::Tensor overlay(const FaceModel& model, const torch::Tensor& predicted, co
   return linear_to_srgb(r.colour.clamp(0, 1)) * r.mask + image.to(predicted.options()) * (1 - r.mask);
 }
 
+void ReconTaskOptions::check() const {
+  net.check();
+  loss.check();
+  schedule.check();
+  if (input != "before" && input != "makeup")
+    throw InvalidInput("--input", "'" + input + "' is not a member the net can see", "use before or makeup");
+  if (!(lr > 0 && lr < 1)) throw InvalidInput("--lr", "must lie in (0, 1)", "e.g. --lr 1e-4");
+  if (image_size < 16 || image_size > 4096)
+    throw InvalidInput("--image-size", std::to_string(image_size) + " is outside [16, 4096]", "e.g. --image-size 128");
+}
+
 ReconTask::ReconTask(const ReconTaskOptions& options, FaceModel model,
                      std::shared_ptr<detect::FaceRecognitionNet> identity, torch::Device device)
     : options_(options), model_(model.to(device)), identity_(std::move(identity)), device_(device) {
-  options_.loss.check();
-  options_.schedule.check();
+  options_.check();
   net_ = ReconNet(options_.net, model_.layout());
   net_->to(device_);
   if (options_.loss.identity > 0 && options_.loss.supervision != Supervision::Truth && !identity_) {

@@ -120,6 +120,7 @@ struct ReconTaskOptions {
   double lr = 1e-4;
   train::Schedule schedule{"step", 0, 0, 0.2};  // ×0.2 every schedule.step_every steps (Deep3DFaceRecon)
   int64_t image_size = 256;
+  void check() const;  // InvalidInput for an unknown input or a bad value (and the nested options' check())
 };
 
 // The Trainer's task: one net "F" (resnet50 / with γ) or "E", one Adam optimizer.
@@ -160,6 +161,9 @@ struct TrainedRecon {
 // `run`: a run folder or its checkpoint. IoError when missing; InvalidInput naming the checkpoint when it is not a
 // recon run, was trained for a model with other sizes (both named), or its weights do not fit the net it describes.
 TrainedRecon load_recon(const std::string& run, const FaceModel& model, torch::Device device = torch::kCPU);
+// The morphable model of a `bareskin train recon` run (its folder or checkpoint): `model` when given, else the one
+// the run's config.json names. IoError without the checkpoint, InvalidInput when the config names no model.
+std::string run_model_path(const std::string& run, const std::string& model = "");
 
 // How far to trust an answer: the net's projected landmarks against the detector's (RMS px in the 256² aligned
 // frame) and the lit render against the photo over the face (PSNR, linear light). `flagged` when either passes its
@@ -167,6 +171,7 @@ TrainedRecon load_recon(const std::string& run, const FaceModel& model, torch::D
 struct ConfidenceOptions {
   double landmark_px = 4.0;  // flag above
   double psnr_db = 20.0;     // flag below
+  void check() const;        // InvalidInput for a threshold that is not a positive number
 };
 struct Reconstruction {
   torch::Tensor coefficients;  // [K] with γ (E answers Deep3DFaceRecon's ambient light), CPU float
@@ -195,6 +200,7 @@ struct RenderedFacesOptions {
   double max_yaw = 0.35;  // radians, uniform in ±max_yaw
   int64_t per_shard = 256;
   std::string split = "train";
+  void check() const;  // InvalidInput when out of range
 };
 void write_rendered_faces(const std::string& dir, const FaceModel& model, const RenderedFacesOptions& options);
 

@@ -102,10 +102,26 @@ std::string fmt(double v, int digits = 3) {
 
 }  // namespace
 
+void EvalOptions::check() const {
+  if (data.empty() || run.empty() || output.empty())
+    throw InvalidInput("recon --eval", "needs the samples, the run and an output folder", "give --eval, --run and -o");
+  if (input != "before" && input != "makeup")
+    throw InvalidInput("--eval-input", "'" + input + "' is not a member the net can see", "use before or makeup");
+  if (max_faces < 0) throw InvalidInput("--eval-faces", "must not be negative", "0 takes every sample");
+  if (heat_maps < 0) throw InvalidInput("recon --eval", "the heat-map count must not be negative", "e.g. 4");
+  if (fit_iterations.empty()) throw InvalidInput("recon --eval", "no mm-fit iteration count is given", "e.g. 1, 5, 20");
+  for (int k : fit_iterations)
+    if (k < 1 || k > 1000) throw InvalidInput("recon --eval", "mm-fit iteration counts must lie in [1, 1000]", "");
+  if (!(bad_mm > 0)) throw InvalidInput("recon --eval", "the bad shape error must be > 0 mm", "e.g. 3");
+  confidence.check();
+}
+
 nlohmann::json evaluate_recon(const EvalOptions& o, const ProgressCallback& progress) {
-  const recon::FaceModel face_model = recon::FaceModel::load(o.model);
+  o.check();
+  const std::string model = recon::run_model_path(o.run, o.model);
+  const recon::FaceModel face_model = recon::FaceModel::load(model);
   const recon::TrainedRecon net = recon::load_recon(o.run, face_model, torch::kCPU);
-  const MorphableModel geometry = read_model(o.model);
+  const MorphableModel geometry = read_model(model);
   const detect::FaceApi detector(detect::default_face_api_folder());
   std::shared_ptr<detect::FaceRecognitionNet> identity;
   if (o.identity) {

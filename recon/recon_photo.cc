@@ -68,6 +68,7 @@ nlohmann::json refine(Coefficients& c, const MorphableModel& geometry, const Ima
 PhotoReconstruction at_net_size(const TrainedRecon& net, const MorphableModel& geometry, Image aligned,
                                 const detect::Landmarks68& landmarks, const detect::Similarity& similarity,
                                 const PhotoReconOptions& options) {
+  options.check();
   PhotoReconstruction out;
   torch::Tensor lm = torch::empty({68, 2}, torch::kDouble);
   for (int k = 0; k < 68; ++k) lm[k][0] = landmarks(k, 0), lm[k][1] = landmarks(k, 1);
@@ -170,22 +171,6 @@ std::pair<Image, detect::Landmarks68> photo_overlay(const TrainedRecon& net, con
   return {to_image(over[0], ColorSpace::sRGB), lm};
 }
 
-std::string run_model_path(const std::string& run, const std::string& model) {
-  namespace fs = std::filesystem;
-  if (!model.empty()) return model;
-  // The run's config names the model it was trained with.
-  const std::string ckpt = fs::is_directory(run) ? train::checkpoint_path(run) : run;
-  if (!fs::exists(ckpt)) throw IoError(ckpt, "does not exist", "give --run the folder of 'bareskin train recon'");
-  const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
-  std::string path;
-  if (fs::exists(cfg)) path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
-  if (path.empty()) {
-    throw InvalidInput(cfg, "is missing or names no model file (the one the run was trained with)",
-                       "give --run the folder of 'bareskin train recon', or --model");
-  }
-  return path;
-}
-
 namespace {
 
 struct PhotoContext {
@@ -232,12 +217,30 @@ bool is_image(const std::filesystem::path& p) {
 
 }  // namespace
 
+void PhotoReconOptions::check() const {
+  confidence.check();
+  if (refine_iterations < 1 || refine_iterations > 1000)
+    throw InvalidInput("--refine-iterations", std::to_string(refine_iterations) + " is outside [1, 1000]",
+                       "e.g. --refine-iterations 30");
+}
+
+void PhotoFilesOptions::check() const {
+  if (input.empty()) throw InvalidInput("recon", "names no photo", "give a photo or a folder of photos");
+  if (output.empty()) throw InvalidInput("-o", "names no output folder", "give the output folder");
+  if (run.empty()) throw InvalidInput("--run", "is missing", "give the folder of 'bareskin train recon'");
+  recon.check();
+}
+
 void reconstruct_photo_files(const PhotoFilesOptions& o) {
   namespace fs = std::filesystem;
-  if (!fs::is_directory(o.input)) detect::check_photo(read_image(o.input), o.input);  // before the nets load
+  o.check();
+  if (!fs::exists(o.input)) throw IoError(o.input, "does not exist", "give a photo or a folder of photos");
+  // A thumbnail is refused before the run is looked for and the nets load.
+  if (!fs::is_directory(o.input)) detect::check_photo(read_image(o.input), o.input);
+  const std::string model = run_model_path(o.run, o.model);
   PhotoContext ctx;
-  ctx.net = load_recon(o.run, FaceModel::load(o.model), o.device);
-  ctx.geometry = read_model(o.model);
+  ctx.net = load_recon(o.run, FaceModel::load(model), o.device);
+  ctx.geometry = read_model(model);
   ctx.detector = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
   ctx.options = o.recon;
   if (!fs::is_directory(o.input)) {

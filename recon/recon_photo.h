@@ -22,6 +22,7 @@ struct PhotoReconOptions {
   ConfidenceOptions confidence;
   bool refine = false;         // continue with mm-fit (landmarks, then appearance and light) from the net's answer
   int refine_iterations = 30;  // landmark-fit iterations of the refinement
+  void check() const;          // InvalidInput naming the flag
 };
 
 struct PhotoReconstruction {
@@ -48,18 +49,15 @@ PhotoReconstruction reconstruct_photo(const TrainedRecon& net, const MorphableMo
 std::pair<Image, detect::Landmarks68> photo_overlay(const TrainedRecon& net, const Coefficients& c,
                                                     const detect::Similarity& similarity, const Image& photo);
 
-// The morphable model of a `bareskin train recon` run (its folder or checkpoint): `model` when given, else the one
-// the run's config.json names. IoError without the checkpoint, InvalidInput when the config names no model.
-std::string run_model_path(const std::string& run, const std::string& model = "");
-
 struct PhotoFilesOptions {
   std::string input;   // a photo, or a folder of photos (.png, .jpg, .jpeg, .tif, .tiff)
   std::string output;  // the output folder (per photo a subfolder when the input is a folder)
-  std::string run, model;  // the net's run and its morphable model file
+  std::string run, model;  // the net's run and its morphable model file ("": the one the run was trained with)
   torch::Device device = torch::kCPU;
   PhotoReconOptions recon;
   bool keep_going = false;  // with a folder: report a photo that fails on stderr and go on (InvalidInput at the end)
   bool quiet = false;       // no line per photo on stderr
+  void check() const;       // InvalidInput naming the flag
 };
 
 // `bareskin recon`: per photo face-api's 68 landmarks, reconstruct_photo, and coefficients.json, mesh.obj,

@@ -13,7 +13,10 @@
 #include "core/test_options.h"
 #include "recon/face_model.h"
 #include "recon/recon.h"
+#include "recon/train_recon.h"
 #include "training/checkpoint.h"
+#include "training/run_flags.h"
+#include "training/ssim.h"
 #include "training/trainer.h"
 
 #ifdef BARESKIN_RECON_ORACLE
@@ -113,6 +116,47 @@ TEST(ReconOptions, RoundTripAndRefuseUnknownKeys) {
   EXPECT_THROW(nlohmann::json({{"photo", -1}}).get<LossOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"supervision", "some"}}).get<LossOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"supervision", 1}}).get<LossOptions>(), InvalidInput);
+}
+
+// The Torch side's options check their own fields (core/test_options.h) and the functions that take them check first:
+// the trainer's intervals (a log interval of 0 divided by zero), the loader, SSIM, the recon task and run, the photo
+// reconstruction. texgen/options_check_test.cc has the geometry side's.
+TEST(ReconOptions, CheckRefusesBadValues) {
+  using testing::expect_check_refuses;
+  train::TrainerOptions trainer;
+  trainer.run_dir = "run";
+  expect_check_refuses(trainer, [](auto& o) { o.log_every = 0; }, "--log-every");
+  expect_check_refuses(trainer, [](auto& o) { o.eval_batches = 0; }, "eval_batches");
+  expect_check_refuses(trainer, [](auto& o) { o.run_dir.clear(); }, "run folder");
+  expect_check_refuses(train::RunFlags{}, [](auto& o) { o.batch = 0; }, "--batch");
+  expect_check_refuses(train::RunFlags{}, [](auto& o) { o.sample_every = -1; }, "--sample-every");
+  expect_check_refuses(data::LoaderOptions{}, [](auto& o) { o.decode_threads = 0; }, "decode threads");
+  expect_check_refuses(data::LoaderOptions{}, [](auto& o) { o.augment.flip_probability = 2; }, "flip");  // nested
+  expect_check_refuses(losses::SsimOptions{}, [](auto& o) { o.window = 10; }, "window 10");
+  expect_check_refuses(ReconTaskOptions{}, [](auto& o) { o.input = "bare"; }, "--input");
+  expect_check_refuses(ReconTaskOptions{}, [](auto& o) { o.net.width = 0; }, "width");  // nested
+  expect_check_refuses(ConfidenceOptions{}, [](auto& o) { o.psnr_db = -3; }, "PSNR");
+  expect_check_refuses(RenderedFacesOptions{}, [](auto& o) { o.split = "dev"; }, "split 'dev'");
+  expect_check_refuses(ToyModelOptions{}, [](auto& o) { o.id = 0; }, "identity");
+  TrainReconOptions run;
+  run.data = "faces", run.model = "model.safetensors";
+  expect_check_refuses(run, [](auto& o) { o.gamma = "maybe"; }, "--gamma");
+  expect_check_refuses(run, [](auto& o) { o.eval_batches = 0; }, "--eval-batches");
+  expect_check_refuses(run, [](auto& o) { o.trainer.log_every = 0; }, "--log-every");  // nested
+
+  // First, before anything is read: the dataset, the model and the run folder do not exist.
+  data::LoaderOptions loader;
+  loader.dataset = temp_dir("check") + "/no_such_dataset";
+  loader.shuffle_buffer = -1;
+  EXPECT_THROW(data::ShardLoader{loader}, InvalidInput);
+  run.data = loader.dataset, run.model = loader.dataset + ".safetensors", run.output = temp_dir("check") + "/run";
+  run.trainer.log_every = 0;
+  EXPECT_THROW(train_recon(run), InvalidInput);
+  EXPECT_FALSE(fs::exists(run.output + "/config.json"));
+  const torch::Tensor a = torch::rand({1, 3, 16, 16});
+  losses::SsimOptions ssim;
+  ssim.k2 = 0;
+  EXPECT_THROW(losses::ssim(a, a, ssim), InvalidInput);
 }
 
 TEST(ReconLosses, GradientMatchesFiniteDifferences) {

@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "core/error.h"
 #include "core/png.h"
 #include "core/shards.h"
 
@@ -18,7 +19,17 @@ Image to_image(const torch::Tensor& chw) {
 
 }  // namespace
 
+void RenderedFacesOptions::check() const {
+  if (count < 1 || per_shard < 1) throw InvalidInput("rendered faces", "count and per_shard must be at least 1", "");
+  if (size < 16 || size > 4096) throw InvalidInput("rendered faces", "size must lie in [16, 4096]", "e.g. 64");
+  if (!(sigma >= 0) || !(max_yaw >= 0 && max_yaw <= 1.6))
+    throw InvalidInput("rendered faces", "sigma must be >= 0 and max_yaw in [0, 1.6] radians", "");
+  if (split != "train" && split != "val" && split != "test")
+    throw InvalidInput("rendered faces", "split '" + split + "' is not train, val or test", "");
+}
+
 void write_rendered_faces(const std::string& dir, const FaceModel& model, const RenderedFacesOptions& o) {
+  o.check();
   torch::NoGradGuard guard;
   torch::Generator gen = at::detail::createCPUGenerator(o.seed);
   const CoefficientLayout l = model.layout(true);

@@ -13,8 +13,32 @@
 
 namespace bareskin::recon {
 
+void TrainReconOptions::check() const {
+  if (data.empty()) throw InvalidInput("--data", "is missing", "give the folder 'bareskin texgen faces' wrote");
+  if (model.empty()) throw InvalidInput("--model", "is missing", "give the morphable model file (mm-build)");
+  if (output.empty()) throw InvalidInput("-o", "names no run folder", "give the run's output folder");
+  if (gamma != "on" && gamma != "off" && gamma != "auto")
+    throw InvalidInput("--gamma", "'" + gamma + "' is not on, off or auto", "e.g. --gamma auto");
+  parse_supervision(supervision);
+  if (!loss.is_object()) throw InvalidInput("--loss", "is not a JSON object", "e.g. '{\"identity\": 0}'");
+  if (image_size != 0 && (image_size < 16 || image_size > 4096))
+    throw InvalidInput("--image-size", std::to_string(image_size) + " is outside [16, 4096]", "0 keeps the samples' size");
+  if (decay_every < -1) throw InvalidInput("--decay-every", "must be >= -1", "0: half the steps; -1: never");
+  if (eval_batches < 1) throw InvalidInput("--eval-batches", "must be at least 1", "e.g. --eval-batches 8");
+  ReconNetOptions net;
+  net.arch = arch;
+  net.width = width;
+  net.check();
+  ReconTaskOptions task;
+  task.input = input;
+  task.lr = lr;
+  task.check();
+  trainer.check();
+}
+
 TrainReconResult train_recon(const TrainReconOptions& o) {
   namespace fs = std::filesystem;
+  o.check();
   const torch::Device device = parse_device(o.trainer.device);
   if (!fs::exists(o.model)) throw IoError(o.model, "does not exist", "give the morphable model file (mm-build)");
   ReconTaskOptions to;

@@ -31,6 +31,7 @@ struct TrainReconOptions {
   }();
   bool progress = true;
   nlohmann::json profile;  // what apply_profile returned: recorded in the run's configuration
+  void check() const;      // InvalidInput naming the flag
 };
 
 struct TrainReconResult {

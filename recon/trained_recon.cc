@@ -2,9 +2,11 @@
 #include "recon/recon.h"
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/files.h"
 #include "core/safetensors.h"
 #include "training/checkpoint.h"
 
@@ -55,8 +57,31 @@ TrainedRecon load_recon(const std::string& run, const FaceModel& model, torch::D
   return out;
 }
 
+std::string run_model_path(const std::string& run, const std::string& model) {
+  namespace fs = std::filesystem;
+  if (!model.empty()) return model;
+  // The run's config names the model it was trained with.
+  const std::string ckpt = fs::is_directory(run) ? train::checkpoint_path(run) : run;
+  if (!fs::exists(ckpt)) throw IoError(ckpt, "does not exist", "give --run the folder of 'bareskin train recon'");
+  const std::string cfg = (fs::path(ckpt).parent_path() / "config.json").string();
+  std::string path;
+  if (fs::exists(cfg)) path = nlohmann::json::parse(read_file(cfg), nullptr, false).value("model", "");
+  if (path.empty()) {
+    throw InvalidInput(cfg, "is missing or names no model file (the one the run was trained with)",
+                       "give --run the folder of 'bareskin train recon', or --model");
+  }
+  return path;
+}
+
+void ConfidenceOptions::check() const {
+  if (!(landmark_px > 0 && std::isfinite(landmark_px)) || !(psnr_db > 0 && std::isfinite(psnr_db)))
+    throw InvalidInput("confidence", "the landmark (px) and PSNR (dB) thresholds must be positive numbers",
+                       "e.g. 4 px and 20 dB (default)");
+}
+
 Reconstruction reconstruct(const TrainedRecon& r, const torch::Tensor& aligned, const torch::Tensor& detected,
                            const ConfidenceOptions& co) {
+  co.check();
   torch::NoGradGuard guard;
   if (aligned.dim() != 3 || aligned.size(0) != 3 || aligned.size(1) != r.image_size || aligned.size(2) != r.image_size) {
     throw InvalidInput("", "the aligned face must be [3, " + std::to_string(r.image_size) + ", " +

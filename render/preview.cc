@@ -90,8 +90,17 @@ Eigen::Vector3f heat_color(double t) {
           stops[i][2] + f * (stops[i + 1][2] - stops[i][2])};
 }
 
+void PreviewOptions::check() const {
+  if (size < 16 || size > 16384) throw InvalidInput("", "--size must lie in [16, 16384]", "");
+  if (!(wire_opacity >= 0 && wire_opacity <= 1)) throw InvalidInput("", "the wireframe's opacity must lie in [0, 1]", "");
+  if (vertex_colors.rows() > 0 && !vertex_colors.allFinite())
+    throw InvalidInput("", "the vertex colours are not finite", "give sRGB colours in [0, 1]");
+}
+
 Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
-  if (options.size < 16 || options.size > 16384) throw InvalidInput("", "--size must lie in [16, 16384]", "");
+  options.check();
+  for (int v : options.landmark_vertices)
+    if (v < 0 || v >= mesh.V.rows()) throw InvalidInput("", "landmark vertex " + std::to_string(v) + " is not in the mesh", "");
   Image img(options.size, options.size, 3, ColorSpace::sRGB, 1.f);
   const Eigen::Vector3f wire(0.05f, 0.1f, 0.3f), red(0.85f, 0.1f, 0.1f);
   const int dot = std::max(2, options.size / 200);
@@ -186,7 +195,6 @@ Image render_preview(const Mesh& mesh, const PreviewOptions& options) {
     }
   }
   for (int v : options.landmark_vertices) {
-    if (v < 0 || v >= mesh.V.rows()) throw InvalidInput("", "landmark vertex " + std::to_string(v) + " is not in the mesh", "");
     const Eigen::Vector3d p = screen[size_t(v)];
     const int x = int(p.x()), y = int(p.y());
     const bool visible = x >= 0 && y >= 0 && x < options.size && y < options.size &&

@@ -21,6 +21,7 @@ struct PreviewOptions {
   std::vector<int> landmark_vertices;  // drawn as red dots with their iBUG index order
   const Image* texture = nullptr;      // diffuse albedo in the mesh's UV (needs UVs): shaded colour instead of grey
   Eigen::MatrixX3f vertex_colors;      // or per-vertex sRGB colours (e.g. an error heat map), #V by 3
+  void check() const;                  // InvalidInput naming the option
 };
 
 // A perceptual blue-to-red heat colour (sRGB) for t in [0, 1] (clamped).

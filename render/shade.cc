@@ -32,7 +32,15 @@ Frame Frame::blank(int W, int H) {
   return f;
 }
 
+void ShadeOptions::check() const {
+  if (!albedo.allFinite() || albedo.minCoeff() < 0)
+    throw InvalidInput("", "the albedo must be finite and >= 0 (linear RGB)", "e.g. 0.6 0.6 0.6");
+  for (double g : gamma)
+    if (!std::isfinite(g)) throw InvalidInput("", "the SH lighting has a non-finite coefficient", "give 27 finite numbers");
+}
+
 Frame render_frame(const Mesh& mesh, const Camera& camera, const ShadeOptions& options) {
+  options.check();
   if (mesh.V.rows() == 0 || mesh.F.rows() == 0) throw InvalidInput("", "the mesh is empty", "give a mesh with triangles");
   if (!mesh.V.allFinite()) throw InvalidInput("", "the mesh has NaN or infinite vertices", "repair the mesh");
   if (options.texture && !mesh.has_uv()) throw InvalidInput("", "a texture needs a mesh with UVs", "");

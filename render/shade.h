@@ -16,6 +16,7 @@ struct ShadeOptions {
   Eigen::Vector3f albedo = {0.6f, 0.6f, 0.6f};  // linear
   std::array<double, 27> gamma{};               // SH coefficients, channel-major (see sh.h)
   bool cull_back_faces = false;
+  void check() const;  // InvalidInput for a negative or non-finite albedo or lighting
 };
 
 // Deep3DFaceRecon's ambient (0.8 on each channel's first coefficient) plus a soft key light from above and the front.

@@ -14,6 +14,7 @@
 #include "core/files.h"
 #include "core/image_io.h"
 #include "core/parallel.h"
+#include "core/scan_folder.h"
 #include "render/shade.h"
 #include "scan/multiview.h"
 
@@ -166,6 +167,14 @@ void write_synthetic_capture(const Mesh& mesh, const Image* diffuse, const std::
   spdlog::info("landmarks capture: {} photos of {}² px ({}x supersampled{}) in {:.1f} s -> {}", photos.size(), o.size,
                o.supersample, o.backdrop ? ", speckle backdrop" : "",
                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), dir);
+}
+
+void write_synthetic_capture(const std::string& scan, const std::string& texture, const std::string& dir,
+                             const CaptureOptions& options) {
+  options.check();
+  check_output_apart(dir, {scan, texture});
+  const TexturedScan textured = read_textured_scan(scan, texture);
+  write_synthetic_capture(textured.mesh, textured.diffuse ? &*textured.diffuse : nullptr, dir, options);
 }
 
 }  // namespace bareskin

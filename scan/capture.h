@@ -49,5 +49,9 @@ void write_capture_folder(const std::string& dir, const std::string& stem, const
 // each) written as photo_NN.png + cameras.json.
 void write_synthetic_capture(const Mesh& scan, const Image* diffuse, const std::string& dir,
                              const CaptureOptions& options);
+// The same on files: `scan` a scan folder or a mesh file (then `texture` its diffuse map, "" for grey). InvalidInput
+// for bad options or an output that would replace an input, before anything is read.
+void write_synthetic_capture(const std::string& scan, const std::string& texture, const std::string& dir,
+                             const CaptureOptions& options);
 
 }  // namespace bareskin

@@ -29,8 +29,22 @@ std::string database_summary(const std::string& work);
 
 }  // namespace
 
+void ColmapOptions::check() const {
+  if (threads < 0) throw InvalidInput("--threads", "must not be negative", "0 uses every core");
+  if (max_features < 100 || max_features > 100000)
+    throw InvalidInput("--colmap-features", std::to_string(max_features) + " SIFT features is outside [100, 100000]",
+                       "use e.g. 8192 (default)");
+  if (max_image_size < 64) throw InvalidInput("COLMAP's image size", "must be at least 64 px", "use e.g. 3200 (default)");
+  if (!(peak_threshold >= 0.0001 && peak_threshold <= 0.1))
+    throw InvalidInput("--colmap-peak", "the SIFT peak threshold must lie in [0.0001, 0.1]", "use e.g. 0.0067 (default)");
+  if (init_min_inliers < 1) throw InvalidInput("COLMAP's initial inliers", "must be at least 1", "use e.g. 100 (default)");
+  if (!(focal_px >= 0 && focal_px < 1e7))
+    throw InvalidInput("--colmap-focal", "the focal length must be a positive number of px", "or leave it out");
+}
+
 ColmapModel run_colmap(const std::string& images, const std::string& work, const ColmapOptions& o,
                        const std::string& log) {
+  o.check();
   if (std::system("command -v colmap > /dev/null 2>&1") != 0)
     throw IoError("colmap", "is not installed", "install Debian's colmap package (make deps)");
   fs::create_directories(work + "/sparse");

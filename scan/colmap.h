@@ -38,6 +38,7 @@ struct ColmapOptions {
   double focal_px = 0;                 // the rig's calibrated focal length in px, held fixed in bundle adjustment
                                        // (0: COLMAP's, from EXIF, else a guess of 1.2 x the photo's size refined by
                                        // bundle adjustment: far off for long lenses, and it drifts run to run)
+  void check() const;                  // InvalidInput naming the flag
 };
 
 // Reads cameras.txt, images.txt and points3D.txt of a TXT model. Pinhole models (SIMPLE_PINHOLE, PINHOLE) are read

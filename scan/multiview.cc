@@ -287,8 +287,24 @@ std::vector<Camera> landmark_view_ring(int count, int size, const Eigen::Vector3
   return cameras;
 }
 
+void TriangulateOptions::check() const {
+  if (!(min_score >= 0 && min_score <= 1))
+    throw InvalidInput("the views' score threshold", std::to_string(min_score) + " is not a score in [0, 1]",
+                       "use e.g. 0.1 (default)");
+  if (!(pixel_sigma >= 0.1 && pixel_sigma <= 100))
+    throw InvalidInput("--pixel-sigma", "the detector noise must lie in [0.1, 100] px", "use e.g. 2 (default)");
+  if (!(depth_tolerance_mm > 0) || !(silhouette_px > 0))
+    throw InvalidInput("triangulation", "the depth tolerance and the silhouette distance must be > 0",
+                       "use e.g. 2 mm and 3 px (default)");
+  if (!(min_cos_view >= 0 && min_cos_view < 1))
+    throw InvalidInput("triangulation", "the grazing-angle cosine must lie in [0, 1)", "use e.g. 0.2 (default)");
+  if (visibility_passes < 0 || visibility_passes > 10)
+    throw InvalidInput("triangulation", "visibility passes must lie in [0, 10]", "use e.g. 2 (default)");
+}
+
 MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<LandmarkView>& views,
                                          const TriangulateOptions& options) {
+  options.check();
   if (scan.V.rows() == 0 || scan.F.rows() == 0) throw InvalidInput("", "the scan is empty", "check the mesh file");
   if (!scan.V.allFinite()) throw InvalidInput("", "the scan has non-finite vertices", "clean the mesh");
   MultiviewLandmarks result;

@@ -48,6 +48,7 @@ struct TriangulateOptions {
   double silhouette_px = 3;       // jaw points: on the outline when within this of an uncovered pixel
   int visibility_passes = 2;      // re-solve after the depth test with the new point
   bool jaw = true;                // triangulate 0–16 from silhouette views (false: leave them out)
+  void check() const;             // InvalidInput naming the option
 };
 
 struct TriangulatedLandmark {

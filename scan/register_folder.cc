@@ -412,8 +412,19 @@ std::vector<double> parse_landmark_sigma(const std::string& text) {
   return sigma;
 }
 
+void RegisterFolderOptions::check() const {
+  if (scans.empty() || output.empty())
+    throw InvalidInput("--scans/--output", "a folder is not named", "give the scans' folder and the output folder");
+  if (!(scale > 0 && scale < 1e9))
+    throw InvalidInput("--scale", "must be a positive factor", "1 for scans in mm, 1000 for scans in metres");
+  if (!(heat_max_mm > 0)) throw InvalidInput("--heat-max", "must be > 0 mm", "e.g. --heat-max 2");
+  nicp.check();
+  if (maps.resolution != 0) maps.check();
+}
+
 std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
                                          const ProgressCallback& progress) {
+  options.check();
   // 1. The scan folders, and which of them still need registering.
   const std::vector<std::string> dirs = scan_folders(options.scans);
   const auto out_dir = [&](const std::string& d) { return options.output + "/" + fs::path(d).filename().string(); };
@@ -504,6 +515,12 @@ std::vector<std::string> register_folder(const TemplateFace& face, const Registe
   std::vector<std::string> registered;
   for (const std::string& d : dirs) registered.push_back(out_dir(d));
   return registered;
+}
+
+std::vector<std::string> register_folder(const std::string& template_dir, const RegisterFolderOptions& options,
+                                         const ProgressCallback& progress) {
+  options.check();
+  return register_folder(read_template_folder(template_dir), options, progress);
 }
 
 }  // namespace bareskin

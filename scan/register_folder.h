@@ -48,6 +48,7 @@ struct RegisterFolderOptions {
   std::string model;
   // For scans without landmarks.json (unless no_landmarks); empty: the fallback alignment.
   ScanLandmarkDetector detect;
+  void check() const;  // InvalidInput naming the flag (and nicp.check(), maps.check() when maps are transferred)
 };
 
 // Per-point uncertainty (mm) from the text of a landmark file `landmarks scan --views` wrote (its 68 "detail" entries'
@@ -59,6 +60,9 @@ std::vector<double> parse_landmark_sigma(const std::string& text);
 // collects failures), writes options.output/summary.json and returns options.output/<id> for every scan. Throws
 // InvalidInput when a scan failed (after the others, with keep_going).
 std::vector<std::string> register_folder(const TemplateFace& face, const RegisterFolderOptions& options,
+                                         const ProgressCallback& progress = {});
+// The same with the template read from `template_dir` ("": the default search) once the options are checked.
+std::vector<std::string> register_folder(const std::string& template_dir, const RegisterFolderOptions& options,
                                          const ProgressCallback& progress = {});
 
 }  // namespace bareskin

@@ -1,7 +1,12 @@
 #include "scan/synth.h"
 
 #include <Eigen/Geometry>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <random>
 
@@ -10,6 +15,7 @@
 #include "core/mesh_io.h"
 #include "core/parallel.h"
 #include "core/safetensors.h"
+#include "scan/blendshapes.h"
 #include "template/surface.h"
 
 namespace bareskin {
@@ -330,6 +336,60 @@ void write_scan(const std::string& dir, const TemplateFace& face, const Syntheti
     SkinBaker(surface, skin).bake(out.path() + "/truth/maps", truth);
   }
   out.commit();
+}
+
+void PopulationOptions::check() const {
+  if (output.empty()) throw InvalidInput("-o", "names no population folder", "e.g. -o scans");
+  synth.check();
+}
+
+void write_population(const PopulationOptions& options, const ProgressCallback& progress) {
+  options.check();
+  const std::string template_dir = find_template_folder(options.template_dir);
+  const TemplateFace face = read_template_folder(template_dir);
+  const SynthOptions& synth = options.synth;
+  make_directories(options.output);
+  // Resumable: a subject folder appears only when complete (atomic), so existing ones are skipped.
+  std::vector<int> todo;
+  for (int i = 0; i < synth.count; ++i) {
+    char id[32];
+    std::snprintf(id, sizeof id, "subject_%04d", i);
+    if (!std::filesystem::exists(options.output + "/" + id + "/truth/identity.json")) todo.push_back(i);
+  }
+  if (todo.size() < size_t(synth.count)) {
+    spdlog::info("scan synth: {} of {} subjects already there, skipped", synth.count - int(todo.size()), synth.count);
+  }
+  std::atomic<int> done{0};
+  // Several subjects: one per thread. A single subject: its maps are baked in parallel, and the progress follows them.
+  const bool one = todo.size() == 1;
+  const ProgressCallback maps_progress = [&](int64_t d, int64_t total, const std::string&) {
+    if (one && progress) progress(d, total, "map bands");
+  };
+  const auto make = [&](int64_t k) {
+    write_scan(options.output, face, synthesize_scan(face, todo[size_t(k)], synth), synth, maps_progress);
+    if (!one && progress) progress(++done, int64_t(todo.size()), "subjects");
+  };
+  if (one) {
+    make(0);  // on this thread, so that the bake's own parallel_for is not nested (nested loops run serially)
+  } else {
+    parallel_for(0, int64_t(todo.size()), [&](int64_t b, int64_t e) {
+      for (int64_t k = b; k < e; ++k) make(k);
+    });
+  }
+  const std::vector<Blendshape> shapes = make_blendshapes(face);
+  write_blendshapes(options.output + "/blendshapes", shapes);
+  nlohmann::json manifest;
+  manifest["format"] = "bareskin.scan_population";
+  manifest["format_version"] = 1;
+  manifest["seed"] = synth.seed;
+  manifest["count"] = synth.count;
+  manifest["template"] = std::filesystem::absolute(template_dir).string();
+  manifest["identity_features"] = identity_feature_names();
+  manifest["blendshapes"] = int(shapes.size());
+  manifest["contents"] = "per subject mesh.obj (own topology and UV atlas), diffuse/normal/roughness/specular maps, "
+                         "landmarks.json, truth/; blendshapes/ on the template";
+  manifest["maps"] = {{"resolution", synth.maps.resolution}, {"format", options.map_format}};
+  write_file_atomic(options.output + "/manifest.json", manifest.dump(1) + "\n");
 }
 
 }  // namespace bareskin

@@ -73,4 +73,18 @@ SkinSurface template_skin_surface(const TemplateFace& face, const Eigen::MatrixX
 void write_scan(const std::string& dir, const TemplateFace& face, const SyntheticScan& scan, const SynthOptions& options,
                 const ProgressCallback& progress = {});
 
+// `bareskin scan synth`: a population in `output`.
+struct PopulationOptions {
+  std::string output = "scans";
+  std::string template_dir;        // the template's folder ("": the default search), recorded in manifest.json
+  std::string map_format = "png";  // as given (recorded in manifest.json); synth.maps.format holds it parsed
+  SynthOptions synth;
+  void check() const;              // InvalidInput naming the flag (synth.check())
+};
+
+// Checks the options, reads the template, then writes the subjects of options.synth that `output` does not hold yet
+// (each appears whole, so a killed run resumes where it stopped), the template's blendshapes (blendshapes/) and
+// manifest.json. `progress`: subjects done, or for a single subject its map bands.
+void write_population(const PopulationOptions& options, const ProgressCallback& progress = {});
+
 }  // namespace bareskin

@@ -120,9 +120,13 @@ std::vector<std::string> shard_sets(const std::string& dataset) {
 
 }  // namespace
 
+void ContactSheetOptions::check() const {
+  if (count < 1 || tile < 32 || tile > 4096)
+    throw InvalidInput("--count", "count must be >= 1 and tile in [32, 4096]", "use e.g. --count 8");
+}
+
 Image contact_sheet(const std::string& dataset, const ContactSheetOptions& o) {
-  if (o.count < 1 || o.tile < 32)
-    throw InvalidInput("--count", "count must be >= 1 and tile >= 32", "use e.g. --count 8");
+  o.check();
   static const char* const kColumns[] = {"makeup", "before", "bare", "skin", "landmarks"};
   const int t = o.tile, header = std::max(16, t / 10);
   std::vector<std::vector<Image>> rows;

@@ -11,6 +11,7 @@ namespace bareskin::texgen {
 struct ContactSheetOptions {
   int count = 8;   // rows (samples), in shard order
   int tile = 256;  // tile size in pixels (members of another size are resampled)
+  void check() const;  // InvalidInput naming the flag
 };
 
 // `dataset`: a shard set folder (manifest.json), a single .tar, or a `texgen faces` output whose train/, val/ and test/

@@ -117,6 +117,19 @@ std::pair<std::string, nlohmann::json> checkpoint_config(const std::string& run)
   return {path, nlohmann::json::parse(it->second)};
 }
 
+void TrainRunOptions::check() const {
+  if (data.empty()) throw InvalidInput("--data", "is missing", "give the texture shard set to train on");
+  if (output.empty()) throw InvalidInput("-o", "names no run folder", "give the run's output folder");
+  if (pool < 1 || crops_per_map < 1)
+    throw InvalidInput("--pool/--crops-per-map", "must be at least 1", "e.g. --pool 8 --crops-per-map 64");
+  train::check_intervals(steps, log_every, checkpoint_every, eval_every, sample_every);
+  data::LoaderOptions loader;  // the batch and the decode threads, as the loader checks them
+  loader.batch_size = batch;
+  loader.decode_threads = decode_threads;
+  loader.check();
+  if (!extra.is_object()) throw InvalidInput("the run's extra configuration", "is not a JSON object", "");
+}
+
 train::TrainerOptions trainer_options(const TrainRunOptions& run, const nlohmann::json& model) {
   train::TrainerOptions o;
   o.run_dir = run.output;

@@ -66,6 +66,7 @@ struct TrainRunOptions {
   bool resume = false, progress = true;
   std::string device = "cpu";
   nlohmann::json extra = nlohmann::json::object();  // echoed into config.json (threads, ...)
+  void check() const;  // InvalidInput naming the flag
 };
 
 // The Trainer's options and config.json of a texture/upscale run.

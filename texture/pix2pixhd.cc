@@ -328,6 +328,7 @@ std::map<std::string, torch::Tensor> TextureNet::infer(const std::map<std::strin
 // ---- the training command ----
 
 train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions model) {
+  run.check();
   model.steps = run.steps;
   std::vector<std::string> required;
   for (const auto* maps : {&input_maps(), &output_maps()})

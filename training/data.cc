@@ -311,11 +311,27 @@ struct ShardLoader::Pipeline {
   }
 };
 
-ShardLoader::ShardLoader(LoaderOptions options) : options_(std::move(options)) {
-  if (options_.world < 1 || options_.rank < 0 || options_.rank >= options_.world)
-    throw InvalidInput("rank " + std::to_string(options_.rank), "is outside world size " + std::to_string(options_.world),
+void Augment::check() const {
+  if (!(flip_probability >= 0 && flip_probability <= 1))
+    throw InvalidInput("augmentation", "the flip probability must lie in [0, 1]", "use e.g. 0.5 (default)");
+  if (!(shift_pixels >= 0) || !(rotate_degrees >= 0 && rotate_degrees <= 180) || !(scale >= 0 && scale < 1))
+    throw InvalidInput("augmentation", "shift must be >= 0 px, rotation in [0, 180] degrees and scale in [0, 1)",
+                       "use e.g. 10, 10 and 0.1 (default)");
+}
+
+void LoaderOptions::check() const {
+  if (world < 1 || rank < 0 || rank >= world)
+    throw InvalidInput("rank " + std::to_string(rank), "is outside world size " + std::to_string(world),
                        "check RANK and WORLD_SIZE");
-  if (options_.batch_size < 1) throw InvalidInput("--batch", "must be at least 1", "give a positive batch size");
+  if (batch_size < 1) throw InvalidInput("--batch", "must be at least 1", "give a positive batch size");
+  if (shuffle_buffer < 0) throw InvalidInput("the shuffle buffer", "must not be negative", "0 keeps the shards' order");
+  if (decode_threads < 1 || decode_threads > 256)
+    throw InvalidInput("decode threads", std::to_string(decode_threads) + " is outside [1, 256]", "use e.g. 2 (default)");
+  augment.check();
+}
+
+ShardLoader::ShardLoader(LoaderOptions options) : options_(std::move(options)) {
+  options_.check();
   const shards::Manifest manifest = shards::open_dataset(options_.dataset);
   for (size_t i = 0; i < manifest.shards.size(); ++i) {
     if (int(i % options_.world) != options_.rank) continue;

@@ -44,6 +44,7 @@ struct Augment {
   double scale = 0.1;          // uniform factor in [0.9, 1.1]
   double rotate_degrees = 10;  // uniform in [-10, 10]
   std::vector<std::string> nearest = {"skin", "mask"};  // label/mask members
+  void check() const;  // InvalidInput for a probability outside [0, 1] or a negative range
 };
 // Applies one draw of `augment` to an example (exposed for tests and for tasks that augment on their own).
 void augment_example(Example& example, const Augment& augment, uint64_t seed);
@@ -62,6 +63,7 @@ struct LoaderOptions {
   int64_t shuffle_buffer = 256;  // 0: the shards' own order (evaluation)
   int decode_threads = 2;
   Augment augment;
+  void check() const;  // InvalidInput naming the flag (and augment.check())
 };
 
 // Where a loader stands: the epoch and the examples already handed out in it.

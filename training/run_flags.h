@@ -11,6 +11,7 @@ struct RunFlags {
   uint64_t seed = 0;
   bool resume = false;
   std::string device = "cpu";  // cpu, cuda or cuda:N (training/device.h parse_device)
+  void check() const;          // InvalidInput naming the flag (training/trainer.cc; the device: parse_device)
 };
 
 }  // namespace bareskin::train

@@ -25,14 +25,18 @@ torch::Tensor gaussian(int window, double sigma, const torch::TensorOptions& opt
 
 }  // namespace
 
+void SsimOptions::check() const {
+  if (window < 1 || window % 2 == 0 || !(sigma > 0) || !(data_range > 0) || !(k1 > 0) || !(k2 > 0))
+    throw InvalidInput("ssim",
+                       "window " + std::to_string(window) + ", sigma " + std::to_string(sigma) + ", data range " +
+                           std::to_string(data_range) + ", k1 " + std::to_string(k1) + ", k2 " + std::to_string(k2),
+                       "the window must be odd and positive, sigma, data range, k1 and k2 positive");
+}
+
 torch::Tensor ssim_map(const torch::Tensor& a, const torch::Tensor& b, const SsimOptions& options) {
   check_pair(a, b, "ssim");
+  options.check();
   const int w = options.window;
-  if (w < 1 || w % 2 == 0 || options.sigma <= 0 || options.data_range <= 0)
-    throw InvalidInput("ssim",
-                       "window " + std::to_string(w) + ", sigma " + std::to_string(options.sigma) + ", data range " +
-                           std::to_string(options.data_range),
-                       "the window must be odd and positive, sigma and data range positive");
   if (a.size(2) < w || a.size(3) < w)
     throw InvalidInput("ssim",
                        "images of " + std::to_string(a.size(2)) + "x" + std::to_string(a.size(3)) +

@@ -10,6 +10,7 @@ struct SsimOptions {
   double sigma = 1.5;  // Gaussian standard deviation, pixels
   double k1 = 0.01, k2 = 0.03;
   double data_range = 1.0;  // L: max − min of the pixel scale (1 for [0, 1], 2 for [−1, 1], 255 for 8-bit)
+  void check() const;       // InvalidInput for an even window or a non-positive constant
 };
 
 // The SSIM map over the window positions that lie inside the image: [B, C, H − window + 1, W − window + 1], with

@@ -15,6 +15,7 @@
 #include "core/safetensors.h"
 #include "training/checkpoint.h"
 #include "training/ranks.h"
+#include "training/run_flags.h"
 #include "training/run_log.h"
 
 namespace bareskin::train {
@@ -197,9 +198,29 @@ struct Trainer::State {
   }
 };
 
+void check_intervals(int64_t steps, int64_t log_every, int64_t checkpoint_every, int64_t eval_every, int64_t sample_every) {
+  if (steps < 1) throw InvalidInput("--steps", "must be at least 1", "e.g. --steps 1000");
+  if (log_every < 1) throw InvalidInput("--log-every", "must be at least 1", "e.g. --log-every 10");
+  if (checkpoint_every < 0 || eval_every < 0 || sample_every < 0)
+    throw InvalidInput("--checkpoint-every/--eval-every/--sample-every", "must not be negative", "0 is never");
+}
+
+void RunFlags::check() const {
+  check_intervals(steps, log_every, checkpoint_every, eval_every, sample_every);
+  if (batch < 1) throw InvalidInput("--batch", "must be at least 1", "give a positive batch size");
+}
+
+void TrainerOptions::check() const {
+  if (run_dir.empty()) throw InvalidInput("-o", "names no run folder", "give the run's output folder");
+  check_intervals(steps, log_every, checkpoint_every, eval_every, sample_every);
+  if (eval_batches < 1) throw InvalidInput("eval_batches", "must be at least 1", "e.g. 8 (default)");
+  if (!(clip_grad_norm >= 0 && std::isfinite(clip_grad_norm)))
+    throw InvalidInput("clip_grad_norm", "must be finite and >= 0", "0 is off");
+}
+
 Trainer::Trainer(TrainerOptions options, Task& task, data::DataSource& train, data::DataSource* validation,
                  dist::Group* group)
-    : state_(std::make_unique<State>(std::move(options), task, train, validation, group)) {}
+    : state_((options.check(), std::make_unique<State>(std::move(options), task, train, validation, group))) {}
 
 Trainer::~Trainer() = default;
 

@@ -56,7 +56,12 @@ struct TrainerOptions {
   nlohmann::json config = nlohmann::json::object();
   std::vector<std::string> resumable_keys = {"steps", "log_every", "checkpoint_every", "eval_every", "eval_batches",
                                              "sample_every", "resume", "progress", "threads"};
+  void check() const;  // InvalidInput naming the flag
 };
+
+// InvalidInput naming the flag unless steps and log_every are >= 1 and the other intervals >= 0 (0: never): what
+// TrainerOptions::check() and the trainings' run options check of their steps and intervals.
+void check_intervals(int64_t steps, int64_t log_every, int64_t checkpoint_every, int64_t eval_every, int64_t sample_every);
 
 // What a finished run reports.
 struct TrainResult {

@@ -332,6 +332,7 @@ torch::Tensor Upscaler::infer(const torch::Tensor& lr) const {
 // ---- the training command ----
 
 train::TrainResult train_upscale(const TrainRunOptions& run, UpscaleOptions model) {
+  run.check();
   if (model.phase == "l1") {
     model.lambda_l1 = 1;
     if (!run.init.empty())

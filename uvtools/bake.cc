@@ -1,15 +1,20 @@
 #include "uvtools/bake.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "core/image_io.h"
+#include "core/mesh_io.h"
 #include "core/parallel.h"
 
 namespace bareskin {
@@ -454,6 +459,44 @@ MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const
   }, progress);
   out.commit();
   return result;
+}
+
+void BakeFilesOptions::check() const {
+  if (input.empty() || output.empty()) throw InvalidInput("uvtools bake", "needs an input and an output folder", "see --help");
+  resize.check();
+}
+
+MapResizeReport bake_files(const BakeFilesOptions& o, const ProgressCallback& progress) {
+  check_output_apart(o.output, {o.input, o.layout});
+  o.check();
+  if (!std::filesystem::is_directory(o.input)) {
+    throw IoError(o.input, "is not a folder", "give the folder holding diffuse, normal, roughness, specular maps");
+  }
+  std::optional<Mesh> layout;
+  if (!o.layout.empty()) layout = read_mesh(o.layout);
+  const auto t0 = std::chrono::steady_clock::now();
+  const MapResizeReport r = resize_maps(o.input, layout ? &*layout : nullptr, o.resize, o.output, progress);
+  // After the bake, so that a refused input gives one line only.
+  if (!layout) spdlog::info("uvtools bake: no --layout: a plain area-correct resize per map type, without seam handling");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json j = {{"input", o.input},           {"input_size", r.input_size},
+                      {"sizes", o.resize.sizes},    {"maps", r.maps},
+                      {"layout", layout ? o.layout : "none: plain resize, no seam handling"},
+                      {"island_fraction", r.island_fraction}, {"flipped_uv_triangles", r.flipped_triangles},
+                      {"overlapping_texels", r.overlapping_texels}, {"seconds", seconds}};
+  write_file_atomic(o.output + "/bake.json", j.dump(1) + "\n");
+  if (r.flipped_triangles) {
+    spdlog::warn("uvtools bake: {}: {} UV triangles are flipped against the others", o.layout, r.flipped_triangles);
+  }
+  if (r.overlapping_texels) {
+    spdlog::warn("uvtools bake: {}: {} texels lie in two or more UV triangles (overlapping islands)", o.layout,
+                 r.overlapping_texels);
+  }
+  std::string sizes;
+  for (int size : o.resize.sizes) sizes += (sizes.empty() ? "" : ",") + std::to_string(size);
+  spdlog::info("uvtools bake: {} map(s) {}² -> {} in {:.1f} s ({})", r.maps.size(), r.input_size, sizes, seconds,
+               layout ? fmt::format("{:.1f}% of texels in UV islands", 100 * r.island_fraction) : "no layout");
+  return r;
 }
 
 }  // namespace bareskin

@@ -77,4 +77,15 @@ int map_set_size(const std::string& in_dir);
 MapResizeReport resize_maps(const std::string& in_dir, const Mesh* layout, const MapResizeOptions& options,
                             const std::string& out_dir, const ProgressCallback& progress = {});
 
+// `bareskin uvtools bake` on files: resize_maps of `input` (with the layout mesh file `layout`, or none) into `output`,
+// then output/bake.json (input, sizes, maps, layout, island fraction, flipped and overlapping UVs, seconds) and the
+// log lines. InvalidInput when the output would replace an input; IoError when `input` is not a folder.
+struct BakeFilesOptions {
+  std::string input, output;  // the maps' folder; <size>/<map>.<format> and bake.json go to `output`
+  std::string layout;         // "" or a mesh whose UV islands the maps follow (seam-aware)
+  MapResizeOptions resize;
+  void check() const;         // resize.check()
+};
+MapResizeReport bake_files(const BakeFilesOptions& options, const ProgressCallback& progress = {});
+
 }  // namespace bareskin

@@ -9,14 +9,19 @@
 
 namespace bareskin {
 
+void UnwarpOptions::check() const {
+  if (size < 1 || size > 16384) throw InvalidInput("", "--size must lie in [1, 16384]", "");
+  if (!(depth_tolerance > 0)) throw InvalidInput("--depth-tolerance", "must be > 0 mm", "e.g. --depth-tolerance 1");
+}
+
 UnwarpResult unwarp(const Image& image, const Mesh& mesh, const Camera& camera, const UnwarpOptions& options) {
+  options.check();
   if (!mesh.has_uv()) throw InvalidInput("", "the mesh has no UVs to unwarp into", "give a mesh with UVs");
   if (image.width != camera.width || image.height != camera.height) {
     throw InvalidInput("", "the image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
                                ", the camera " + std::to_string(camera.width) + "x" + std::to_string(camera.height),
                        "give the image the camera was fitted to");
   }
-  if (options.size < 1 || options.size > 16384) throw InvalidInput("", "--size must lie in [1, 16384]", "");
   BS_CHECK(!options.inside || (options.inside->width == image.width && options.inside->height == image.height &&
                                options.inside->channels == 1),
            "unwarp: the inside mask must be one channel at the image's size");

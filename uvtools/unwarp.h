@@ -22,6 +22,7 @@ struct UnwarpOptions {
   // Optional: rasterize_uv(mesh, size), for callers that unwarp many times into one layout (the UV raster depends on
   // the UVs and faces only, not on the pose); nullptr: made here.
   const RasterOutput* uv_raster = nullptr;
+  void check() const;  // InvalidInput when out of range
 };
 
 struct UnwarpResult {

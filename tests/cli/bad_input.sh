@@ -79,5 +79,23 @@ for cmd in "landmarks detect good.png -o dev.json" "recon good.png --run F -o de
   expect 3 "--device cuda:99: CUDA " "${words[-1]}" -- "$bin" "${words[@]}" --device cuda:99
 done
 
+# An options struct's check() runs first where its library takes it: a value out of range is one line naming the flag,
+# exit 3, before the inputs that do not exist here are looked for and before anything is written. One case per family;
+# those of the Torch side only where it is built.
+for case in "--depth-tolerance|uv.png|uvtools unwarp good.png --mesh good.obj -o uv.png --depth-tolerance 0" \
+            "--appearance-components|fit.json|mm-fit good.png --model none.safetensors --landmarks none.json -o fit.json --appearance-components -1" \
+            "--heat-max|reg|scan register --scans noscans -o reg --heat-max 0" \
+            "--input-size|lm.json|landmarks detect good.png -o lm.json --input-size 33" \
+            "PSNR|dev|recon good.png --run none -o dev --flag-psnr -1" \
+            "--log-every|dev|train recon --data nofaces --model none.safetensors -o dev --log-every 0" \
+            "--eval-samples|dev|train bareskin --data nofaces -o dev --eval-samples -1"; do
+  IFS='|' read -r needle output cmd <<< "$case"
+  read -ra words <<< "$cmd"
+  probe=("${words[0]}")
+  [[ ${words[0]} == train || ${words[0]} == landmarks ]] && probe+=("${words[1]}")
+  "$bin" "${probe[@]}" --help > /dev/null 2>&1 || continue
+  expect 3 "$needle" "$output" -- "$bin" "${words[@]}"
+done
+
 echo "$passed passed, $failures failed"
 [ "$failures" -eq 0 ]

@@ -1,5 +1,5 @@
-// Commands that take "a mesh, or a morphable model at some coefficients" (render, uvtools unwarp/mask) share this
-// flag handling; the coefficient file itself is morphable/coefficients.h.
+// What the commands that take "a mesh, or a morphable model at some coefficients" (render, uvtools unwarp/mask) read,
+// and the camera they frame it with; the coefficient file itself is morphable/coefficients.h.
 #pragma once
 #include <array>
 #include <optional>
@@ -10,7 +10,7 @@
 #include "core/mesh.h"
 #include "render/camera.h"
 
-namespace bareskin::cli {
+namespace bareskin {
 
 struct ModelInstance {
   Mesh mesh;                                   // posed, with the model's UVs
@@ -34,4 +34,4 @@ std::vector<int> read_landmark_vertex_ids(const std::string& path, const Mesh& m
 // part of the coefficients. Weak perspective fits the mesh to 80% of the frame.
 Camera command_camera(const Mesh& mesh, bool fixed, const std::string& view, const std::string& camera, int size);
 
-}  // namespace bareskin::cli
+}  // namespace bareskin

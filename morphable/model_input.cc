@@ -1,4 +1,4 @@
-#include "apps/model_input.h"
+#include "morphable/model_input.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include "morphable/coefficients.h"
 #include "morphable/model.h"
 
-namespace bareskin::cli {
+namespace bareskin {
 
 ModelInstance model_instance(const std::string& model_path, const std::string& coeffs_path) {
   if (coeffs_path.empty()) throw InvalidInput("", "--model needs --coeffs", "pass the fit's coefficients (JSON)");
@@ -62,4 +62,4 @@ Mesh posed_mesh(const std::string& mesh_path, const std::string& model_path, con
   return mesh_path.empty() ? model_instance(model_path, coeffs_path).mesh : read_mesh(mesh_path);
 }
 
-}  // namespace bareskin::cli
+}  // namespace bareskin
