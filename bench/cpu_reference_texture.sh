@@ -20,41 +20,15 @@ model="$demo/model/model.safetensors"
 [ -f "$model" ] || { echo "cpu_reference_texture: $model is missing; run 'make demo' first (it builds the model)" >&2; exit 3; }
 mkdir -p "$out"
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE} BARESKIN_TEMPLATE=${BARESKIN_TEMPLATE:-$demo/template}
-cpu() {  # cpu NAME command...: runs it, appends NAME and its CPU seconds (user + system) to $out/cpu.txt
-  local name=$1
-  shift
-  /usr/bin/time -f "$name %U %S %e" -a -o "$out/cpu.txt" "$@"
-}
+name=cpu_reference_texture
+source "$here/texture_world.sh"
 
 # 1. The world ------------------------------------------------------------------------------------------------------
-if [ ! -f "$out/scans/manifest.json" ]; then
-  echo "cpu_reference_texture: scan synth ($subjects subjects)" >&2
-  cpu synth "$bareskin" -q --threads 2 scan synth --template "$demo/template" --count "$subjects" --seed 101 \
-    --vertices 20000 --res 256 --truth-res 1024 --holes -o "$out/scans.tmp"
-  rm -rf "$out/scans" && mv "$out/scans.tmp" "$out/scans"
-fi
-if [ ! -f "$out/registered/.complete" ]; then
-  $py "$here/../tests/python/truth_registered.py" "$demo/template/face.obj" "$out/scans" "$out/registered" "*.png"
-  touch "$out/registered/.complete"
-fi
+texture_world "$subjects" 101 1024 test --render-size 512 --input-res 256 --target-res 256 --hr-res 1024 --masks 3 \
+  --split 0.8,0.1,0.1 --seed 3
 data="$out/data"
-if [ ! -f "$data/test/manifest.json" ] || ! grep -q '"complete": true' "$data/test/manifest.json"; then
-  echo "cpu_reference_texture: texgen make-dataset" >&2
-  cpu data "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$data" \
-    --render-size 512 --input-res 256 --target-res 256 --hr-res 1024 --masks 3 --split 0.8,0.1,0.1 --seed 3
-fi
 
 # 2. The texture net and the upscalers (--profile cpu), validated on the val subjects --------------------------------
-train() {  # train RUN command...: one training, resumed when its checkpoint exists, skipped when it finished
-  local run=$1
-  shift
-  [ -f "$run/.complete" ] && return 0
-  local resume=()
-  [ -f "$run/checkpoint.safetensors" ] && resume=(--resume)
-  echo "cpu_reference_texture: $(basename "$run")" >&2
-  cpu "$(basename "$run")" "$bareskin" -q --threads 2 "$@" -o "$run" "${resume[@]}"
-  touch "$run/.complete"
-}
 train "$out/tex" train texture --profile cpu --data "$data/train" --val "$data/val" --masks "$data/masks" \
   --model "$model" --eval-every 100 --sample-every 500 --checkpoint-every 100 --log-every 50
 upscalers=()

@@ -20,41 +20,15 @@ model="$demo/model/model.safetensors"
 [ -f "$model" ] || { echo "texture_4k: $model is missing; run 'make demo' first (it builds the model)" >&2; exit 3; }
 mkdir -p "$out"
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE} BARESKIN_TEMPLATE=${BARESKIN_TEMPLATE:-$demo/template}
-cpu() {  # cpu NAME command...: runs it, appends NAME and its CPU seconds (user + system) and wall seconds to cpu.txt
-  local name=$1
-  shift
-  /usr/bin/time -f "$name %U %S %e" -a -o "$out/cpu.txt" "$@"
-}
+name=texture_4k
+source "$here/texture_world.sh"
 
-# 1. The world --------------------------------------------------------------------------------------------------------
-if [ ! -f "$out/scans/manifest.json" ]; then
-  echo "texture_4k: scan synth ($subjects subjects, 4K truth)" >&2
-  cpu synth "$bareskin" -q --threads 2 scan synth --template "$demo/template" --count "$subjects" --seed 404 \
-    --vertices 20000 --res 256 --truth-res 4096 --holes -o "$out/scans.tmp"
-  rm -rf "$out/scans" && mv "$out/scans.tmp" "$out/scans"
-fi
-if [ ! -f "$out/registered/.complete" ]; then
-  $py "$here/../tests/python/truth_registered.py" "$demo/template/face.obj" "$out/scans" "$out/registered" "*.png"
-  touch "$out/registered/.complete"
-fi
+# 1. The world: 4K true maps; 1K inputs and targets, 4K high-res targets; 12 subjects train, 4 held out -----------------
+texture_world "$subjects" 404 4096 val --render-size 1024 --input-res 1024 --target-res 1024 --hr-res 4096 --masks 1 \
+  --split 0.75,0.25,0 --seed 4
 data="$out/data"
-if [ ! -f "$data/val/manifest.json" ] || ! grep -q '"complete": true' "$data/val/manifest.json"; then
-  echo "texture_4k: texgen make-dataset (1K inputs and targets, 4K high-res targets)" >&2
-  cpu data "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$data" \
-    --render-size 1024 --input-res 1024 --target-res 1024 --hr-res 4096 --masks 1 --split 0.75,0.25,0 --seed 4
-fi
 
 # 2. The upscalers (--profile cpu), scored on the held-out subjects -------------------------------------------------
-train() {  # train RUN command...: one training, resumed when its checkpoint exists, skipped when it finished
-  local run=$1
-  shift
-  [ -f "$run/.complete" ] && return 0
-  local resume=()
-  [ -f "$run/checkpoint.safetensors" ] && resume=(--resume)
-  echo "texture_4k: $(basename "$run")" >&2
-  cpu "$(basename "$run")" "$bareskin" -q --threads 2 "$@" -o "$run" "${resume[@]}"
-  touch "$run/.complete"
-}
 upscalers=()
 for map in diffuse roughness specular; do
   train "$out/up_$map" train upscale --profile cpu --map "$map" --data "$data/train" --val "$data/val" --model "$model" \

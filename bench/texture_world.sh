@@ -1,0 +1,42 @@
+# Sourced by the texture benches (bench/cpu_reference_texture.sh, bench/texture_4k.sh): the helpers they share. Needs
+# $bareskin, $demo, $model, $out, $py, $here and $name (the script's name for its messages) set by the caller.
+
+cpu() {  # cpu NAME command...: runs it, appends NAME, its CPU seconds (user, system) and wall seconds to $out/cpu.txt
+  local stage=$1
+  shift
+  /usr/bin/time -f "$stage %U %S %e" -a -o "$out/cpu.txt" "$@"
+}
+
+# texture_world SUBJECTS SEED TRUTH_RES SPLIT_TO_CHECK make-dataset flags...: `scan synth` subjects with true maps at
+# TRUTH_RES, "registered" from their truth (tests/python/truth_registered.py: the template on the true
+# correspondence, the true maps in the template UV), then `texgen make-dataset` into $out/data. Each step is skipped
+# when its output is complete.
+texture_world() {
+  local subjects=$1 seed=$2 truth_res=$3 check=$4
+  shift 4
+  if [ ! -f "$out/scans/manifest.json" ]; then
+    echo "$name: scan synth ($subjects subjects, true maps at $truth_res)" >&2
+    cpu synth "$bareskin" -q --threads 2 scan synth --template "$demo/template" --count "$subjects" --seed "$seed" \
+      --vertices 20000 --res 256 --truth-res "$truth_res" --holes -o "$out/scans.tmp"
+    rm -rf "$out/scans" && mv "$out/scans.tmp" "$out/scans"
+  fi
+  if [ ! -f "$out/registered/.complete" ]; then
+    $py "$here/../tests/python/truth_registered.py" "$demo/template/face.obj" "$out/scans" "$out/registered" "*.png"
+    touch "$out/registered/.complete"
+  fi
+  if [ ! -f "$out/data/$check/manifest.json" ] || ! grep -q '"complete": true' "$out/data/$check/manifest.json"; then
+    echo "$name: texgen make-dataset" >&2
+    cpu data "$bareskin" -q --threads 2 texgen make-dataset "$out/registered" --model "$model" -o "$out/data" "$@"
+  fi
+}
+
+train() {  # train RUN command...: one training, resumed when its checkpoint exists, skipped when it finished
+  local run=$1
+  shift
+  [ -f "$run/.complete" ] && return 0
+  local resume=()
+  [ -f "$run/checkpoint.safetensors" ] && resume=(--resume)
+  echo "$name: $(basename "$run")" >&2
+  cpu "$(basename "$run")" "$bareskin" -q --threads 2 "$@" -o "$run" "${resume[@]}"
+  touch "$run/.complete"
+}
