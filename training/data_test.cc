@@ -132,6 +132,21 @@ TEST(ShardLoader, BadShardsNameTheFile) {
   EXPECT_THROW(corrupt.next(), InvalidInput);
 }
 
+TEST(ShardLoader, DecodesOnlyTheNamedMembers) {
+  LoaderOptions o;
+  o.dataset = make_dataset(6, 10);
+  o.batch_size = 2;
+  o.decode = {"json"};
+  ShardLoader json_only(o);
+  const Batch a = json_only.next();
+  EXPECT_EQ(a.tensors.count("image"), 0u);      // dropped undecoded
+  EXPECT_EQ(a.tensors.count("landmarks"), 1u);  // from the JSON
+  EXPECT_TRUE(a.meta[0].contains("index"));
+  o.decode = {"json", "image.png"};
+  ShardLoader both(o);
+  EXPECT_EQ(both.next().tensors.count("image"), 1u);
+}
+
 // A bright block at each landmark: after the random similarity, each dot sits where its landmark went.
 TEST(Augment, LandmarksFollowTheImage) {
   for (uint64_t seed = 0; seed < 6; ++seed) {
