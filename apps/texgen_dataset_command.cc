@@ -11,9 +11,8 @@
 #include "core/parallel.h"
 #include "scan/multiview.h"
 #include "texgen/make_dataset.h"
+#include "detect/image_landmark_options.h"
 #ifdef BARESKIN_WITH_DETECT
-#include <ATen/Parallel.h>
-
 #include "detect/scan_landmarks.h"
 #endif
 
@@ -21,36 +20,16 @@ namespace bareskin::cli {
 
 namespace {
 
+// The make-dataset detectors (face-api: detect/scan_landmarks.h) for renders and photos.
+std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> detectors(const detect::ImageLandmarkOptions& o) {
 #ifdef BARESKIN_WITH_DETECT
-// The detectors make-dataset uses. Photos: face-api's detector box, then the landmark network; nothing when no face
-// scores above min_score. Renders (a face on black): the same, but when the detector's classifier rejects the
-// render (flat synthetic faces filling the frame) or its box overlaps the face's pixels by less than 30 % (IoU), the
-// box is the bounding box of the non-black pixels; then `refinements` landmark passes on the box the previous points
-// imply, and (flip) the average with the mirrored image's landmarks. No truth is used.
-std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals& globals,
-                                                                                         int input_size, int refinements,
-                                                                                         bool flip) {
-  // One intra-op thread: LibTorch's OpenMP workers busy-wait between operators, and here they would spin against the
-  // bake, encoder and pool threads that keep the cores busy beside the detector (bench/BENCHMARKS.md, make-dataset
-  // update 13:00: 62 % of the CPU was in libgomp; demo §13 109.6 -> 39.1 CPU-s with the view alignment on).
-  at::set_num_threads(1);
-  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  auto find = [net, input_size, refinements, flip](const Image& image, bool coverage_fallback) {
-    detect::ImageLandmarkOptions o;
-    o.input_size = input_size;
-    o.refinements = refinements;
-    o.flip = flip;
-    o.coverage_fallback = coverage_fallback;
-    return detect::find_image_landmarks(*net, image, o);
-  };
-  return {[find](const Image& image) { return find(image, true); }, [find](const Image& image) { return find(image, false); }};
-}
+  const detect::ImageLandmarkFinders f = detect::face_api_finders(o);
+  return {f.render, f.photo};
 #else
-std::pair<texgen::FaceLandmarkDetector, texgen::FaceLandmarkDetector> face_api_detectors(const Globals&, int, int, bool) {
   throw InvalidInput("texgen make-dataset", "needs face-api's detector, which this build lacks (no Torch side)",
                      "build bareskin with LibTorch");
-}
 #endif
+}
 
 }  // namespace
 
@@ -60,7 +39,7 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     double yaw_left = 0, yaw_right = 0;  // the flags' text forms of o's defaults, filled below
     std::string occluders;
     std::vector<double> split;
-    int detector_size = 416, refinements = 2;  // detect::ImageLandmarkOptions' (a Torch-side header)
+    detect::ImageLandmarkOptions detector;
     bool no_flip = false, no_align_shape = false;
     std::string calibration, view_calibration;
   };
@@ -89,9 +68,9 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
       ->capture_default_str()->group("Views");
   app->add_option("--render-size", o.sample.render_size, "Render size of each view (a multiple of --fit-size)")
       ->capture_default_str()->group("Views");
-  app->add_option("--detector-size", opt->detector_size, "Face detector input (multiple of 32)")->capture_default_str()
+  app->add_option("--detector-size", opt->detector.input_size, "Face detector input (multiple of 32)")->capture_default_str()
       ->group("Fit");
-  app->add_option("--refinements", opt->refinements, "Landmark passes on the box the previous points imply")
+  app->add_option("--refinements", opt->detector.refinements, "Landmark passes on the box the previous points imply")
       ->capture_default_str()->check(CLI::Range(0, 10))->group("Fit");
   app->add_flag("--no-flip", opt->no_flip, "Landmarks from the image alone (default: averaged with those of its mirror "
                                           "image)")->group("Fit");
@@ -203,7 +182,8 @@ std::function<void()> setup_texgen_make_dataset(CLI::App& texgen, const Globals&
     }
     if (opt->no_align_shape) o.sample.align.shape = false;
     o.check();
-    const auto [render_detect, photo_detect] = face_api_detectors(globals, opt->detector_size, opt->refinements, !opt->no_flip);
+    opt->detector.flip = !opt->no_flip;
+    const auto [render_detect, photo_detect] = detectors(opt->detector);
     ProgressBar bar = globals.progress("make-dataset");
     const texgen::TextureDatasetReport r =
         texgen::make_texture_dataset(o, render_detect, photo_detect, bar.callback());

@@ -117,6 +117,49 @@ Demakeup load_demakeup(const std::string& run, const std::string& device) {
   };
 }
 
+Coefficients fit_coefficients(const Image& bare, const detect::Landmarks68& landmarks, const MorphableModel& model,
+                              const recon::TrainedRecon* F, const AvatarOptions& options) {
+  Coefficients c;
+  std::string from = "F";
+  if (F) {
+    c = recon::reconstruct_aligned(*F, model, bare, landmarks).coefficients;
+  } else {
+    const Camera camera = view_camera("front", detect::kAlignedSize, Eigen::Vector3d::Zero(), 1000);
+    const LandmarkFit lm = fit_landmarks(model, Eigen::MatrixX2d(landmarks), camera, options.landmark_fit);
+    c = to_coefficients(lm);
+    const PhotometricFit photo = fit_photometric(model, posed_mesh(model, c), camera, to_linear(bare),
+                                                 options.photometric);
+    c.delta = photo.delta;
+    c.gamma = photo.gamma;
+    c.extra = {{"landmark_rms_px", lm.rms_px}, {"photometric_psnr_db", photo.psnr_db}};
+    from = "mm-fit";
+  }
+  c.extra["camera"] = "front 256 1000";
+  c.extra["coefficients_from"] = from;
+  return c;
+}
+
+std::map<std::string, torch::Tensor> TextureInputs::tensors() const {
+  return {{"unwrap", image_tensor(unwrap)},
+          {"confidence", image_tensor(confidence)},
+          {"mm_albedo", image_tensor(to_srgb(mm.albedo))},
+          {"mm_normal", image_tensor(mm.normal)},
+          {"mm_position", image_tensor(mm.position)}};
+}
+
+TextureInputs texture_inputs(const Image& bare, const Coefficients& c, const MorphableModel& model, int res,
+                             const Image& face_mask) {
+  if (!face_mask.empty() && (face_mask.width != bare.width || face_mask.height != bare.height))
+    throw InvalidInput("face mask", "is not the aligned face's size (256²)", "give the mask of the same photo");
+  const Camera camera = view_camera("front", detect::kAlignedSize, Eigen::Vector3d::Zero(), 1000);
+  UnwarpOptions uo;
+  uo.size = res;
+  const Image inside = face_mask.empty() ? Image() : first_channel(face_mask);
+  if (!inside.empty()) uo.inside = &inside;
+  const UnwarpResult uw = unwarp(as_srgb(bare), posed_mesh(model, c), camera, uo);
+  return {to_srgb(uw.colour), uw.confidence, texgen::model_uv_maps(model, c, res)};
+}
+
 Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& landmarks, const MorphableModel& model,
                            const AvatarNets& nets, const Demakeup& G, const AvatarOptions& options,
                            const Image& face_mask) {
@@ -134,25 +177,10 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   a.bare = G ? as_srgb(G(a.aligned)) : a.aligned;
   t.stop("bareskin");
 
-  // 3DMM coefficients: F on the bare image, or mm-fit: landmark fit (pose, α, β) on the detected points, then
-  // photometric fit (δ, γ) on the bare image.
-  const Camera camera = view_camera("front", detect::kAlignedSize, Eigen::Vector3d::Zero(), 1000);
   Coefficients& c = a.coefficients;
-  if (nets.F) {
-    c = recon::reconstruct_aligned(*nets.F, model, a.bare, landmarks).coefficients;
-    a.coefficients_from = "F";
-  } else {
-    const LandmarkFit lm = fit_landmarks(model, Eigen::MatrixX2d(landmarks), camera, options.landmark_fit);
-    c = to_coefficients(lm);
-    const PhotometricFit photo = fit_photometric(model, posed_mesh(model, c), camera, to_linear(a.bare),
-                                                 options.photometric);
-    c.delta = photo.delta;
-    c.gamma = photo.gamma;
-    c.extra = {{"landmark_rms_px", lm.rms_px}, {"photometric_psnr_db", photo.psnr_db}};
-    a.coefficients_from = "mm-fit";
-  }
-  c.extra["camera"] = "front 256 1000";
-  c.extra["coefficients_from"] = a.coefficients_from;
+  c = fit_coefficients(a.bare, landmarks, model, nets.F.get(), options);
+  a.coefficients_from = c.extra.at("coefficients_from").get<std::string>();
+  const Camera camera = view_camera("front", detect::kAlignedSize, Eigen::Vector3d::Zero(), 1000);
   const Mesh posed = posed_mesh(model, c);
   {
     const Image albedo = appearance_image(model, c);
@@ -173,24 +201,13 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   a.mesh.N = vertex_normals(a.mesh.V, a.mesh.F);
   t.stop("coefficients");
 
-  // The network's inputs in the template UV, as texgen make-dataset makes them.
   const int res = options.input_res > 0 ? options.input_res : int(net.options.res);
-  UnwarpOptions uo;
-  uo.size = res;
-  const Image inside = face_mask.empty() ? Image() : first_channel(face_mask);
-  if (!inside.empty()) uo.inside = &inside;
-  const UnwarpResult uw = unwarp(a.bare, posed, camera, uo);
-  a.unwrap = to_srgb(uw.colour);
-  a.confidence = uw.confidence;
-  const texgen::ModelUvMaps mm = texgen::model_uv_maps(model, c, res);
+  const TextureInputs in = texture_inputs(a.bare, c, model, res, face_mask);
+  a.unwrap = in.unwrap;
+  a.confidence = in.confidence;
   t.stop("unwrap");
 
-  std::map<std::string, torch::Tensor> inputs = {{"unwrap", image_tensor(a.unwrap)},
-                                                 {"confidence", image_tensor(a.confidence)},
-                                                 {"mm_albedo", image_tensor(to_srgb(mm.albedo))},
-                                                 {"mm_normal", image_tensor(mm.normal)},
-                                                 {"mm_position", image_tensor(mm.position)}};
-  const auto maps = net.infer(inputs);
+  const auto maps = net.infer(in.tensors());
   t.stop("pix2pixhd");
   for (const auto& m : output_maps()) {
     const ColorSpace space = m.name == "diffuse" ? ColorSpace::sRGB : ColorSpace::Data;
@@ -434,17 +451,26 @@ torch::Tensor resized(const torch::Tensor& x, int64_t res) {
   return F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{res, res}).mode(torch::kArea));
 }
 
-// Face samples name scans "scan/subject_0003", texture samples "subject_0003": one key for both.
+
+}  // namespace
+
 std::string subject_key(const std::string& name) { return name.rfind("scan/", 0) == 0 ? name.substr(5) : name; }
 
-detect::Landmarks68 landmarks_of(const data::Batch& batch) {
+detect::Landmarks68 sample_landmarks(const data::Batch& batch) {
   auto lm = batch.at("landmarks")[0];
   detect::Landmarks68 out;
   for (int i = 0; i < 68; ++i) out.row(i) << lm[i][0].item<double>(), lm[i][1].item<double>();
   return out;
 }
 
-}  // namespace
+void require_face_masks(const std::string& faces, const std::string& option) {
+  const shards::Manifest manifest = shards::open_dataset(faces);
+  shards::ShardReader reader(shards::shard_path(faces, manifest.shards.at(0)));
+  shards::Sample first;
+  if (reader.next(first) && !first.members.count("face.png"))
+    throw InvalidInput(faces, "has no face.png (the face less its occluders, which texgen faces writes)",
+                       "regenerate the faces, or give " + option + " to unwrap the whole face");
+}
 
 nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableModel& model, const AvatarNets& nets,
                                const Demakeup& G) {
@@ -482,6 +508,7 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     layout = (resized(m, res) > 0.5).to(torch::kFloat32);
   }
 
+  if (options.face_masks) require_face_masks(options.faces, "--no-face-masks");
   data::LoaderOptions lo;
   lo.dataset = options.faces;
   lo.required = {"makeup.png", "before.png", "json"};
@@ -508,7 +535,7 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
       continue;
     }
     ++n;
-    const auto lm = landmarks_of(b);
+    const auto lm = sample_landmarks(b);
     const Image makeup = tensor_image(b.at("makeup"), ColorSpace::sRGB);
     const Image before = tensor_image(b.at("before"), ColorSpace::sRGB);
     // (a) the before image without G for both rows (the paper's wording); (a') the before image through the same

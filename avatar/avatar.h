@@ -19,6 +19,11 @@
 #include "texture/pix2pixhd.h"
 #include "upscale/srgan.h"
 #include "recon/recon_photo.h"
+#include "texgen/texture_sample.h"
+
+namespace bareskin::data {
+struct Batch;
+}
 
 namespace bareskin::texture {
 
@@ -77,6 +82,23 @@ AvatarNets load_avatar_nets(const std::string& model_path, const std::string& te
                             const std::vector<std::string>& upscale_runs, const std::string& device,
                             const std::string& teacher_run = "");
 
+// The coefficients of avatar_from_aligned: `F` (the reconstruction net) on the bare image when given, else mm-fit's
+// landmark fit (pose, α, β) on the landmarks and its photometric fit (δ, γ) on the bare image. Canonical camera at
+// 256²; extra["coefficients_from"] says which ("F" | "mm-fit").
+Coefficients fit_coefficients(const Image& bare, const detect::Landmarks68& landmarks, const MorphableModel& model,
+                              const recon::TrainedRecon* F, const AvatarOptions& options);
+
+// The texture net's inputs for one aligned face, as `texgen make-dataset` names them: the face unwrapped into the
+// template UV at res² through its fit (sRGB colour, grey confidence; `face_mask` as in avatar_from_aligned) and the
+// fitted 3DMM's maps. InvalidInput for a mask of another size.
+struct TextureInputs {
+  Image unwrap, confidence;
+  texgen::ModelUvMaps mm;
+  std::map<std::string, torch::Tensor> tensors() const;  // by input name ([1, C, H, W] in [0, 1])
+};
+TextureInputs texture_inputs(const Image& bare, const Coefficients& c, const MorphableModel& model, int res,
+                             const Image& face_mask = {});
+
 // The whole pipeline on an already aligned 256² face with its 68 landmarks (aligned pixels); `G` may be empty
 // (--no-bareskin). The coefficients come from nets.F on G's image (the aligned face without G) when it is given,
 // else from mm-fit's landmark fit on the landmarks and photometric fit on G's image. `face_mask` (optional, 256²,
@@ -131,6 +153,15 @@ RunFilesResult run_files(const RunFilesOptions& options);
 // Torch tensors ↔ images ([1, C, H, W] or [C, H, W] in [0, 1]).
 Image tensor_image(const torch::Tensor& t, ColorSpace space);
 torch::Tensor image_tensor(const Image& image);
+
+// Face samples name scans "scan/subject_0003", texture samples "subject_0003": the one key for both.
+std::string subject_key(const std::string& name);
+// The 68 landmarks (aligned px) of the first face of a `texgen faces` batch (its "landmarks" member).
+detect::Landmarks68 sample_landmarks(const data::Batch& batch);
+
+// InvalidInput naming `faces` (a texgen faces split) when its first sample has no face.png (faces made before the
+// segmentation existed), with what to do: `option` (e.g. "--no-face-masks") unwraps the whole face instead.
+void require_face_masks(const std::string& faces, const std::string& option);
 
 // ---- bareskin evaluate: the paper's Table 1 protocol ----
 struct EvaluateOptions {

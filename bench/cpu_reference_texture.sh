@@ -53,14 +53,43 @@ if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
       --mm-subjects 1 --count $((8 * n + 8)) --val 0 --test "$n" --seed 14 --align truth -o "$out/faces"
     touch "$out/faces/.complete"
   fi
-  split=$($py "$find" --split-of "$out/faces" "scan/$(ls "$out/test_registered" | head -1)")
+  split_test=$($py "$find" --split-of "$out/faces" "scan/$(ls "$out/test_registered" | head -1)")
   for g in G_seed0 G_before; do
     [ -d "$ref/$g" ] && [ ! -f "$out/table1_$g/table.md" ] || continue
     echo "cpu_reference_texture: Table 1 with $g" >&2
-    cpu "table1_$g" "$bareskin" -q --threads 2 evaluate --faces "$split" --textures "$data/test" --model "$model" \
+    cpu "table1_$g" "$bareskin" -q --threads 2 evaluate --faces "$split_test" --textures "$data/test" --model "$model" \
       --texture "$out/tex" --upscale "${upscalers[@]}" --bareskin "$ref/$g" --teacher "$ref/F" --max-samples 40 \
       -o "$out/table1_$g"
   done
+fi
+
+# 4. The texture net trained through the run pipeline (`texgen run-dataset`): faces of the train and val subjects,
+# each photo through the same G and F as Table 1, unwrapped with its face mask and paired with the true maps; then
+# Table 1 again with that net (table1_G_seed0_run).
+if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
+  for split in train val; do
+    [ "$split" = train ] && per=${RUN_FACES_PER_SUBJECT:-20} || per=10
+    if [ ! -f "$out/faces_$split/.complete" ]; then
+      subjects=$($py "$find" --subjects "$data/$split")
+      rm -rf "$out/faces_$split" "$out/${split}_registered" && mkdir -p "$out/${split}_registered"
+      for s in $subjects; do ln -s "$(cd "$out/registered/$s" && pwd)" "$out/${split}_registered/$s"; done
+      n=$(echo $subjects | wc -w)
+      cpu "faces_$split" "$bareskin" -q --threads 2 texgen faces --registered "$out/${split}_registered" \
+        --model "$model" --mm-subjects 1 --count $((per * n + per)) --val 0 --test 0 --seed 15 --align truth \
+        -o "$out/faces_$split"
+      touch "$out/faces_$split/.complete"
+    fi
+    [ -f "$out/run_data/$split/manifest.json" ] || cpu "run_data_$split" "$bareskin" -q --threads 2 texgen \
+      run-dataset --faces "$out/faces_$split/train" --textures "$data/$split" --model "$model" \
+      --bareskin "$ref/G_seed0" --teacher "$ref/F" --input-res 256 -o "$out/run_data/$split"
+  done
+  train "$out/tex_run" train texture --profile cpu --data "$out/run_data/train" --val "$out/run_data/val" \
+    --model "$model" --eval-every 100 --sample-every 500 --checkpoint-every 100 --log-every 50
+  if [ ! -f "$out/table1_G_seed0_run/table.md" ]; then
+    cpu table1_G_seed0_run "$bareskin" -q --threads 2 evaluate --faces "$split_test" --textures "$data/test" \
+      --model "$model" --texture "$out/tex_run" --upscale "${upscalers[@]}" --bareskin "$ref/G_seed0" \
+      --teacher "$ref/F" --max-samples 40 -o "$out/table1_G_seed0_run"
+  fi
 fi
 
 $py "$here/cpu_reference_texture.py" "$out"

@@ -1,8 +1,10 @@
 #include "detect/scan_landmarks.h"
 
+#include <ATen/Parallel.h>
 #include <torch/torch.h>
 
 #include <cmath>
+#include <memory>
 
 #include "core/error.h"
 #include "core/ibug68.h"
@@ -149,6 +151,18 @@ std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& 
   Eigen::Matrix<double, 68, 2> back;
   for (int k = 0; k < 68; ++k) back.row(k) = Eigen::RowVector2d(W - mirrored(kIbug68Mirror[k], 0), mirrored(kIbug68Mirror[k], 1));
   return Eigen::Matrix<double, 68, 2>((points + back) / 2);
+}
+
+ImageLandmarkFinders face_api_finders(const ImageLandmarkOptions& options) {
+  options.check();
+  at::set_num_threads(1);
+  auto net = std::make_shared<const FaceApi>(default_face_api_folder());
+  auto finder = [net, options](bool coverage_fallback) {
+    ImageLandmarkOptions o = options;
+    o.coverage_fallback = coverage_fallback;
+    return [net, o](const Image& image) { return find_image_landmarks(*net, image, o); };
+  };
+  return {finder(true), finder(false)};
 }
 
 }  // namespace bareskin::detect

@@ -3,12 +3,14 @@
 // rasterizer's triangle and barycentrics at that pixel. So `scan register` needs no landmarks.json.
 #pragma once
 #include <Eigen/Core>
+#include <functional>
 #include <optional>
 
 #include "core/image.h"
 #include "core/landmarks.h"
 #include "core/mesh.h"
 #include "detect/face_api.h"
+#include "detect/image_landmark_options.h"
 
 namespace bareskin::detect {
 
@@ -40,19 +42,18 @@ void check_refinements(int refinements);
 // minimum (measured on astronaut.png): the box the landmark network expects around points it found before.
 Box box_around(const Eigen::Matrix<double, 68, 2>& points);
 
-// Landmarks in a photo or a render, as `texgen make-dataset` finds them (no truth used): face-api's detector box
-// (scores above 0.3), then `refinements` landmark passes on the box the previous points imply, and with `flip` the
-// average with the mirrored image's landmarks. With `coverage_fallback` (renders: a face on black) a rejected or
-// misplaced detection (IoU with the non-black pixels' box < 0.3) is replaced by that box, and points that collapse
-// onto a small part of the face are found again from it. Nothing when no face is found.
-struct ImageLandmarkOptions {
-  int input_size = 416;
-  int refinements = 2;
-  bool flip = true;
-  bool coverage_fallback = false;
-  void check() const;  // InvalidInput naming the option
-};
+// Landmarks in a photo or a render (detect/image_landmark_options.h); nothing when no face is found.
 std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& net, const Image& image,
                                                                  const ImageLandmarkOptions& options);
+
+// find_image_landmarks over one face-api network (default_face_api_folder()) shared by the finders it returns: for
+// renders (a face on black: coverage_fallback on) and for photos (off). Sets LibTorch to one intra-op thread: its
+// OpenMP workers busy-wait between operators and would spin against the threads that keep the cores busy beside the
+// detector in make-dataset (bench/BENCHMARKS.md, make-dataset: 62 % of the CPU was in libgomp before).
+using ImageLandmarkFinder = std::function<std::optional<Eigen::Matrix<double, 68, 2>>(const Image& srgb)>;
+struct ImageLandmarkFinders {
+  ImageLandmarkFinder render, photo;
+};
+ImageLandmarkFinders face_api_finders(const ImageLandmarkOptions& options);
 
 }  // namespace bareskin::detect

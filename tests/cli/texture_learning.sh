@@ -9,7 +9,8 @@
 # - `bareskin run` on a held-out subject's bare-skin face image from `texgen faces` writes a complete avatar folder
 #   whose GLB the independent reader (tests/python/glb_oracle.py) accepts and whose diffuse map is closer to the
 #   subject's true diffuse than the 3DMM's mean albedo is; with `--face-mask` hiding the whole face nothing is
-#   unwrapped, and a mask of another size is refused (exit 3, nothing written).
+#   unwrapped, and a mask of another size is refused (exit 3, nothing written);
+# - `texgen run-dataset` pairs those faces, through the run pipeline, with their subjects' true maps.
 # A broken loss or a detached gradient leaves the UV net at its start (grey roughness and specular) and SRGAN at
 # bicubic, which fails here.
 source "$(dirname "$0")/lib.sh" "$@"
@@ -88,6 +89,64 @@ meta = json.loads(first["json"])
 json.dump({"scheme": "ibug68", "units": "px", "points": meta["landmarks"]}, open(png[:-4] + "_lm.json", "w"))
 open(png[:-4] + "_subject.txt", "w").write(meta["subject"].split("/")[-1])
 PY
+# texgen run-dataset: the held-out faces through the run pipeline (mm-fit, no G), paired with their subjects' true
+# maps as stored; faces of subjects the texture split lacks are refused with exit 3 and nothing written.
+"$bin" -q --threads 2 texgen run-dataset --faces "$work/f/train" --textures "$work/d/val" --model "$model" \
+  --input-res 64 -o "$work/rd" || fail "texgen run-dataset"
+"$py" - "$work/rd" "$work/d/val" <<'PY' || fail "run-dataset's samples are wrong"
+import io, json, os, sys, tarfile
+import numpy as np
+from skimage import io as skio
+def samples(split):
+    m = json.load(open(os.path.join(split, "manifest.json")))
+    out = {}
+    for s in m["shards"]:
+        with tarfile.open(os.path.join(split, s["name"])) as tar:
+            for member in tar:
+                key, _, suffix = member.name.partition(".")
+                out.setdefault(key, {})[suffix] = tar.extractfile(member).read()
+    return m, out
+m, rd = samples(sys.argv[1])
+truth = {}
+for s in samples(sys.argv[2])[1].values():
+    truth.setdefault(json.loads(s["json"])["subject"], s)
+assert m["metadata"]["samples"] == len(rd) == 2, (m["metadata"], len(rd))
+for s in rd.values():
+    meta = json.loads(s["json"])
+    for k in ("diffuse.png", "normal.png", "roughness.png", "specular.png"):
+        assert s[k] == truth[meta["subject"]][k], k
+    unwrap = skio.imread(io.BytesIO(s["unwrap.png"]))
+    seen = skio.imread(io.BytesIO(s["confidence.png"])) > 0
+    assert unwrap.shape[:2] == (64, 64) and seen.mean() > 0.2 and unwrap[seen].max() > 0, seen.mean()
+    assert meta["coefficients_from"] == "mm-fit" and not meta["bareskin"], meta
+PY
+"$bin" -q texgen run-dataset --faces "$work/f/train" --textures "$work/d/train" --model "$model" --input-res 64 \
+  -o "$work/rd_bad" 2> "$work/rd_bad.err"
+rc=$?
+[ $rc -eq 3 ] && [ ! -e "$work/rd_bad" ] && grep -q "true maps\|no face of a subject" "$work/rd_bad.err" ||
+  fail "run-dataset on faces of other subjects: exit $rc, $(cat "$work/rd_bad.err")"
+
+# Faces made without face.png: one line that says what to do (--no-face-masks), exit 3, nothing written.
+"$py" - "$work/f/train" "$work/f_nomask" <<'PY' || fail "could not write the faces without face.png"
+import json, os, sys, tarfile, zlib
+src, dst = sys.argv[1:]
+os.makedirs(dst)
+m = json.load(open(os.path.join(src, "manifest.json")))
+for s in m["shards"]:
+    with tarfile.open(os.path.join(src, s["name"])) as t, tarfile.open(os.path.join(dst, s["name"]), "w") as o:
+        for member in t:
+            if not member.name.endswith(".face.png"):
+                o.addfile(member, t.extractfile(member))
+    data = open(os.path.join(dst, s["name"]), "rb").read()
+    s["crc32"], s["bytes"] = zlib.crc32(data), len(data)
+json.dump(m, open(os.path.join(dst, "manifest.json"), "w"))
+PY
+"$bin" -q texgen run-dataset --faces "$work/f_nomask" --textures "$work/d/val" --model "$model" --input-res 64 \
+  -o "$work/rd_nomask" 2> "$work/rd_nomask.err"
+rc=$?
+[ $rc -eq 3 ] && [ ! -e "$work/rd_nomask" ] && grep -q "no face.png.*--no-face-masks" "$work/rd_nomask.err" ||
+  fail "run-dataset on faces without face.png: exit $rc, $(cat "$work/rd_nomask.err")"
+
 "$bin" -q --threads 2 run "$work/face.png" --landmarks "$work/face_lm.json" --model "$model" --texture "$work/tex" \
   --upscale "$work/up" --no-bareskin --preview-size 64 -o "$work/avatar" || fail "run"
 for f in avatar.glb mesh.obj coefficients.json maps/diffuse.png maps/normal.png maps/roughness.png maps/specular.png \
