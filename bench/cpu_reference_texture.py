@@ -26,10 +26,18 @@ def main():
         axes[0].axhline(tex[steps[-1]]["psnr_mm_" + m], color=color, ls="--", lw=1, label=f"3DMM-only, {m}")
     axes[0].axhline(tex[steps[-1]]["psnr_unwrap_diffuse"], color="tab:orange", ls=":", lw=1,
                     label="unwrap over 3DMM albedo")
+    run = evals(os.path.join(out, "tex_run", "eval.csv")) if os.path.exists(os.path.join(out, "tex_run")) else {}
+    if run:  # step 4: the net trained and validated on photos through the run pipeline (texgen run-dataset)
+        rs = list(run)
+        axes[0].plot(rs, [run[s]["psnr_diffuse"] for s in rs], "s-", ms=3, color="tab:red",
+                     label="UV net on run-dataset, diffuse (val photos)")
+        axes[0].axhline(run[rs[-1]]["psnr_unwrap_diffuse"], color="tab:red", ls=":", lw=1,
+                        label="photo's unwrap over 3DMM albedo")
     axes[0].set_xlabel("step")
     axes[0].set_ylabel("held-out PSNR, UV layout (dB)")
     axes[0].set_title("texture net (--profile cpu), validation subjects", fontsize=9)
-    axes[0].legend(fontsize=6, loc="lower right")
+    axes[0].set_ylim(bottom=8)  # room for the legend below the curves
+    axes[0].legend(fontsize=6, loc="lower right", ncol=2)
     for m, color in (("diffuse", "tab:orange"), ("roughness", "tab:green"), ("specular", "tab:purple")):
         path = os.path.join(out, f"up_{m}", "eval.csv")
         if not os.path.exists(path):
