@@ -10,14 +10,9 @@
 #include "apps/cli.h"
 #include "core/error.h"
 #include "core/files.h"
-#include "core/image_io.h"
-#include "core/mesh_io.h"
-#include "morphable/model.h"
-#include "morphable/model_input.h"
+#include "morphable/uv_files.h"
 #include "uvtools/bake.h"
-#include "uvtools/mask.h"
 #include "uvtools/mean.h"
-#include "uvtools/unwarp.h"
 
 namespace bareskin::cli {
 namespace {
@@ -69,17 +64,8 @@ std::function<void()> setup_bake(CLI::App& uvtools, const Globals& globals) {
 }
 
 // unwarp's confidence map: <stem>_confidence<ext> beside the UV map.
-std::string confidence_path(const std::string& output) {
-  const fs::path p(output);
-  return (p.parent_path() / (p.stem().string() + "_confidence" + p.extension().string())).string();
-}
-
 std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
-  struct Options {
-    std::string image, mesh, model, coeffs, output, view = "front", camera = "pinhole";
-    UnwarpOptions unwarp;
-  };
-  auto un = std::make_shared<Options>();
+  auto un = std::make_shared<UnwarpFilesOptions>();
   CLI::App* app = uvtools.add_subcommand("unwarp", "Sample an image into the mesh's UV through a camera, with visibility");
   app->alias("unwrap");  // the paper's word
   app->add_option("image", un->image, "Image (a render or a photo the mesh is fitted to)")->required();
@@ -99,34 +85,14 @@ std::function<void()> setup_unwarp(CLI::App& uvtools, const Globals& globals) {
       ->capture_default_str();
   return [un, app] {
     if (!app->parsed()) return;
-    const std::vector<std::string> inputs = {un->image, un->mesh, un->model, un->coeffs};
-    check_output_apart(un->output, inputs);
-    check_output_apart(confidence_path(un->output), inputs);
-    const Mesh mesh = posed_mesh(un->mesh, un->model, un->coeffs);
-    const Image image = read_image(un->image);
-    if (image.width != image.height) {
-      throw InvalidInput(un->image, "is not square", "give the square render or crop the camera was set up for");
-    }
-    const Camera cam = command_camera(mesh, !un->model.empty(), un->view, un->camera, image.width);
-    const UnwarpResult r = unwarp(image, mesh, cam, un->unwarp);
-    const fs::path out_path(un->output);
-    const bool exr = out_path.extension() == ".exr";
-    ImageWriteOptions w;
-    if (!exr) w.type = PixelType::UInt16;
-    write_image(un->output, exr ? r.colour : to_srgb(r.colour), w);
-    write_image(confidence_path(un->output), r.confidence, w);
+    const UnwarpResult r = unwarp_files(*un);
     spdlog::info("uvtools unwarp: {} of {} texels of the UV layout seen ({:.1f}%) -> {}", r.seen, r.in_layout,
                  100.0 * double(r.seen) / double(std::max<int64_t>(r.in_layout, 1)), un->output);
   };
 }
 
 std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
-  struct Options {
-    std::string labels, mesh, model, coeffs, output, view = "front", camera = "pinhole", synthetic, landmarks, labels_out;
-    int size = 1024, image_size = 512;
-    uint64_t seed = 1;
-  };
-  auto mk = std::make_shared<Options>();
+  auto mk = std::make_shared<MaskFilesOptions>();
   CLI::App* app = uvtools.add_subcommand("mask", "Face-parsing labels (CelebAMask-HQ) → a UV mask of the seen, uncovered "
                                                  "face; or synthetic occluders (hair, glasses, hand, hat)");
   app->add_option("labels", mk->labels, "Label image: one channel of CelebAMask-HQ class indices (0-18, 19 = hand)");
@@ -150,38 +116,7 @@ std::function<void()> setup_mask(CLI::App& uvtools, const Globals& globals) {
   app->add_option("--labels-out", mk->labels_out, "Also write the synthetic label image here (PNG)")->group("Synthetic");
   return [mk, app] {
     if (!app->parsed()) return;
-    const std::vector<std::string> inputs = {mk->labels, mk->mesh, mk->model, mk->coeffs, mk->landmarks};
-    check_output_apart(mk->output, inputs);
-    if (!mk->labels_out.empty()) check_output_apart(mk->labels_out, inputs);
-    if (mk->labels.empty() == mk->synthetic.empty()) {
-      throw InvalidInput("", "give a label image or --synthetic, not both or neither", "see 'uvtools mask --help'");
-    }
-    const Mesh mesh = posed_mesh(mk->mesh, mk->model, mk->coeffs);
-    LabelImage labels;
-    if (!mk->labels.empty()) {
-      labels = label_image(read_image(mk->labels, ColorSpace::Data), mk->labels);
-      if (labels.width != labels.height) throw InvalidInput(mk->labels, "is not square", "give the square crop");
-    }
-    const int image_size = mk->labels.empty() ? mk->image_size : labels.width;
-    const Camera cam = command_camera(mesh, !mk->model.empty(), mk->view, mk->camera, image_size);
-    if (!mk->synthetic.empty()) {
-      const std::vector<Occluder> occluders = parse_occluders(mk->synthetic);
-      std::vector<int> ids;
-      if (!mk->landmarks.empty()) {
-        ids = read_landmark_vertex_ids(mk->landmarks, mesh, 68);
-      } else if (!mk->model.empty()) {
-        ids = read_model(mk->model).landmark_vertices;
-      } else {
-        throw InvalidInput("", "--synthetic needs --landmarks (or --model)", "pass template/landmarks.json");
-      }
-      labels = synthetic_labels(mesh, cam, ids, occluders, mk->seed);
-      if (!mk->labels_out.empty()) write_image(mk->labels_out, to_image(labels));
-    }
-    int64_t kept = 0;
-    const std::vector<uint8_t> mask = uv_face_mask(labels, mesh, cam, mk->size, &kept);
-    Image out(mk->size, mk->size, 1, ColorSpace::Data);
-    for (size_t i = 0; i < mask.size(); ++i) out.pixels[i] = mask[i];
-    write_image(mk->output, out);
+    const int64_t kept = mask_files(*mk);
     spdlog::info("uvtools mask: {} texels of the face seen and uncovered -> {}", kept, mk->output);
   };
 }

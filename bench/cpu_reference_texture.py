@@ -26,7 +26,8 @@ def main():
         axes[0].axhline(tex[steps[-1]]["psnr_mm_" + m], color=color, ls="--", lw=1, label=f"3DMM-only, {m}")
     axes[0].axhline(tex[steps[-1]]["psnr_unwrap_diffuse"], color="tab:orange", ls=":", lw=1,
                     label="unwrap over 3DMM albedo")
-    run = evals(os.path.join(out, "tex_run", "eval.csv")) if os.path.exists(os.path.join(out, "tex_run")) else {}
+    run_csv = os.path.join(out, "tex_run_G_seed0", "eval.csv")
+    run = evals(run_csv) if os.path.exists(run_csv) else {}
     if run:  # step 4: the net trained and validated on photos through the run pipeline (texgen run-dataset)
         rs = list(run)
         axes[0].plot(rs, [run[s]["psnr_diffuse"] for s in rs], "s-", ms=3, color="tab:red",

@@ -8,7 +8,9 @@
 #   2. the texture net (`train texture --profile cpu`: the UV net) and SRGAN x4 (`train upscale --profile cpu`) on
 #      the diffuse, roughness and specular, their validation curves against the 3DMM-only maps and bicubic (eval.csv);
 #   3. Table 1 (`bareskin evaluate`) on faces with makeup of the test subjects, with the G and F of
-#      bench/cpu_reference.sh (CPU_REFERENCE=<its out/>).
+#      bench/cpu_reference.sh (CPU_REFERENCE=<its out/>);
+#   4. per G, the texture net trained through the run pipeline (`texgen run-dataset`: photos of the train and val
+#      subjects through that G and F) and Table 1 again with it.
 # Every stage is skipped when its output exists; trainings continue with --resume.
 #   [CPU_REFERENCE=<bench/cpu_reference.sh out/>] bash bench/cpu_reference_texture.sh <bin/> <demo out/> <out/> [subjects]
 set -euo pipefail
@@ -63,9 +65,9 @@ if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
   done
 fi
 
-# 4. The texture net trained through the run pipeline (`texgen run-dataset`): faces of the train and val subjects,
-# each photo through the same G and F as Table 1, unwrapped with its face mask and paired with the true maps; then
-# Table 1 again with that net (table1_G_seed0_run).
+# 4. The texture net trained through the run pipeline (`texgen run-dataset`), once per G: faces of the train and val
+# subjects, each photo through that G and the F of Table 1, unwrapped with its face mask and paired with the true
+# maps; then Table 1 again with that net (table1_<G>_run).
 if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
   for split in train val; do
     [ "$split" = train ] && per=${RUN_FACES_PER_SUBJECT:-20} || per=10
@@ -79,17 +81,23 @@ if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
         -o "$out/faces_$split"
       touch "$out/faces_$split/.complete"
     fi
-    [ -f "$out/run_data/$split/manifest.json" ] || cpu "run_data_$split" "$bareskin" -q --threads 2 texgen \
-      run-dataset --faces "$out/faces_$split/train" --textures "$data/$split" --model "$model" \
-      --bareskin "$ref/G_seed0" --teacher "$ref/F" --input-res 256 -o "$out/run_data/$split"
   done
-  train "$out/tex_run" train texture --profile cpu --data "$out/run_data/train" --val "$out/run_data/val" \
-    --model "$model" --eval-every 100 --sample-every 500 --checkpoint-every 100 --log-every 50
-  if [ ! -f "$out/table1_G_seed0_run/table.md" ]; then
-    cpu table1_G_seed0_run "$bareskin" -q --threads 2 evaluate --faces "$split_test" --textures "$data/test" \
-      --model "$model" --texture "$out/tex_run" --upscale "${upscalers[@]}" --bareskin "$ref/G_seed0" \
-      --teacher "$ref/F" --max-samples 40 -o "$out/table1_G_seed0_run"
-  fi
+  for g in G_seed0 G_before; do
+    [ -d "$ref/$g" ] || continue
+    for split in train val; do
+      [ -f "$out/run_data_$g/$split/manifest.json" ] || cpu "run_data_${g}_$split" "$bareskin" -q --threads 2 \
+        texgen run-dataset --faces "$out/faces_$split/train" --textures "$data/$split" --model "$model" \
+        --bareskin "$ref/$g" --teacher "$ref/F" --input-res 256 -o "$out/run_data_$g/$split"
+    done
+    train "$out/tex_run_$g" train texture --profile cpu --data "$out/run_data_$g/train" \
+      --val "$out/run_data_$g/val" --model "$model" --eval-every 100 --sample-every 500 --checkpoint-every 100 \
+      --log-every 50
+    if [ ! -f "$out/table1_${g}_run/table.md" ]; then
+      cpu "table1_${g}_run" "$bareskin" -q --threads 2 evaluate --faces "$split_test" --textures "$data/test" \
+        --model "$model" --texture "$out/tex_run_$g" --upscale "${upscalers[@]}" --bareskin "$ref/$g" \
+        --teacher "$ref/F" --max-samples 40 -o "$out/table1_${g}_run"
+    fi
+  done
 fi
 
 $py "$here/cpu_reference_texture.py" "$out"
