@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Demo §14: texture inference — small CPU-profile trainings of the texture net and SRGAN on the texture shards of §10–13, the end-to-end
+# Demo §14: texture inference — small CPU-profile trainings of the texture net (on photos of the texture subjects
+# through the run pipeline: texgen run-dataset) and SRGAN (on the texture shards of §13), the end-to-end
 # figure on a held-out face with makeup (with and without BareSkinNet), Table 1 at demo size, and `bareskin run` on a
 # real photo. Usage: bash scripts/demo/14_texture.sh <bin> <out>. Every stage is skipped when its output exists.
 source "$(dirname "$0")/lib.sh"
@@ -16,6 +17,7 @@ RES=${DEMO_TEX_RES:-128}
 STEPS=${DEMO_TEX_STEPS:-300}
 UP_STEPS=${DEMO_UP_STEPS:-300}
 SAMPLES=${DEMO_TABLE1_SAMPLES:-8}  # faces with makeup per Table 1 (each: 4 pipelines)
+RUN_FACES=${DEMO_RUN_FACES:-12}    # photos per texture subject through the run pipeline (texgen run-dataset)
 THREADS=${DEMO_THREADS:-2}
 export OMP_WAIT_POLICY=PASSIVE
 
@@ -24,13 +26,38 @@ eval "$($py "$here/14_texture_find.py" "$out")"
 model="$out/model/model.safetensors"
 [ -n "${TEX_TRAIN:-}" ] || { echo "error: $out: no texture shards (texgen make-dataset, §10–13); run the demo's earlier sections" >&2; exit 3; }
 
+# 0. Texture samples through the run pipeline (`texgen run-dataset`, docs/texture.md): photos of the texture train
+# and val subjects (makeup, light, pose, occluders) through G (§12) and F (§11), unwrapped as `run` unwraps them and
+# paired with their true maps, so that the texture net learns from what `run` and `evaluate` will feed it. Without G
+# or a val split the net trains on make-dataset's clean views instead.
+registered="$out/registered"
+teacher=(); [ -n "${RECON_RUN:-}" ] && teacher=(--teacher "$RECON_RUN")
+tex_data=(--data "$TEX_TRAIN" ${TEX_VAL:+--val "$TEX_VAL"})
+[ -n "${TEX_MASKS:-}" ] && tex_data+=(--masks "$TEX_MASKS")
+if [ -n "${BSN_RUN:-}" ] && [ -n "${TEX_VAL:-}" ] && [ -d "$registered" ]; then
+  for split in train val; do
+    [ -f "$dir/run_data/$split/manifest.json" ] && continue
+    [ "$split" = train ] && texture_split=$TEX_TRAIN || texture_split=$TEX_VAL
+    subjects=$($py "$here/14_texture_find.py" --subjects "$texture_split")
+    n=$(echo $subjects | wc -w)
+    rm -rf "$dir/run_registered_$split" "$dir/run_faces_$split" && mkdir -p "$dir/run_registered_$split"
+    for s in $subjects; do ln -s "$(cd "$registered/$s" && pwd)" "$dir/run_registered_$split/$s"; done
+    stage "texture samples through the run pipeline ($split: $n subjects x $RUN_FACES photos)"
+    timed "run faces" "$bareskin" -q --threads "$THREADS" texgen faces --registered "$dir/run_registered_$split" \
+      --model "$model" --mm-subjects 1 --count $((RUN_FACES * n + RUN_FACES)) --val 0 --test 0 --seed 16 \
+      --align truth -o "$dir/run_faces_$split"
+    timed "run dataset" "$bareskin" -q --threads "$THREADS" texgen run-dataset --faces "$dir/run_faces_$split/train" \
+      --textures "$texture_split" --model "$model" --bareskin "$BSN_RUN" "${teacher[@]}" --input-res "$RES" \
+      -o "$dir/run_data/$split"
+  done
+  tex_data=(--data "$dir/run_data/train" --val "$dir/run_data/val")
+fi
 # 1. The texture net ------------------------------------------------------------------------------------------------
 if [ ! -f "$dir/tex/checkpoint.safetensors" ]; then
   stage "texture net (--profile cpu) at ${RES}², $STEPS steps"
-  masks=(); [ -n "${TEX_MASKS:-}" ] && masks=(--masks "$TEX_MASKS")
-  timed "tex train" "$bareskin" -q --threads "$THREADS" train texture --profile cpu --data "$TEX_TRAIN" \
-    ${TEX_VAL:+--val "$TEX_VAL"} "${masks[@]}" --model "$model" -o "$dir/tex" --res "$RES" --steps "$STEPS" \
-    --log-every 10 --eval-every 100 --sample-every "$STEPS" --checkpoint-every 100
+  timed "tex train" "$bareskin" -q --threads "$THREADS" train texture --profile cpu "${tex_data[@]}" --model "$model" \
+    -o "$dir/tex" --res "$RES" --steps "$STEPS" --log-every 10 --eval-every 100 --sample-every "$STEPS" \
+    --checkpoint-every 100
 fi
 # 2. SRGAN x4 on the diffuse (--profile cpu: the pixel-loss phase over the bicubic base, docs/texture.md) ------------
 if [ ! -f "$dir/up/checkpoint.safetensors" ]; then
@@ -41,8 +68,7 @@ if [ ! -f "$dir/up/checkpoint.safetensors" ]; then
 fi
 # 3. End to end on a held-out face with makeup, with and without BareSkinNet; bareskin run on a real photo ----------
 bsn=(); [ -n "${BSN_RUN:-}" ] && bsn=(--bareskin "$BSN_RUN")
-# The coefficients by the reconstruction net F of §11 when there is one (else mm-fit's fits).
-teacher=(); [ -n "${RECON_RUN:-}" ] && teacher=(--teacher "$RECON_RUN")
+# The coefficients by the reconstruction net F of §11 when there is one (else mm-fit's fits): teacher=(...) above.
 common=(--model "$model" --texture "$dir/tex" --upscale "$dir/up" --preview-size 256 "${teacher[@]}")
 if [ -n "${FACES_TEST:-}" ] && [ ! -f "$dir/heldout_lm.json" ]; then
   $py "$here/14_texture_find.py" --extract "$FACES_TEST" "$dir/heldout.png"
@@ -71,7 +97,6 @@ fi
 # 4b. Column (b) of Table 1: faces of the texture test split's subjects (the held-out faces above have no true maps),
 # rendered by texgen faces from their registered scans beside one 3DMM subject (the generator keeps a training
 # subject); the split holding the scan subject is evaluated against the true maps.
-registered="$out/registered"
 if [ -n "${BSN_RUN:-}" ] && [ -n "${TEX_TEST:-}" ] && [ -d "$registered" ] && [ ! -f "$dir/table1_truth/table.md" ]; then
   stage "Table 1 column (b) on faces of the texture test subjects"
   subjects=$($py "$here/14_texture_find.py" --subjects "$TEX_TEST")

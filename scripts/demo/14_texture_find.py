@@ -180,6 +180,15 @@ def report(out, d, res, steps, up_steps, samples):
              f"residual over bicubic that starts at bicubic) {up_steps} MSE steps at Adam 2e-3 on 128² crops of batch "
              "2. The paper's pix2pixHD and SRGAN are <code>--profile paper</code>, at 1K → 4K. The validation split "
              "holds subjects the nets never saw.</p>"]
+    run_data = os.path.join(d, "run_data", "train", "manifest.json")
+    if os.path.exists(run_data):
+        meta = json.load(open(run_data)).get("metadata", {})
+        parts.append(f"<p>The texture net trains on <code>texgen run-dataset</code> samples: {meta.get('samples')} "
+                     f"photos of the {len(meta.get('subjects', []))} texture training subjects (makeup, light, pose, "
+                     "occluders) through G of §12 and the coefficients of §11, unwrapped as <code>run</code> unwraps "
+                     "them and paired with the true maps; it is validated the same way on the validation subject's "
+                     f"photos. Those unwraps score {meta.get('unwrap_psnr_db', float('nan')):.2f} dB against the true "
+                     "diffuse where they see the face. SRGAN trains on make-dataset's true maps.</p>")
     tex = os.path.join(d, "tex")
     ev = last_eval(tex)
     if ev and "psnr_mm_diffuse" in ev:
