@@ -1,6 +1,5 @@
 // bareskin texgen faces: the face-image world with makeup, light and full truth as dataset shards
 // (texgen/faces.h; docs/datasets.md).
-#include <malloc.h>
 
 #include <chrono>
 #include <cstdlib>
@@ -87,17 +86,10 @@ std::function<void()> setup_texgen_faces(CLI::App& texgen, const Globals& global
       if (!detector)
         throw InvalidInput("--align detector", "this build has no face detector (no LibTorch)", "use --align truth");
     }
-    // Every sample allocates and frees images of a few MB: keep them in the heap instead of fresh zeroed pages from
-    // the kernel each time (glibc returns blocks above 128 KB to the system at once; ~15% of the time went there).
-    mallopt(M_MMAP_THRESHOLD, 64 << 20);
-    mallopt(M_TRIM_THRESHOLD, 512 << 20);
-    texgen::FaceGenerator generator(*opt);  // reads and checks every input before anything is written
-    make_directories(opt->output);
     ProgressBar bar = globals.progress("texgen faces");
-    const texgen::FacesReport report = generator.run(detector, bar.callback());
+    const texgen::FacesReport report = texgen::write_faces(*opt, detector, bar.callback());
     bar.finish();
     const std::string suffix = opt->shards > 1 ? "-" + std::to_string(opt->shard) : "";
-    write_file_atomic(opt->output + "/report" + suffix + ".json", report.to_json().dump(1) + "\n");
     globals.write_resolved_config(opt->output + "/config" + suffix + ".json");
     spdlog::info("texgen faces: {} samples in {} shards ({} kept from an earlier run) in {:.1f} s ({:.1f}/s){}",
                  report.samples_written, report.shards_written, report.shards_skipped, report.seconds,

@@ -451,7 +451,6 @@ torch::Tensor resized(const torch::Tensor& x, int64_t res) {
   return F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{res, res}).mode(torch::kArea));
 }
 
-
 }  // namespace
 
 std::string subject_key(const std::string& name) { return name.rfind("scan/", 0) == 0 ? name.substr(5) : name; }

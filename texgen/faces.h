@@ -87,4 +87,10 @@ class FaceGenerator {
   std::unique_ptr<World> world_;
 };
 
+// `texgen faces` on files: the generator built (every input read and checked before anything is written), this
+// worker's shards written into options.output, and its report (report.json, or report-<shard>.json with several
+// workers) beside them. Tunes glibc's allocator for the generator's many image-sized blocks.
+FacesReport write_faces(const FacesOptions& options, const detect::PhotoDetector& detector,
+                        const ProgressCallback& progress = {});
+
 }  // namespace bareskin::texgen
