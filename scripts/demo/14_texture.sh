@@ -9,7 +9,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$dir"
 stage() { echo "demo §14: $*" >&2; }
 
-# Sizes (2 cores, about 180 s for the whole section): the CPU profiles of `train texture` and `train upscale`
+# Sizes (2 cores, about 110 s for the whole section): the CPU profiles of `train texture` and `train upscale`
 # (docs/texture.md, "Profiles": the UV net at 128², L1 on the UV layout; MSRResNet 16 features, 4 blocks, the pixel
 # loss over bicubic) for a few hundred steps; the paper's nets and recipe are the defaults (--profile paper) at 1K
 # and 4K.

@@ -174,7 +174,7 @@ def report(out, d, res, steps, up_steps, samples):
     rel = os.path.relpath(d, out)
     parts = [f"<h2>14. Texture inference: the UV net, SRGAN ×4, <code>bareskin run</code>, Table 1</h2>",
              f"<p>Demo sizes, the CPU profiles (<code>--profile cpu</code>, docs/texture.md) shortened to fit about "
-             f"180 s on 2 cores: the texture net is the UV net (a U-Net of width 16 that corrects the unwrap over the "
+             f"110 s on 2 cores: the texture net is the UV net (a U-Net of width 16 that corrects the unwrap over the "
              f"3DMM albedo, a flat normal and grey roughness and specular; L1 on the UV layout, no discriminator) at "
              f"{res}² maps, {steps} steps of batch 4; SRGAN ×4 on the diffuse (MSRResNet 16 features, 4 blocks, a "
              f"residual over bicubic that starts at bicubic) {up_steps} MSE steps at Adam 2e-3 on 128² crops of batch "
