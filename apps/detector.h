@@ -1,6 +1,6 @@
-// What the geometry commands take from the Torch side when it is built (BARESKIN_WITH_DETECT): the scan landmark
-// detector that `scan register` and `mm-build` use for scans without landmarks.json. Defined in
-// apps/landmarks_command.cc, or in apps/scan_command.cc as "none" without the Torch side.
+// What the geometry commands take from the Torch side when it is built (BARESKIN_WITH_DETECT): face-api's detectors
+// (detect/landmark_files.h) with LibTorch's threads set from --threads. Defined in apps/landmarks_command.cc, or in
+// apps/scan_command.cc as "none" without the Torch side.
 #pragma once
 #include "apps/cli.h"
 #include "detect/align.h"

@@ -30,42 +30,14 @@ void set_torch_threads(const Globals& globals) {
   torch::set_num_threads(globals.threads > 0 ? globals.threads : int(std::thread::hardware_concurrency()));
 }
 
-ScanLandmarkDetector scan_landmark_detector(const Globals& globals, const std::string& calibration_path) {
+ScanLandmarkDetector scan_landmark_detector(const Globals& globals, const std::string& calibration) {
   set_torch_threads(globals);
-  std::optional<LandmarkCalibration> calibration;
-  if (!calibration_path.empty()) calibration = read_landmark_calibration(calibration_path);
-  return [calibration](const Mesh& scan, const Image* diffuse) {
-    static const detect::FaceApi net(detect::default_face_api_folder());
-    DetectedLandmarks out;
-    if (!calibration) {  // the front render (detect/scan_landmarks.h)
-      const detect::ScanLandmarks found = detect::detect_scan_landmarks(net, scan, diffuse);
-      out.landmarks = found.landmarks;
-      out.detector_score = found.detector_score;
-      out.snapped_to_silhouette = found.off_surface;
-      return out;
-    }
-    auto found = detect::detect_multiview_landmarks(net, scan, diffuse, detect::MultiviewOptions{});
-    apply_calibration(scan, *calibration, found.result);
-    out.landmarks = found.result.landmarks;
-    for (const auto& v : found.views) out.detector_score = std::max(out.detector_score, v.score);
-    out.views = found.result.views;
-    out.calibrated = true;
-    for (const auto& p : found.result.points) out.sigma_mm.push_back(p.sigma_mm);
-    return out;
-  };
+  return detect::face_api_scan_detector(calibration);
 }
 
 detect::PhotoDetector photo_detector(const Globals& globals, int input_size) {
   set_torch_threads(globals);
-  auto net = std::make_shared<const detect::FaceApi>(detect::default_face_api_folder());
-  return [net, input_size](const Image& photo) {
-    detect::DetectOptions options;
-    options.input_size = input_size;
-    std::vector<detect::PhotoFace> faces;
-    for (const detect::Face& f : net->detect(detect::photo_tensor(photo, "photo"), options))
-      faces.push_back({f.score, f.points});
-    return faces;
-  };
+  return detect::face_api_photo_detector(input_size);
 }
 
 std::function<void()> setup_landmarks_command(CLI::App& app, const Globals& globals) {

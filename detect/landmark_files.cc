@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <nlohmann/json.hpp>
 
@@ -134,6 +135,41 @@ void scan_landmark_files(ScanLandmarkFilesOptions o) {
   write_landmarks(o.output, r.landmarks);
   spdlog::info("landmarks scan: {}: detector score {:.3f}{}, {} point(s) snapped onto the silhouette -> {}", mesh_path,
                r.detector_score, r.detector_score == 0 ? " (none: coverage box used)" : "", r.off_surface, o.output);
+}
+
+ScanLandmarkDetector face_api_scan_detector(const std::string& calibration_path) {
+  std::optional<LandmarkCalibration> calibration;
+  if (!calibration_path.empty()) calibration = read_landmark_calibration(calibration_path);
+  return [calibration](const Mesh& scan, const Image* diffuse) {
+    static const FaceApi net(default_face_api_folder());  // loaded on the first scan that needs it
+    DetectedLandmarks out;
+    if (!calibration) {  // the front render (scan_landmarks.h)
+      const ScanLandmarks found = detect_scan_landmarks(net, scan, diffuse);
+      out.landmarks = found.landmarks;
+      out.detector_score = found.detector_score;
+      out.snapped_to_silhouette = found.off_surface;
+      return out;
+    }
+    auto found = detect_multiview_landmarks(net, scan, diffuse, MultiviewOptions{});
+    apply_calibration(scan, *calibration, found.result);
+    out.landmarks = found.result.landmarks;
+    for (const auto& v : found.views) out.detector_score = std::max(out.detector_score, v.score);
+    out.views = found.result.views;
+    out.calibrated = true;
+    for (const auto& p : found.result.points) out.sigma_mm.push_back(p.sigma_mm);
+    return out;
+  };
+}
+
+PhotoDetector face_api_photo_detector(int input_size) {
+  auto net = std::make_shared<const FaceApi>(default_face_api_folder());
+  return [net, input_size](const Image& photo) {
+    DetectOptions options;
+    options.input_size = input_size;
+    std::vector<PhotoFace> faces;
+    for (const Face& f : net->detect(photo_tensor(photo, "photo"), options)) faces.push_back({f.score, f.points});
+    return faces;
+  };
 }
 
 }  // namespace bareskin::detect

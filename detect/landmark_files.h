@@ -6,10 +6,12 @@
 
 #include <string>
 
+#include "detect/align.h"
 #include "detect/capture_landmarks.h"
 #include "detect/face_api.h"
 #include "detect/multiview_landmarks.h"
 #include "detect/scan_landmarks.h"
+#include "scan/register_folder.h"
 
 namespace bareskin::detect {
 
@@ -47,5 +49,13 @@ struct ScanLandmarkFilesOptions {
 
 // Writes `output` (and `uncalibrated`, `draw`, `save_views`). InvalidInput for options that do not go together.
 void scan_landmark_files(ScanLandmarkFilesOptions options);
+
+// face-api's networks as the detectors the geometry commands take. A scan's landmarks (`scan register`, `mm-build` for
+// scans without landmarks.json): the front render (scan_landmarks.h), or with `calibration` (a `landmarks calibrate`
+// file) 16 views triangulated and calibrated (multiview_landmarks.h). A photo's faces (`texgen faces`, ingest) with
+// their 68 landmarks, best first, the detector looking at input_size² (a multiple of 32). The scan detector loads the
+// networks at its first scan, the photo detector when it is made.
+ScanLandmarkDetector face_api_scan_detector(const std::string& calibration = "");
+PhotoDetector face_api_photo_detector(int input_size = 416);
 
 }  // namespace bareskin::detect
