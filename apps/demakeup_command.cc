@@ -14,7 +14,7 @@ namespace bareskin::cli {
 std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globals) {
   struct Options {
     bsn::DemakeupFilesOptions files;
-    int detector_size = 416;  // photo_detector's default (apps/detector.h)
+    int detector_size = detect::kDetectorInputSize;
     bool timing = false;
   };
   auto o = std::make_shared<Options>();

@@ -4,6 +4,7 @@
 #pragma once
 #include "apps/cli.h"
 #include "detect/align.h"
+#include "detect/image_landmark_options.h"
 #include "scan/register_folder.h"
 
 namespace bareskin::cli {
@@ -15,7 +16,7 @@ ScanLandmarkDetector scan_landmark_detector(const Globals& globals, const std::s
 
 // face-api's networks on a photo (texgen faces, ingest): the faces with their 68 landmarks, best first; the detector
 // looks at `input_size`² (a multiple of 32). Empty without the Torch side.
-detect::PhotoDetector photo_detector(const Globals& globals, int input_size = 416);
+detect::PhotoDetector photo_detector(const Globals& globals, int input_size = detect::kDetectorInputSize);
 
 // LibTorch's intra-op threads follow --threads (0: every core). A no-op without the Torch side.
 void set_torch_threads(const Globals& globals);

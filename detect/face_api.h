@@ -15,6 +15,7 @@
 #include <string>
 
 #include "core/image.h"
+#include "detect/image_landmark_options.h"
 #include <vector>
 
 namespace bareskin::detect {
@@ -30,7 +31,7 @@ struct Face {
 };
 
 struct DetectOptions {
-  int input_size = 416;         // detector input (multiple of 32); smaller is faster and finds only larger faces
+  int input_size = kDetectorInputSize;  // detector input (multiple of 32); smaller is faster and finds only larger faces
   double min_score = 0.5;       // detections below are dropped
   double iou_threshold = 0.4;   // non-maximum suppression
   int max_faces = 0;            // 0: all

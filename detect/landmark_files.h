@@ -56,6 +56,6 @@ void scan_landmark_files(ScanLandmarkFilesOptions options);
 // their 68 landmarks, best first, the detector looking at input_size² (a multiple of 32). The scan detector loads the
 // networks at its first scan, the photo detector when it is made.
 ScanLandmarkDetector face_api_scan_detector(const std::string& calibration = "");
-PhotoDetector face_api_photo_detector(int input_size = 416);
+PhotoDetector face_api_photo_detector(int input_size = kDetectorInputSize);
 
 }  // namespace bareskin::detect

@@ -49,7 +49,7 @@ std::optional<Eigen::Matrix<double, 68, 2>> find_image_landmarks(const FaceApi& 
 // find_image_landmarks over one face-api network (default_face_api_folder()) shared by the finders it returns: for
 // renders (a face on black: coverage_fallback on) and for photos (off). Sets LibTorch to one intra-op thread: its
 // OpenMP workers busy-wait between operators and would spin against the threads that keep the cores busy beside the
-// detector in make-dataset (bench/BENCHMARKS.md, make-dataset: 62 % of the CPU was in libgomp before).
+// detector in make-dataset (bench/BENCHMARKS.md, make-dataset).
 using ImageLandmarkFinder = std::function<std::optional<Eigen::Matrix<double, 68, 2>>(const Image& srgb)>;
 struct ImageLandmarkFinders {
   ImageLandmarkFinder render, photo;

@@ -615,7 +615,7 @@ FacesReport write_faces(const FacesOptions& options, const detect::PhotoDetector
                         const ProgressCallback& progress) {
   options.check();
   // Every sample allocates and frees images of a few MB: keep them in the heap instead of fresh zeroed pages from the
-  // kernel each time (glibc returns blocks above 128 KB to the system at once; ~15% of the time went there).
+  // kernel each time (glibc returns blocks above 128 KB to the system at once: bench/BENCHMARKS.md, texgen faces).
   mallopt(M_MMAP_THRESHOLD, 64 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
   FaceGenerator generator(options);  // reads and checks every input before anything is written
