@@ -26,7 +26,7 @@
 #include "avatar/glb.h"
 #include "detect/face_api.h"
 #include "bareskinnet/bareskinnet.h"
-#include "makeup/relight.h"
+#include "render/light_files.h"
 #include "training/checkpoint.h"
 #include "training/data.h"
 #include "training/ssim.h"
@@ -347,7 +347,7 @@ void write_avatar(const std::string& dir, const Avatar& a, const nlohmann::json&
   write_image(d + "/unwrap.png", a.unwrap);
   write_image(d + "/confidence.png", a.confidence);
   write_coefficients(d + "/coefficients.json", a.coefficients);
-  if (a.coefficients.gamma) looks::write_light_files(d, *a.coefficients.gamma, looks::kLightEnvWidth);  // for engines
+  if (a.coefficients.gamma) write_light_files(d, *a.coefficients.gamma);  // for engines
   write_mesh(d + "/mesh.obj", a.mesh);
   // Each map is encoded once, on `threads` threads, largest first; the GLB embeds the files' bytes (its roughness
   // texture is the grey roughness PNG itself, glb.h) plus one grey+alpha specular texture (core/png_encoding.h's

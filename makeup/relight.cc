@@ -119,15 +119,6 @@ Frame relight(const RelightOptions& o) {
   return render_pbr(f.mesh, orbit_camera(o.size, yp[0], yp[1], Eigen::Vector3d::Zero()), f.best().view(), light);
 }
 
-void write_light_files(const std::string& dir, const ShLight& light, int width) {
-  nlohmann::json j = nlohmann::json::array();
-  for (double g : light) j.push_back(g);
-  write_file_atomic(dir + "/light_sh.json", j.dump() + "\n");
-  ImageWriteOptions w;
-  w.type = PixelType::Float;
-  write_image(dir + "/light_env.exr", environment_from_sh(light, width), w);
-}
-
 void relight_command(const RelightOptions& o) {
   o.check();
   if (o.output.empty() && o.export_light.empty()) throw InvalidInput("-o", "is missing", "give -o image.png and/or --export-light DIR");

@@ -6,11 +6,11 @@
 #include <string>
 
 #include "core/image.h"
+#include "render/light_files.h"
 #include "render/pbr.h"
 
 namespace bareskin::looks {
 
-constexpr int kLightEnvWidth = 64;  // light_env.exr: 64 × 32 (`bareskin run` writes it too)
 
 struct RelightOptions {
   std::string avatar, output;  // avatar folder; output image (.png, .exr, ...)
@@ -35,8 +35,5 @@ PbrLight chosen_light(const RelightOptions& options);
 Frame relight(const RelightOptions& options);
 void relight_command(const RelightOptions& options);
 
-// Writes dir/light_sh.json (27 numbers, channel-major) and dir/light_env.exr (width × width/2 radiance, linear):
-// `relight --export-light` and `bareskin run` (the photo's fitted light in every avatar folder).
-void write_light_files(const std::string& dir, const ShLight& light, int width);
 
 }  // namespace bareskin::looks
