@@ -1,25 +1,14 @@
 // bareskin landmarks detect / scan / calibrate / capture: a photo's or a scan's landmarks with face-api's networks in
 // LibTorch (detect/landmark_files.h), the detector's calibration, a synthetic rig capture; and the detectors the
 // geometry commands take (apps/detector.h).
-#include <algorithm>
 #include <memory>
-#include <optional>
 #include <thread>
-#include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
 #include "apps/cli.h"
 #include "apps/device_flag.h"
 #include "apps/detector.h"
-#include "core/error.h"
-#include "core/files.h"
-#include "core/landmarks.h"
-#include "core/scan_folder.h"
-#include "detect/capture_landmarks.h"
-#include "detect/face_api.h"
-#include "detect/multiview_landmarks.h"
 #include "detect/landmark_files.h"
-#include "detect/scan_landmarks.h"
 #include "scan/capture.h"
 #include "training/device.h"
 
