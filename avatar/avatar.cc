@@ -170,8 +170,6 @@ Avatar avatar_from_aligned(const Image& aligned_in, const detect::Landmarks68& l
   a.aligned = as_srgb(aligned_in);
   if (a.aligned.width != detect::kAlignedSize || a.aligned.height != detect::kAlignedSize)
     throw InvalidInput("aligned face", "is not 256²", "align photos with detect/align.h first");
-  if (!face_mask.empty() && (face_mask.width != a.aligned.width || face_mask.height != a.aligned.height))
-    throw InvalidInput("face mask", "is not the aligned face's size (256²)", "give the mask of the same photo");
   a.landmarks = landmarks;
   StageTimer t{a};
   a.bare = G ? as_srgb(G(a.aligned)) : a.aligned;

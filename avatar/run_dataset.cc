@@ -43,8 +43,6 @@ std::map<std::string, std::map<std::string, std::string>> true_maps(const std::s
   return out;
 }
 
-std::string png8(const Image& image) { return encode_png(image, 8); }
-
 }  // namespace
 
 void RunDatasetOptions::check() const {
@@ -111,10 +109,10 @@ RunDatasetReport write_run_dataset(const RunDatasetOptions& o, const ProgressCal
       shards::Sample s;
       s.key = fmt::format("{:08d}", result.samples);
       s.members = t->second;
-      s.members["unwrap.png"] = png8(in.unwrap);
-      s.members["confidence.png"] = png8(in.confidence);
-      s.members["mm_albedo.png"] = png8(to_srgb(in.mm.albedo));
-      s.members["mm_normal.png"] = png8(in.mm.normal);
+      s.members["unwrap.png"] = encode_png(in.unwrap);
+      s.members["confidence.png"] = encode_png(in.confidence);
+      s.members["mm_albedo.png"] = encode_png(to_srgb(in.mm.albedo));
+      s.members["mm_normal.png"] = encode_png(in.mm.normal);
       s.members["mm_position.png"] = encode_png(in.mm.position, 16);
       s.members["json"] = nlohmann::json{{"subject", subject},
                                          {"face", b.keys[0]},
