@@ -12,6 +12,7 @@
 #include "core/scan_folder.h"
 #include "core/similarity.h"
 #include "render/sh.h"
+#include "texgen/makeup.h"
 
 namespace bareskin::texgen {
 namespace fs = std::filesystem;
@@ -244,7 +245,60 @@ RegisteredSubjects read_registered_subjects(const std::string& folder, const Mor
   return out;
 }
 
-FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index) {
+double typology_angle(const Eigen::Vector3f& linear_rgb) {
+  const Eigen::Vector3f lab = makeup::linear_rgb_to_lab(linear_rgb);
+  return std::atan2(double(lab.x()) - 50, double(lab.z())) * 180 / M_PI;
+}
+
+namespace {
+constexpr double kGroupFloor[kSkinToneGroups - 1] = {55, 41, 28, 10, -30};  // each group's lowest angle
+}  // namespace
+
+int skin_tone_group(double ita_degrees) {
+  int g = 0;
+  while (g < kSkinToneGroups - 1 && ita_degrees < kGroupFloor[g]) ++g;
+  return g;
+}
+
+const char* skin_tone_group_name(int group) {
+  static const char* const names[kSkinToneGroups] = {"very light", "light", "intermediate", "tan", "brown", "dark"};
+  return names[std::clamp(group, 0, kSkinToneGroups - 1)];
+}
+
+SkinTones parse_skin_tones(const std::string& name) {
+  if (name == "model") return SkinTones::Model;
+  if (name == "balanced") return SkinTones::Balanced;
+  throw InvalidInput("--skin-tones", "'" + name + "' is neither model nor balanced", "use --skin-tones model|balanced");
+}
+
+namespace {
+
+// The mean albedo over the model's texels is linear in δ: m̄ + M δ (the clamp to [0, 1] left aside).
+struct MeanAlbedo {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Matrix3Xd per_delta;
+  explicit MeanAlbedo(const MorphableModel& model) : per_delta(Eigen::Matrix3Xd::Zero(3, model.appearance_basis.rows())) {
+    const int64_t texels = int64_t(model.appearance_resolution) * model.appearance_resolution;
+    int64_t n = 0;
+    for (int64_t t = 0; t < texels; ++t) {
+      if (!model.appearance_mask.empty() && !model.appearance_mask[size_t(t)]) continue;
+      ++n;
+      for (int c = 0; c < 3; ++c) {
+        mean[c] += model.appearance_mean[3 * t + c];
+        for (Eigen::Index k = 0; k < per_delta.cols(); ++k)
+          per_delta(c, k) += double(model.appearance_basis(k, 3 * t + c)) * model.appearance_stddev[k];
+      }
+    }
+    mean /= double(std::max<int64_t>(n, 1));
+    per_delta /= double(std::max<int64_t>(n, 1));
+  }
+  Eigen::Vector3f operator()(const Eigen::VectorXd& delta) const { return (mean + per_delta * delta).cast<float>(); }
+};
+
+}  // namespace
+
+FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index,
+                          SkinTones tones) {
   Rng rng(seed ^ 0x6D6D5375626A6563ull, uint64_t(index));  // "mmSubjec": identities apart from the samples' streams
   FaceSubject s;
   char id[32];
@@ -259,12 +313,24 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
     }
   };
   for (int k = 0; k < s.alpha.size(); ++k) s.alpha[k] = draw();
-  s.delta.resize(model.appearance_basis.rows());
-  for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
-  s.shape = model.shape(s.alpha);
-  s.frame = "model";
   const int R = model.appearance_resolution;
   if (R <= 0) throw InvalidInput("", "the model has no appearance part", "build it from subjects with diffuse maps");
+  s.delta.resize(model.appearance_basis.rows());
+  for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
+  if (tones == SkinTones::Balanced) {
+    const MeanAlbedo albedo(model);
+    const int group = index % kSkinToneGroups;
+    // The rarest group of the demo's model takes a few dozen draws; 100,000 without one: the model lacks it.
+    for (int tries = 0; skin_tone_group(typology_angle(albedo(s.delta))) != group; ++tries) {
+      if (tries == 100000)
+        throw InvalidInput("--skin-tones balanced", std::string("the model's appearance within ±2σ reaches no ") +
+                                                        skin_tone_group_name(group) + " skin (ITA groups, docs/datasets.md)",
+                           "use --skin-tones model, or build the model from subjects of that tone");
+      for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
+    }
+  }
+  s.shape = model.shape(s.alpha);
+  s.frame = "model";
   auto diffuse = std::make_shared<Image>(R, R, 3, ColorSpace::Linear);
   diffuse->pixels = model.appearance(s.delta);
   for (float& v : diffuse->pixels) v = std::clamp(v, 0.f, 1.f);

@@ -69,9 +69,25 @@ RegisteredSubjects read_registered_subjects(const std::string& folder, const Mor
 // A map resampled to size² (area average for whole factors, else bilinear; a 1x1 constant is repeated).
 Image resample_map(const Image& map, int size);
 
-// The 3DMM subject number `index` of a run seeded `seed`: α, δ ~ N(0, 1) truncated at ±kSubjectTruncation.
+// Skin tone by the individual typology angle, ITA° = atan2(L* − 50, b*) of a colour in CIELAB (D65), in six groups:
+// very light (> 55°), light (41–55), intermediate (28–41), tan (10–28), brown (−30–10), dark (< −30).
+constexpr int kSkinToneGroups = 6;
+double typology_angle(const Eigen::Vector3f& linear_rgb);
+int skin_tone_group(double ita_degrees);  // 0 (very light) … 5 (dark)
+const char* skin_tone_group_name(int group);
+
+// How 3DMM subjects' skin tones are drawn: as the model's population (δ ~ N(0, 1)), or the six ITA groups in turn
+// (subject `index` gets group index mod 6; δ is drawn until its mean albedo falls there), so that a world holds as
+// many dark as light skins whatever the scans the model was built from.
+enum class SkinTones { Model, Balanced };
+SkinTones parse_skin_tones(const std::string& name);  // "model" | "balanced"; InvalidInput naming --skin-tones
+
+// The 3DMM subject number `index` of a run seeded `seed`: α, δ ~ N(0, 1) truncated at ±kSubjectTruncation, δ drawn
+// again until the skin tone is the one `tones` asks for (InvalidInput when the model's appearance within the
+// truncation reaches no skin of that group).
 constexpr double kSubjectTruncation = 2.0;
-FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index);
+FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index,
+                          SkinTones tones = SkinTones::Model);
 
 // The SH light and the specular key light of one sample.
 struct Light {

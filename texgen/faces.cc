@@ -31,6 +31,7 @@ void FacesOptions::check() const {
   if (model.empty()) throw InvalidInput("--model", "is required", "give the model.safetensors mm-build wrote");
   if (count <= 0) throw InvalidInput("--count", "must be at least 1 (got " + std::to_string(count) + ")", "e.g. --count 1000");
   if (mm_subjects < 0) throw InvalidInput("--mm-subjects", "must not be negative", "e.g. --mm-subjects 90");
+  parse_skin_tones(skin_tones);
   if (!(val >= 0) || !(test >= 0)) throw InvalidInput("--val/--test", "must not be negative", "a count or a fraction");
   if (shard_size <= 0) throw InvalidInput("--shard-size", "must be positive", "e.g. --shard-size 100");
   if (shards < 1 || shard < 0 || shard >= shards)
@@ -55,7 +56,7 @@ void FacesOptions::check() const {
 nlohmann::json FacesOptions::to_json() const {
   return {{"registered", registered},   {"model", model},
           {"count", count},             {"seed", seed},
-          {"mm_subjects", mm_subjects}, {"val", val},
+          {"mm_subjects", mm_subjects}, {"skin_tones", skin_tones}, {"val", val},
           {"test", test},               {"shard_size", shard_size},
           {"align", align},             {"yaw_max", ranges.yaw_max},
           {"pitch_max", ranges.pitch_max}, {"roll_max", ranges.roll_max},
@@ -206,7 +207,8 @@ struct FaceGenerator::World {
   std::shared_ptr<const FaceSubject> subject(int s) const {
     const int n_scans = int(registered.subjects.size());
     if (s < n_scans) return std::shared_ptr<const FaceSubject>(&registered.subjects[size_t(s)], [](const FaceSubject*) {});
-    return std::make_shared<const FaceSubject>(model_subject(model, registered, opt.seed, s - n_scans));
+    return std::make_shared<const FaceSubject>(model_subject(model, registered, opt.seed, s - n_scans,
+                                                                    parse_skin_tones(opt.skin_tones)));
   }
 
   // The lit picture: background, face, occluders (linear).

@@ -237,5 +237,45 @@ TEST(Faces, BadInputIsRefusedBeforeAnyOutput) {
   EXPECT_FALSE(fs::exists(o.output));
 }
 
+// ITA° of a linear RGB colour, written out here (sRGB primaries, D65) as the skin-tone bench computes it.
+double ita_of(const Eigen::Vector3d& rgb) {
+  const Eigen::Vector3d xyz = (Eigen::Matrix3d() << 0.4124, 0.3576, 0.1805, 0.2126, 0.7152, 0.0722, 0.0193, 0.1192,
+                               0.9505).finished() * rgb;
+  const auto f = [](double t) { return t > 0.008856 ? std::cbrt(t) : 7.787 * t + 16.0 / 116; };
+  const double fy = f(xyz.y()), fz = f(xyz.z() / 1.089);
+  return std::atan2(116 * fy - 16 - 50, 200 * (fy - fz)) * 180 / M_PI;
+}
+
+// --skin-tones balanced: subject i's mean albedo (the model's appearance at its δ, unclamped) lies in ITA group i mod
+// 6, very light (> 55°) to dark (< −30°); a model whose appearance reaches no dark skin is refused in one line.
+TEST(Faces, BalancedSkinTonesGiveEachSubjectItsGroup) {
+  MorphableModel wide = read_model(tiny_model());
+  wide.appearance_stddev = Eigen::Vector2f(19, 6);  // about ±0.4 in red at ±2σ: dark to very light skin
+  const RegisteredSubjects none;
+  const double floors[5] = {55, 41, 28, 10, -30};
+  for (int i = 0; i < 12; ++i) {
+    const FaceSubject s = model_subject(wide, none, 3, i, SkinTones::Balanced);
+    const std::vector<float> a = wide.appearance(s.delta);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (size_t t = 0; t < a.size(); t += 3) mean += Eigen::Vector3d(a[t], a[t + 1], a[t + 2]);
+    const double ita = ita_of(mean / double(a.size() / 3));
+    int group = 0;
+    while (group < 5 && ita < floors[group]) ++group;
+    EXPECT_EQ(group, i % 6) << "subject " << i << ": ITA " << ita;
+  }
+  EXPECT_EQ(model_subject(wide, none, 3, 5).delta.size(), 2);  // the model's draw is still there
+  const MorphableModel narrow = read_model(tiny_model());
+  try {
+    model_subject(narrow, none, 3, 5, SkinTones::Balanced);
+    ADD_FAILURE() << "a model without dark skin was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("reaches no dark skin"), std::string::npos) << e.what();
+  }
+  FacesOptions o = tiny_options(testing::temp_dir() + "/tones");
+  o.skin_tones = "even";
+  EXPECT_THROW(FaceGenerator{o}, InvalidInput);
+  EXPECT_FALSE(fs::exists(o.output));
+}
+
 }  // namespace
 }  // namespace bareskin::texgen
