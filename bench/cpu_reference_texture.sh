@@ -46,15 +46,7 @@ done
 ref=${CPU_REFERENCE:-}
 if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
   find="$here/../scripts/demo/14_texture_find.py"
-  if [ ! -f "$out/faces/.complete" ]; then
-    subjects=$($py "$find" --subjects "$data/test")
-    rm -rf "$out/faces" "$out/test_registered" && mkdir -p "$out/test_registered"
-    for s in $subjects; do ln -s "$(cd "$out/registered/$s" && pwd)" "$out/test_registered/$s"; done
-    n=$(echo $subjects | wc -w)
-    cpu faces "$bareskin" -q --threads 2 texgen faces --registered "$out/test_registered" --model "$model" \
-      --mm-subjects 1 --count $((8 * n + 8)) --val 0 --test "$n" --seed 14 --align truth -o "$out/faces"
-    touch "$out/faces/.complete"
-  fi
+  subject_faces test 8 14 "$out/faces" test
   split_test=$($py "$find" --split-of "$out/faces" "scan/$(ls "$out/test_registered" | head -1)")
   for g in G_seed0 G_before; do
     [ -d "$ref/$g" ] && [ ! -f "$out/table1_$g/table.md" ] || continue
@@ -69,19 +61,8 @@ fi
 # subjects, each photo through that G and the F of Table 1, unwrapped with its face mask and paired with the true
 # maps; then Table 1 again with that net (table1_<G>_run).
 if [ -n "$ref" ] && [ -d "$ref/G_seed0" ]; then
-  for split in train val; do
-    [ "$split" = train ] && per=${RUN_FACES_PER_SUBJECT:-20} || per=10
-    if [ ! -f "$out/faces_$split/.complete" ]; then
-      subjects=$($py "$find" --subjects "$data/$split")
-      rm -rf "$out/faces_$split" "$out/${split}_registered" && mkdir -p "$out/${split}_registered"
-      for s in $subjects; do ln -s "$(cd "$out/registered/$s" && pwd)" "$out/${split}_registered/$s"; done
-      n=$(echo $subjects | wc -w)
-      cpu "faces_$split" "$bareskin" -q --threads 2 texgen faces --registered "$out/${split}_registered" \
-        --model "$model" --mm-subjects 1 --count $((per * n + per)) --val 0 --test 0 --seed 15 --align truth \
-        -o "$out/faces_$split"
-      touch "$out/faces_$split/.complete"
-    fi
-  done
+  subject_faces train "${RUN_FACES_PER_SUBJECT:-20}" 15 "$out/faces_train"
+  subject_faces val 10 15 "$out/faces_val"
   for g in G_seed0 G_before; do
     [ -d "$ref/$g" ] || continue
     for split in train val; do

@@ -12,18 +12,13 @@ here=$(cd "$(dirname "$0")" && pwd)
 py=/usr/bin/python3
 model="$demo/model/model.safetensors"
 name=texture_run_more
-for f in "$model" "$ref/G_seed0" "$ref/F" "$out/run_data_G_seed0/val/manifest.json" "$out/train_registered"; do
+for f in "$model" "$ref/G_seed0" "$ref/F" "$out/run_data_G_seed0/val/manifest.json" "$out/data/train"; do
   [ -e "$f" ] || { echo "$name: $f is missing; run bench/cpu_reference.sh (with its texture step) first" >&2; exit 3; }
 done
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE} BARESKIN_TEMPLATE=${BARESKIN_TEMPLATE:-$demo/template}
-source "$here/texture_world.sh"  # cpu, train
+source "$here/texture_world.sh"  # cpu, train, subject_faces
 
-n=$(ls "$out/train_registered" | wc -l)
-if [ ! -f "$out/faces_train$per/.complete" ]; then
-  cpu "faces_train$per" "$bareskin" -q --threads 2 texgen faces --registered "$out/train_registered" --model "$model" \
-    --mm-subjects 1 --count $((per * n + per)) --val 0 --test 0 --seed 25 --align truth -o "$out/faces_train$per"
-  touch "$out/faces_train$per/.complete"
-fi
+subject_faces train "$per" 25 "$out/faces_train$per"
 [ -f "$out/run_data$per/train/manifest.json" ] || cpu "run_data$per" "$bareskin" -q --threads 2 texgen run-dataset \
   --faces "$out/faces_train$per/train" --textures "$out/data/train" --model "$model" --bareskin "$ref/G_seed0" \
   --teacher "$ref/F" --input-res 256 -o "$out/run_data$per/train"

@@ -1,4 +1,5 @@
-# Sourced by the texture benches (bench/cpu_reference_texture.sh, bench/texture_4k.sh): the helpers they share. Needs
+# Sourced by the texture benches (bench/cpu_reference_texture.sh, bench/texture_4k.sh, bench/texture_run_more.sh):
+# the helpers they share. Needs
 # $bareskin, $demo, $model, $out, $py, $here and $name (the script's name for its messages) set by the caller.
 
 cpu() {  # cpu NAME command...: runs it, appends NAME, its CPU seconds (user, system) and wall seconds to $out/cpu.txt
@@ -39,4 +40,23 @@ train() {  # train RUN command...: one training, resumed when its checkpoint exi
   echo "$name: $(basename "$run")" >&2
   cpu "$(basename "$run")" "$bareskin" -q --threads 2 "$@" -o "$run" "${resume[@]}"
   touch "$run/.complete"
+}
+
+# subject_faces SPLIT PER SEED DEST [test]: `texgen faces` photos (makeup, light, pose, occluders) of the texture
+# world's SPLIT subjects ($out/data/SPLIT), PER of each and PER of the one 3DMM identity texgen faces needs beside
+# them, all in DEST/train, or the subjects' in DEST/test with "test". Their folders are linked under
+# $out/SPLIT_registered. Skipped when DEST is complete.
+subject_faces() {
+  local split=$1 per=$2 seed=$3 dest=$4 held=${5:-train}
+  [ -f "$dest/.complete" ] && return 0
+  local subjects n test=0
+  subjects=$($py "$here/../scripts/demo/14_texture_find.py" --subjects "$out/data/$split")
+  rm -rf "$dest" "$out/${split}_registered" && mkdir -p "$out/${split}_registered"
+  for s in $subjects; do ln -s "$(cd "$out/registered/$s" && pwd)" "$out/${split}_registered/$s"; done
+  n=$(echo $subjects | wc -w)
+  [ "$held" = test ] && test=$n
+  cpu "$(basename "$dest")" "$bareskin" -q --threads 2 texgen faces --registered "$out/${split}_registered" \
+    --model "$model" --mm-subjects 1 --count $((per * n + per)) --val 0 --test "$test" --seed "$seed" --align truth \
+    -o "$dest"
+  touch "$dest/.complete"
 }
