@@ -1,41 +1,67 @@
 #!/usr/bin/env bash
-# The paper's Fig. 7 ablation as a table at demo size: one two-stage `train bareskin` run per row (b..g) on the same
-# face shards, teacher F and sizes, each scored by its own held-out evaluation (<run>/eval.json: the test split,
-# subjects and makeup styles never trained on), plus row (g) again with another seed: the run-to-run noise that a
-# difference between rows must exceed. Usage:
-#   bash bench/bareskinnet_ablation.sh <bin> <faces/> <teacher run> <model.safetensors> <out/> [size] [steps1] [steps2] \
-#     [target] [ema]
-# target: G's supervision, before (the paper's, the default) or bare (ours: the albedo truth on the face region);
-# ema: --ema-g's decay (0, the default: off).
-# Prints a Markdown table (PSNR/SSIM vs bare and vs before on skin) with the unchanged input as the baseline row.
-# G is ours (input + Δ, starting as the identity; docs/training.md) at learning rate 2e-4.
+# The paper's Fig. 7 ablation at the CPU profile (`train bareskin --profile cpu --ablation b..g`), several seeds per row,
+# all on the same face shards and teacher F, each run scored by its own held-out evaluation (<run>/eval.json: the
+# test split, subjects and makeup styles never trained on). Rows (b) and (c) are stage 1 alone; (d)-(g) add stage 2,
+# which each row starts from a copy of the same seed's (c) stage 1 (stage 1 is the same training in rows c-g, so the
+# rows of one seed differ only in what the paper's step changes). Usage:
+#   bash bench/bareskinnet_ablation.sh <bin> <faces/> <teacher F run> <model.safetensors> <out/> [size=64] \
+#     [steps1=600] [steps2=200] [seeds=0,1,2]
+# Prints a Markdown table: per row the mean over seeds of the PSNR on skin against the bare truth, of F's unlit albedo
+# of G's output (what stage 2 is for) and of the PSNR against the before-makeup photo, with 95% intervals over seeds
+# (Student's t), and each row's step from the row above as the mean of the paired per-seed differences with its
+# interval: a step holds outside seed noise when its interval excludes 0. Finished runs are skipped, so a killed
+# bench resumes.
 set -euo pipefail
 bin=$1 faces=$2 teacher=$3 model=$4 out=$5
-size=${6:-64} steps1=${7:-120} steps2=${8:-40} target=${9:-before} ema=${10:-0}
+size=${6:-64} steps1=${7:-600} steps2=${8:-200} seeds=${9:-0,1,2}
 mkdir -p "$out"
-for run in b c d e f g g_seed1; do
-  [ -f "$out/$run/eval.json" ] && continue
-  row=${run%%_*} seed=0
-  [ "$run" = g_seed1 ] && seed=1
-  echo "ablation $run: ${size}², $steps1 + $steps2 steps, seed $seed, target $target, ema $ema" >&2
-  nice "$bin/bareskin" -q --threads 2 train bareskin --data "$faces" -o "$out/$run" --resume --size "$size" \
-    --g-options '{"ngf": 16}' --d-options '{"ndf": 16}' --student-options '{"width": 16}' --ablation "$row" \
-    --steps1 "$steps1" --steps2 "$steps2" --teacher "$teacher" --model "$model" --lr-g 2e-4 --lr-d 2e-4 --seed "$seed" \
-    --target "$target" --ema-g "$ema" \
-    --log-every 20 --checkpoint-every "$steps1" --eval-every 0 --sample-every 0 --eval-samples 50
+for seed in ${seeds//,/ }; do
+  for row in b c d e f g; do
+    run="$out/${row}_seed$seed"
+    [ -f "$run/eval.json" ] && continue
+    if [ "$row" != b ] && [ "$row" != c ] && [ ! -d "$run/stage1" ]; then
+      mkdir -p "$run" && cp -r "$out/c_seed$seed/stage1" "$run/stage1"
+    fi
+    echo "ablation ($row), seed $seed: ${size}², $steps1 + $steps2 steps" >&2
+    nice "$bin/bareskin" -q --threads 2 train bareskin --profile cpu --data "$faces" -o "$run" --resume --size "$size" \
+      --ablation "$row" --steps1 "$steps1" --steps2 "$steps2" --teacher "$teacher" --model "$model" --seed "$seed" \
+      --log-every 50 --checkpoint-every 100 --eval-every 0 --sample-every 0
+  done
 done
-/usr/bin/python3 - "$out" <<'PY'
-import json, os, sys
-out = sys.argv[1]
-names = {"b": "L1 + GAN", "c": "+ LPIPS", "d": "+ frozen F", "e": "+ fine-tuned F", "f": "+ E, no L_light", "g": "full",
-         "g_seed1": "full, seed 1 (noise)"}
-print("| row | losses | PSNR vs bare | SSIM vs bare | PSNR vs before | SSIM vs before |")
-print("|---|---|---|---|---|---|")
-for run in ["b", "c", "d", "e", "f", "g", "g_seed1"]:
-    m = json.load(open(os.path.join(out, run, "eval.json")))["mean"]
-    if run == "b":
-        print(f"| — | the input unchanged | {m['psnr_input_bare']:.2f} dB | {m['ssim_input_bare']:.3f} | "
-              f"{m['psnr_input_before']:.2f} dB | {m['ssim_input_before']:.3f} |")
-    print(f"| ({run[0]}) | {names[run]} | {m['psnr_bare']:.2f} dB | {m['ssim_bare']:.3f} | {m['psnr_before']:.2f} dB | "
-          f"{m['ssim_before']:.3f} |")
+/usr/bin/python3 - "$out" "$seeds" <<'PY'
+import json, math, os, sys
+out, seeds = sys.argv[1], sys.argv[2].split(",")
+T95 = {1: 12.71, 2: 4.30, 3: 3.18, 4: 2.78, 5: 2.57, 6: 2.45, 7: 2.36, 8: 2.31, 9: 2.26}
+names = {"b": "L1 + GAN", "c": "+ LPIPS", "d": "+ frozen F (stage 2)", "e": "+ fine-tuned F", "f": "+ E, no L_light",
+         "g": "full"}
+keys = [("psnr_bare", "PSNR vs bare"), ("psnr_albedo_bare", "F's unlit albedo vs bare"), ("psnr_before", "PSNR vs before")]
+of_input = {"psnr_bare": "psnr_input_bare", "psnr_albedo_bare": "psnr_albedo_input_bare",
+            "psnr_before": "psnr_input_before"}
+m = {(r, s): json.load(open(os.path.join(out, f"{r}_seed{s}", "eval.json")))["mean"] for r in names for s in seeds}
+def ci(values):
+    n = len(values)
+    mean = sum(values) / n
+    if n < 2:
+        return mean, float("nan")
+    sd = math.sqrt(sum((v - mean) ** 2 for v in values) / (n - 1))
+    return mean, T95.get(n - 1, 1.96) * sd / math.sqrt(n)
+print(f"| row | losses | " + " | ".join(f"{t} (dB)" for _, t in keys) + " | step from the row above: " + keys[0][1] +
+      " / " + keys[1][1] + " |")
+print("|---|---|" + "---|" * len(keys) + "---|")
+base = [m[("b", s)] for s in seeds]
+print("| — | the input unchanged | " + " | ".join("%.2f ± %.2f" % ci([b[of_input[k]] for b in base]) for k, _ in keys) +
+      " | — |")
+rows = list(names)
+for i, r in enumerate(rows):
+    cells = ["%.2f ± %.2f" % ci([m[(r, s)][k] for s in seeds]) for k, _ in keys]
+    step = "—"
+    if i > 0:
+        parts = []
+        for k in (keys[0][0], keys[1][0]):
+            d, h = ci([m[(r, s)][k] - m[(rows[i - 1], s)][k] for s in seeds])
+            parts.append(("%+.2f ± %.2f" % (d, h)) + (" **holds**" if abs(d) > h else ""))
+        step = " / ".join(parts)
+    print(f"| ({r}) | {names[r]} | " + " | ".join(cells) + f" | {step} |")
+print(f"\n{len(seeds)} seeds ({', '.join(seeds)}); ± is the 95% interval over seeds (Student's t); a step holds when the "
+      "interval of its paired per-seed differences excludes 0.")
 PY

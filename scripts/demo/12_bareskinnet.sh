@@ -48,7 +48,7 @@ if [ ! -f "$run/eval.json" ]; then
 fi
 if [ "${DEMO_BSN_ABLATION:-0}" = 1 ] && [ -n "$teacher" ] && [ ! -f "$dir/ablation.md" ]; then
   timed "bsn ablation" bash "$(dirname "$0")/../../bench/bareskinnet_ablation.sh" "$bin" "$faces" "$teacher" "$model" \
-    "$dir/ablation" 64 120 40 > "$dir/ablation.md.tmp"
+    "$dir/ablation" 64 120 40 0,1 > "$dir/ablation.md.tmp"
   mv "$dir/ablation.md.tmp" "$dir/ablation.md"
 fi
 photo=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
@@ -149,16 +149,16 @@ if os.path.exists(os.path.join(a, "coefficients.json")):
 abl = os.path.join(d, "ablation.md")
 if os.path.exists(abl):
     rows = [l.strip().strip("|").split("|") for l in open(abl) if l.startswith("|") and not l.startswith("|---")]
-    print(f"<p>The paper's Fig. 7 ablation at demo size (<code>bench/bareskinnet_ablation.sh</code>, {size}², ngf "
-          f"{ngf}, one run per row; the last row repeats (g) with another seed: differences smaller than the two (g) "
-          "rows' are noise):</p><table>")
+    print(f"<p>The paper's Fig. 7 ablation with the profile's nets (<code>bench/bareskinnet_ablation.sh</code>, "
+          f"{size}², 120 + 40 steps, two seeds per row; ± is the 95% interval over the seeds, and a row's step "
+          "holds when the interval of its paired differences excludes 0):</p><table>")
     for i, r in enumerate(rows):
         tag = "th" if i == 0 else "td"
         print("<tr>" + "".join(f"<{tag}>{c.strip()}</{tag}>" for c in r) + "</tr>")
     print("</table>")
 else:
-    print("<p>The ablation of the paper's Fig. 7 (<code>--ablation b…g</code>, seven runs) does not fit this section's "
-          "budget: <code>DEMO_BSN_ABLATION=1</code> runs it here (about 7 × 60 s); bench/BENCHMARKS.md, "
-          "\"BareSkinNet\", has the measured table.</p>")
+    print("<p>The ablation of the paper's Fig. 7 (<code>--ablation b…g</code>, six rows × two seeds) does not fit this "
+          "section's budget: <code>DEMO_BSN_ABLATION=1</code> runs it here; bench/BENCHMARKS.md, \"BareSkinNet\", "
+          "has the measured table (three seeds).</p>")
 PY
 echo "demo §12: wrote $out/sections/12_bareskinnet.html" >&2
