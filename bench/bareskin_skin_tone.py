@@ -14,6 +14,7 @@ reports the PSNR and RMSE of G's output on the skin against the bare truth, with
 bench/bareskin_skin_tone.sh runs both around `bareskin demakeup`.
 """
 import argparse
+import json
 import os
 import sys
 
