@@ -12,8 +12,8 @@ here=$(dirname "$0")
 [ -f "$model" ] || { echo "bareskin_skin_tone: $model is missing (mm-build's model, e.g. out/demo/model/model.safetensors)" >&2; exit 3; }
 mkdir -p "$out"
 if [ ! -f "$out/faces/test/manifest.json" ]; then
-  "$bin/bareskin" -q --threads 2 texgen faces --model "$model" --mm-subjects $((subjects + 1)) --skin-tones balanced --val 0 \
-    --test "$subjects" --count $(((subjects + 1) * 10)) --seed 99 --align truth -o "$out/faces"
+  "$bin/bareskin" -q --threads 2 texgen faces --model "$model" --mm-subjects $((subjects + 1)) --skin-tones balanced \
+    --val 0 --test "$subjects" --count $(((subjects + 1) * 10)) --seed 99 --align truth -o "$out/faces"
 fi
 [ -d "$out/photos" ] || { $py "$here/bareskin_skin_tone.py" extract "$out/faces" "$out/photos.tmp" && mv "$out/photos.tmp" "$out/photos"; }
 "$bin/bareskin" -q --threads 2 demakeup "$out/photos" --aligned --run "$run" -o "$out/demakeup" --uv-size 64 --keep-going

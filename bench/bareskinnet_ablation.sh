@@ -34,7 +34,8 @@ out, seeds = sys.argv[1], sys.argv[2].split(",")
 T95 = {1: 12.71, 2: 4.30, 3: 3.18, 4: 2.78, 5: 2.57, 6: 2.45, 7: 2.36, 8: 2.31, 9: 2.26}
 names = {"b": "L1 + GAN", "c": "+ LPIPS", "d": "+ frozen F (stage 2)", "e": "+ fine-tuned F", "f": "+ E, no L_light",
          "g": "full"}
-keys = [("psnr_bare", "PSNR vs bare"), ("psnr_albedo_bare", "F's unlit albedo vs bare"), ("psnr_before", "PSNR vs before")]
+keys = [("psnr_bare", "PSNR vs bare"), ("psnr_albedo_bare", "F's unlit albedo vs bare"),
+        ("psnr_before", "PSNR vs before")]
 of_input = {"psnr_bare": "psnr_input_bare", "psnr_albedo_bare": "psnr_albedo_input_bare",
             "psnr_before": "psnr_input_before"}
 m = {(r, s): json.load(open(os.path.join(out, f"{r}_seed{s}", "eval.json")))["mean"] for r in names for s in seeds}

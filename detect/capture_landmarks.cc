@@ -180,8 +180,9 @@ nlohmann::json capture_landmarks(const FaceApi& net, const Mesh& mesh, Multiview
   m.pictures.clear();
   spdlog::info("landmarks scan: {}: COLMAP registered {} of {} photos, {} points ({} on the head), reprojection "
                "{:.2f} px; aligned to the scan (scale {:.4g}, ICP RMS {:.2f} mm over the best 80%, landmarks {:.2f} mm "
-               "from the virtual views', cameras' NME {:.3f})", capture, model.images.size(), photos, model.points.rows(), a.on_head,
-               model.reprojection_px, a.S.s, a.icp_rms_mm, a.landmark_gap_mm, a.camera_nme);
+               "from the virtual views', cameras' NME {:.3f})",
+               capture, model.images.size(), photos, model.points.rows(), a.on_head, model.reprojection_px, a.S.s,
+               a.icp_rms_mm, a.landmark_gap_mm, a.camera_nme);
   return {{"photos", photos}, {"registered", model.images.size()}, {"points", model.points.rows()},
           {"points_on_head", a.on_head}, {"cameras_dropped", a.dropped.size()},
           {"reprojection_px", model.reprojection_px}, {"scale", a.S.s}, {"icp_rms_mm", a.icp_rms_mm},

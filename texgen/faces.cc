@@ -207,8 +207,8 @@ struct FaceGenerator::World {
   std::shared_ptr<const FaceSubject> subject(int s) const {
     const int n_scans = int(registered.subjects.size());
     if (s < n_scans) return std::shared_ptr<const FaceSubject>(&registered.subjects[size_t(s)], [](const FaceSubject*) {});
-    return std::make_shared<const FaceSubject>(model_subject(model, registered, opt.seed, s - n_scans,
-                                                                    parse_skin_tones(opt.skin_tones)));
+    return std::make_shared<const FaceSubject>(
+        model_subject(model, registered, opt.seed, s - n_scans, parse_skin_tones(opt.skin_tones)));
   }
 
   // The lit picture: background, face, occluders (linear).
