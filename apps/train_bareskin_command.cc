@@ -56,6 +56,9 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
       ->check(CLI::IsMember({"before", "bare"}))->capture_default_str();
   app->add_option("--ablation", o->run.ablation, "A row of the paper's Fig. 7: b (L1+GAN), c (+LPIPS), d (+frozen F), "
                   "e (+fine-tuned F), f (+E without L_light), g (full)")->check(CLI::IsMember({"b", "c", "d", "e", "f", "g"}));
+  app->add_option("--recon", o->run.task.recon, "What reconstructs G's output in stage 2: E (the student, the paper) "
+                  "or F (the frozen teacher itself, gradients through it)")
+      ->check(CLI::IsMember({"E", "F"}))->capture_default_str();
   app->add_option("--head", o->run.task.head, "How G's image comes from its U-Net: residual (input + Δ), affine (input · "
                   "gain + offset per pixel) or image (the paper); residual and affine start as the identity")
       ->check(CLI::IsMember({"residual", "affine", "image"}))->capture_default_str();
