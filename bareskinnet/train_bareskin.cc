@@ -47,10 +47,11 @@ void train_bareskin(TrainBareskinOptions o) {
   Options task = o.task;
   task.g = o.g;
   task.d = o.d;
-  if (!o.ablation.empty()) ablation_preset(o.ablation, task);
   nlohmann::json check = task;
   for (auto& [key, value] : o.weights.items()) check[key] = value;
   from_json(check, task);  // validates size, target, ...
+  // The row of the ablation last: what it leaves out stays out whatever weights a profile or --loss-weights give.
+  if (!o.ablation.empty()) ablation_preset(o.ablation, task);
   if (task.lpips_trunk == "facenet") task.face_api = detect::default_face_api_folder();
   if (!o.ablation.empty() && !ablation_has_stage2(o.ablation)) o.steps2 = 0;
   if (o.steps2 > 0 && !o.evaluate) {

@@ -29,6 +29,13 @@ t = json.load(open('$work/bsnw/stage1/config.json'))['task']
 assert t['w2'] == 0.5 and t['w_diff'] == 250 and t['w1'] == 100, t" || fail "--loss-weights not in the configuration"
 expect_failure 3 "not a loss weight" "$work/bsnw2" -- "$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnw2" \
   "${small[@]}" --loss-weights '{"lr": 1}'
+# An ablation row keeps out what it leaves out, whatever weights are given beside it (row b, as in small: no LPIPS).
+"$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnb" "${small[@]}" --loss-weights '{"w3": 40}' \
+  || fail "an ablation run with --loss-weights failed"
+"$py" -c "
+import json
+t = json.load(open('$work/bsnb/stage1/config.json'))['task']
+assert t['w3'] == 0, t" || fail "--loss-weights undid the ablation row (row b with LPIPS)"
 # An unknown profile: one line naming the profiles, nothing written (train recon's too).
 expect_failure 3 "use one of paper, cpu" "$work/bsnw2" -- "$bin" train bareskin --profile gpu --data "$work/faces" \
   -o "$work/bsnw2"
