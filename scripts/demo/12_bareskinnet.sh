@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Demo §12: BareSkinNet — `bareskin train bareskin` (stage 1: G + PatchGAN + LPIPS; stage 2: G and the student E with
-# the frozen teacher F through the 3DMM render) on the demo's face samples (§10) with the demo's F (§11), its
+# Demo §12: BareSkinNet — `bareskin train bareskin` (stage 1: G + PatchGAN + LPIPS; stage 2: G through the 3DMM render
+# of the frozen teacher F's fit) on the demo's face samples (§10) with the demo's F (§11), its
 # held-out evaluation (test split: unseen subjects and makeup styles), and `bareskin demakeup` on skimage's astronaut.
 # Usage: bash scripts/demo/12_bareskinnet.sh <bin> <out>. Stages whose outputs exist are skipped.
 source "$(dirname "$0")/lib.sh"
@@ -8,9 +8,9 @@ dir="$out/bareskinnet"
 mkdir -p "$dir"
 # Sizes (2 cores, ≈ 3 min for both stages, the evaluation and the photo): `--profile cpu` (docs/training.md,
 # "Profiles": G a U-Net of width 16 with the affine head at 128², the 256² samples area-resized; PatchGAN ndf 16 with 2
-# layers; student E a ResNet-18 of width 16; batch 8; LPIPS on face-api's recognition net; G and D at pix2pix's 2e-4;
-# the bare albedo as G's target; the moving average of G's weights for evaluation and inference), shortened to STEPS1
-# + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
+# layers; stage 2 through F itself at L_diff and L_light 20; batch 8; LPIPS on face-api's recognition net; G and D at
+# pix2pix's 2e-4; the bare albedo as G's target; the moving average of G's weights for evaluation and inference),
+# shortened to STEPS1 + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
 STEPS1=${DEMO_BSN_STEPS1:-300}
 STEPS2=${DEMO_BSN_STEPS2:-60}
 faces=${DEMO_BSN_FACES:-$out/faces}
@@ -63,6 +63,13 @@ from skimage import io as skio
 d, out, steps1, steps2, teacher = sys.argv[1], sys.argv[2], *map(int, sys.argv[3:5]), sys.argv[5]
 task = json.load(open(os.path.join(d, "run", "stage1", "config.json")))["task"]
 size, ngf, lr, target, ema = task["size"], task["g"].get("ngf", 64), task["lr_g"], task["target"], task["ema"]
+t2 = os.path.join(d, "run", "stage2", "config.json")
+t2 = json.load(open(t2))["task"] if os.path.exists(t2) else task
+through = ("the student E, a ResNet-18 of width 16, taught by F" if t2["recon"] == "E" else
+           "F itself, gradients through it (<code>--recon F</code>; the paper trains a student E)")
+stage2 = (("+ %g·L<sub>coeff</sub> + " % t2["w_coeff"] if t2["recon"] == "E" else "+ ") +
+          f"{t2['w_land']:g}·L<sub>land</sub> + {t2['w_diff']:g}·L<sub>diff</sub> + {t2['w_light']:g}·L<sub>light</sub> "
+          f"+ {t2['w_reg']:g}·L<sub>reg</sub> through the 3DMM render of {through}; teacher F: {teacher}")
 img = os.path.join(out, "img")
 run = os.path.join(d, "run")
 ev = json.load(open(os.path.join(run, "eval.json")))
@@ -70,8 +77,7 @@ print("<h2>12. BareSkinNet: de-makeup and de-lighting</h2>")
 print(f"<p><code>bareskin train bareskin --profile cpu</code>: G (pix2pix U-Net, {task['head']} head) at {size}² with "
       f"ngf {ngf}, PatchGAN ndf {task['d'].get('ndf', 64)}, batch 8, stage 1 (L<sub>DD</sub> = 100·L1 + GAN + 40·LPIPS, "
       f"{task['lpips_trunk']} trunk) for {steps1} steps (the profile: 1500), "
-      f"then stage 2 (+ 0.1·L<sub>coeff</sub> + 0.08·L<sub>land</sub> + 100·L<sub>diff</sub> + 100·L<sub>light</sub> "
-      f"+ 1e-3·L<sub>reg</sub> through the 3DMM render, student E a ResNet-18 of width 16, teacher F: {teacher}) for "
+      f"then stage 2 ({stage2}) for "
       f"{steps2} steps (the profile: 300), G and D at learning rate {lr} (pix2pix's; the paper's 2e-5 suits its 40k "
       "steps). G outputs its input times a gain plus an offset per pixel, both starting at the identity (ours, not the "
       "paper's: step 0 is the unchanged input, so the table below shows what training adds). " +
