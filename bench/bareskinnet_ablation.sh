@@ -28,10 +28,11 @@ for seed in ${seeds//,/ }; do
       --log-every 50 --checkpoint-every 100 --eval-every 0 --sample-every 0
   done
 done
-/usr/bin/python3 - "$out" "$seeds" <<'PY'
-import json, math, os, sys
+/usr/bin/python3 - "$out" "$seeds" "$(dirname "$0")" <<'PY'
+import json, os, sys
 out, seeds = sys.argv[1], sys.argv[2].split(",")
-T95 = {1: 12.71, 2: 4.30, 3: 3.18, 4: 2.78, 5: 2.57, 6: 2.45, 7: 2.36, 8: 2.31, 9: 2.26}
+sys.path.insert(0, sys.argv[3])
+from table1_intervals import interval  # mean over groups ± Student's t
 names = {"b": "L1 + GAN", "c": "+ LPIPS", "d": "+ frozen F (stage 2)", "e": "+ fine-tuned F", "f": "+ E, no L_light",
          "g": "full"}
 keys = [("psnr_bare", "PSNR vs bare"), ("psnr_albedo_bare", "F's unlit albedo vs bare"),
@@ -39,13 +40,9 @@ keys = [("psnr_bare", "PSNR vs bare"), ("psnr_albedo_bare", "F's unlit albedo vs
 of_input = {"psnr_bare": "psnr_input_bare", "psnr_albedo_bare": "psnr_albedo_input_bare",
             "psnr_before": "psnr_input_before"}
 m = {(r, s): json.load(open(os.path.join(out, f"{r}_seed{s}", "eval.json")))["mean"] for r in names for s in seeds}
-def ci(values):
-    n = len(values)
-    mean = sum(values) / n
-    if n < 2:
-        return mean, float("nan")
-    sd = math.sqrt(sum((v - mean) ** 2 for v in values) / (n - 1))
-    return mean, T95.get(n - 1, 1.96) * sd / math.sqrt(n)
+def ci(values):  # one value per seed: the seeds are the groups
+    mean, half, _ = interval({s: [v] for s, v in zip(seeds, values)})
+    return mean, half
 print(f"| row | losses | " + " | ".join(f"{t} (dB)" for _, t in keys) + " | step from the row above: " + keys[0][1] +
       " / " + keys[1][1] + " |")
 print("|---|---|" + "---|" * len(keys) + "---|")

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <functional>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <spdlog/spdlog.h>
@@ -59,18 +60,12 @@ constexpr double kMaxCameraNme = 0.08;
 double camera_nme(const std::vector<LandmarkView>& views, const Similarity& S, const Eigen::MatrixX3d& on_scan,
                   double min_score) {
   std::vector<double> per_photo;
+  const Eigen::Matrix<double, 68, 3> points = on_scan;
   for (const LandmarkView& v : views) {
     const double eyes = (v.px.row(36) - v.px.row(45)).norm();
     if (v.score < min_score || !(eyes > 0)) continue;
-    const Camera cam = transform_camera(v.camera, S);
-    std::vector<double> d;
-    for (Eigen::Index i = 17; i < 68; ++i) {
-      const Eigen::Vector3d X = on_scan.row(i).transpose();
-      if (!X.allFinite() || !v.px.row(i).allFinite()) continue;
-      const Eigen::Vector3d q = cam.project(X);
-      if (q.z() > 0) d.push_back((q.head<2>() - v.px.row(i).transpose()).norm());
-    }
-    if (!d.empty()) per_photo.push_back(median(d) / eyes);
+    const double px = median_landmark_reprojection_px(v, transform_camera(v.camera, S), points);
+    if (!std::isnan(px)) per_photo.push_back(px / eyes);
   }
   return per_photo.empty() ? std::numeric_limits<double>::infinity() : median(per_photo);
 }

@@ -345,24 +345,31 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
   return result;
 }
 
+double median_landmark_reprojection_px(const LandmarkView& view, const Camera& camera,
+                                       const Eigen::Matrix<double, 68, 3>& points) {
+  std::vector<double> d;
+  for (int i = 17; i < 68; ++i) {
+    const Eigen::Vector3d X = points.row(i).transpose();
+    if (!X.allFinite() || !view.px.row(i).allFinite()) continue;
+    const Eigen::Vector3d q = camera.project(X);
+    if (q.z() <= 0) continue;
+    d.push_back((q.head<2>() - view.px.row(i).transpose()).norm());
+  }
+  if (d.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
 std::vector<int> inconsistent_views(const std::vector<LandmarkView>& views, const Eigen::Matrix<double, 68, 3>& points,
                                     double min_score, double factor, double floor_px) {
   std::vector<int> used;
   std::vector<double> medians;
   for (size_t v = 0; v < views.size(); ++v) {
     if (views[v].score < min_score) continue;
-    std::vector<double> d;
-    for (int i = 17; i < 68; ++i) {
-      const Eigen::Vector3d X = points.row(i).transpose();
-      if (!X.allFinite() || !views[v].px.row(i).allFinite()) continue;
-      const Eigen::Vector3d q = views[v].camera.project(X);
-      if (q.z() <= 0) continue;
-      d.push_back((q.head<2>() - views[v].px.row(i).transpose()).norm());
-    }
-    if (d.empty()) continue;
-    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    const double median = median_landmark_reprojection_px(views[v], views[v].camera, points);
+    if (std::isnan(median)) continue;
     used.push_back(int(v));
-    medians.push_back(d[d.size() / 2]);
+    medians.push_back(median);
   }
   std::vector<int> out;
   if (medians.size() < 3) return out;  // two views always agree with their own triangulation

@@ -80,6 +80,11 @@ MultiviewLandmarks triangulate_landmarks(const Mesh& scan, const std::vector<Lan
 Eigen::Matrix<double, 68, 3> triangulate_free(const std::vector<LandmarkView>& views, double pixel_sigma = 2,
                                               double min_score = 0.1);
 
+// The median over landmarks 17–67 of the distance (px) between `view`'s detections and the projection of `points`
+// through `camera` (landmarks not finite, or behind the camera, left out); NaN when none is left.
+double median_landmark_reprojection_px(const LandmarkView& view, const Camera& camera,
+                                       const Eigen::Matrix<double, 68, 3>& points);
+
 // Views whose camera disagrees with the others: per view (detected, score ≥ min_score), the median over landmarks
 // 17–67 of the distance between its detected pixel and the projection of `points` (triangulated from all views); a
 // view is inconsistent when that median exceeds max(factor × the median of the views' medians, floor_px). A camera
