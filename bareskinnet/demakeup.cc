@@ -160,7 +160,8 @@ torch::Tensor region_psnr(const torch::Tensor& a, const torch::Tensor& b, const 
 // The metrics beyond the skin mask, against the bare truth, for G's output and the input (the do-nothing baseline):
 //  - face_*: the whole face region (face.png), lips, eyes and brows included;
 //  - makeup_*: where the makeup changed the face (mean |makeup − before| over the channels > 0.02), the region the
-//    skin mask leaves out; NaN for faces without makeup;
+//    skin mask leaves out; NaN for faces without makeup; against the bare truth and against the before image (the
+//    makeup's own error: what the paper's G, trained towards the before image, removes);
 //  - albedo_*: the albedo F fits to G's output (to the input for the baseline), rendered unlit, on the face region
 //    F's render covers: what stage 2 trains G for (only when the run names its teacher F and model).
 template <class Take>
@@ -174,6 +175,7 @@ void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Bat
     m["psnr_face_" + name + "bare"] = masked_psnr(x, bare, face);
     m["ssim_face_" + name + "bare"] = masked_ssim(x, bare, face);
     m["psnr_makeup_" + name + "bare"] = region_psnr(x, bare, changed);
+    m["psnr_makeup_" + name + "before"] = region_psnr(x, take("before"), changed);
   }
   if (!d.F.module || !d.model) return;
   // F and the render at the shards' size (256²), as demakeup runs them.

@@ -57,11 +57,12 @@ void train_bareskin(TrainBareskinOptions o) {
   if (o.steps2 > 0 && !o.evaluate) {
     if (o.teacher.empty())
       throw InvalidInput("--teacher", "is needed by stage 2", "give a 'bareskin train recon' run, or --steps2 0");
-    check_teacher(o.teacher);
     if (o.model.empty())
       throw InvalidInput("--model", "is needed by stage 2", "give the model.safetensors the teacher was trained with");
-    if (!fs::exists(o.model)) throw IoError(o.model, "does not exist", "give the morphable model file");
   }
+  // A teacher or model given only for the evaluation's albedo metrics is checked before stage 1 spends its time too.
+  if (!o.teacher.empty()) check_teacher(o.teacher);
+  if (!o.model.empty() && !fs::exists(o.model)) throw IoError(o.model, "does not exist", "give the morphable model file");
   RunOptions ro;
   ro.task = task;
   ro.train_data = data_splits.train;

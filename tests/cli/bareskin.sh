@@ -19,6 +19,28 @@ for k in ("psnr_bare", "ssim_bare", "psnr_before", "psnr_input_bare"):
     assert k in j["mean"] and j["mean"][k] == j["mean"][k], k  # present and not NaN
 assert j["ms_per_image"] > 0
 PY
+# The do-nothing baseline where the makeup is (mean |makeup - before| > 0.02 on face.png), against the bare truth and
+# the before image, recomputed here from the test shard's PNGs: the mean over the images of each one's PSNR.
+"$py" - "$work/bsn/eval.json" "$work/faces/test" <<'PY' || fail "eval.json's makeup-region figures"
+import glob, io, json, sys, tarfile
+import numpy as np, skimage.io
+m = json.load(open(sys.argv[1]))["mean"]
+samples = {}
+for shard in sorted(glob.glob(sys.argv[2] + "/*.tar")):
+    with tarfile.open(shard) as tar:
+        for member in tar.getmembers():
+            key, part = member.name.split(".", 1)
+            if part.endswith("png"):
+                samples.setdefault(key, {})[part] = skimage.io.imread(io.BytesIO(tar.extractfile(member).read())) / 255.0
+for truth in ("bare", "before"):
+    psnr = []
+    for s in samples.values():
+        region = (np.abs(s["makeup.png"] - s["before.png"]).mean(-1) > 0.02) & (s["face.png"] >= 0.5)
+        psnr.append(10 * np.log10(1 / ((s["makeup.png"] - s[truth + ".png"])[region] ** 2).mean()))
+    ours = m["psnr_makeup_input_" + truth]
+    print(f"makeup region, input vs {truth}: eval.json {ours:.4f} dB, numpy {np.mean(psnr):.4f} dB")
+    assert abs(ours - np.mean(psnr)) < 0.01 and m["psnr_makeup_" + truth] == m["psnr_makeup_" + truth], truth
+PY
 # --loss-weights reaches the run's configuration (it once iterated a destroyed temporary and crashed); a key that is
 # not a loss weight is refused.
 "$bin" train bareskin --data "$work/faces" --steps1 1 -o "$work/bsnw" "${small[@]}" --loss-weights '{"w2": 0.5, "w_diff": 250}' \
@@ -48,6 +70,9 @@ expect_failure 3 "already holds a run" "" -- "$bin" train bareskin --data "$work
 expect_failure 3 "not of the teacher F" "$work/bsn3" -- "$bin" train bareskin --data "$work/faces" --steps1 1 --steps2 1 \
   --teacher "$work/bsn/stage1" --model "$work/none.safetensors" -o "$work/bsn3" --size 32 -q
 expect_failure 3 "--teacher" "$work/bsn3" -- "$bin" train bareskin --data "$work/faces" --steps1 1 --steps2 1 -o "$work/bsn3" -q
+# Also a teacher given only for eval.json's albedo metrics (stage 1 alone).
+expect_failure 3 "not of the teacher F" "$work/bsn3" -- "$bin" train bareskin --data "$work/faces" --steps1 1 --steps2 0 \
+  --teacher "$work/bsn/stage1" -o "$work/bsn3" --size 32 -q
 # Corrupt shards: one line, nothing written.
 mkdir -p "$work/bad/train"
 cp "$work/faces/train/manifest.json" "$work/bad/train/"
