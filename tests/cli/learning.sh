@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Learning, not mechanics: small networks trained on the train split of a tiny `texgen faces` world and scored on its
 # held-out test subjects (identities none of the training samples show) against the do-nothing baseline.
-# - F (`train recon`, `recon --eval`): its shape error per face is below the mean face's;
-# - G (`train bareskin`, stage 1 against the bare truth, eval.json): it beats the unchanged input by >= 1 dB PSNR on
-#   the skin.
-# A broken loss or a detached gradient leaves a net at its start (F: the mean face; G: the identity), which fails here.
+# - F (`train recon`, `recon --eval`): its shape error per face is at most 0.95x the mean face's (0.90x here);
+# - G (`train bareskin`, stage 1 against the bare truth, eval.json): it beats the unchanged input by >= 2.5 dB PSNR on
+#   the skin (+3.2 dB here).
+# The bars sit between a healthy run and a broken one, each tried once by breaking the code on purpose: F's identity
+# term detached from its prediction leaves F at the mean face (1.000x, where a bar of "below the mean face" still
+# passed by 0.0001 mm); G's L1 detached from its output still gains +2.3 dB through the GAN and LPIPS terms.
 # Sizes are the smallest that learn within the time of a CI test on 2 cores.
 source "$(dirname "$0")/lib.sh" "$@"
 tiny_face_world
@@ -22,8 +24,10 @@ tiny_face_world
 "$py" - "$work/Feval/metrics.json" <<'PY' || fail "F did not learn: $(cat "$work/Feval/metrics.json")"
 import json, sys
 s = json.load(open(sys.argv[1]))["shape_mm"]
-print(f"F: shape error {s['median_per_face']:.3f} mm per face, the mean face {s['mean_face_median_per_face']:.3f} mm")
-assert s["median_per_face"] < s["mean_face_median_per_face"], s
+ratio = s["median_per_face"] / s["mean_face_median_per_face"]
+print(f"F: shape error {s['median_per_face']:.4f} mm per face, the mean face {s['mean_face_median_per_face']:.4f} mm "
+      f"({ratio:.3f}x)")
+assert ratio <= 0.95, s
 PY
 
 # G: stage 1 of the CPU profile (the bare target, a U-Net of width 16 with the affine head at 128², starting as the
@@ -42,5 +46,5 @@ import json, sys
 m = json.load(open(sys.argv[1]))["mean"]
 gain = m["psnr_bare"] - m["psnr_input_bare"]
 print(f"G: {m['psnr_bare']:.2f} dB against the bare truth, the input {m['psnr_input_bare']:.2f} dB (+{gain:.2f} dB)")
-assert gain >= 1.0, m
+assert gain >= 2.5, m
 PY
