@@ -41,7 +41,7 @@ void Options::check() const {
                        "use e.g. 0.5 (decay over the second half of each stage), or 1 for a constant rate");
   for (auto [key, w] : {std::pair<const char*, double>{"w1", o.w1}, {"w2", o.w2}, {"w3", o.w3}, {"w_coeff", o.w_coeff},
                         {"w_land", o.w_land}, {"w_diff", o.w_diff}, {"w_light", o.w_light}, {"w_reg", o.w_reg},
-                        {"w_level", o.w_level}})
+                        {"w_level", o.w_level}, {"w_makeup", o.w_makeup}})
     if (!(w >= 0 && std::isfinite(w)))
       throw InvalidInput(std::string("loss weight ") + key, "is negative or not finite", "give a weight ≥ 0");
   losses::parse_gan_kind(o.gan, "gan");
@@ -78,6 +78,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   // Written only when set, so that the configurations of runs made before the options existed still match on resume.
   v.unless_default("lr_decay", o.lr_decay);
   v.unless_default("w_level", o.w_level);
+  v.unless_default("w_makeup", o.w_makeup);
   // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
   v.unwritten("face_api", o.face_api);
 };
@@ -163,6 +164,10 @@ torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout) {
 torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
   auto m = mask.expand_as(a);
   return (((a - b) * m).sum({2, 3}) / m.sum({2, 3}).clamp_min(1)).abs().mean();
+}
+
+torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face) {
+  return ((makeup - before).abs().mean(1, true) > 0.02).to(makeup.dtype()) * (face >= 0.5).to(makeup.dtype());
 }
 
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
@@ -342,6 +347,9 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   for (auto& p : nets_->D->parameters()) p.set_requires_grad(true);
   if (options_.w3 > 0) l["lpips"] = options_.w3 * nets_->lpips->forward(out, target).mean();
   if (options_.w_level > 0) l["level"] = options_.w_level * level_loss(out, target, member(batch, "face"));
+  if (options_.w_makeup > 0)
+    l["makeup"] = options_.w_makeup * losses::masked_l1(out, target, makeup_region(makeup, member(batch, "before"),
+                                                                                   member(batch, "face")));
   if (options_.stage == 1) return l;
 
   auto before = member(batch, "before");
@@ -480,7 +488,7 @@ ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& optio
 std::vector<std::string> required_members(const Options& o) {
   std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
   if (o.target != "before") r.push_back("before.png");
-  if (o.stage == 2 || o.target == "bare" || o.w_level > 0) r.push_back("face.png");
+  if (o.stage == 2 || o.target == "bare" || o.w_level > 0 || o.w_makeup > 0) r.push_back("face.png");
   return r;
 }
 

@@ -89,6 +89,9 @@ torch::Tensor srgb_to_linear(const torch::Tensor& x);
 
 // Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
 // SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
+// Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
+// [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
+torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
 torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
 

@@ -269,7 +269,8 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
                                          {"beta1", 0.9},
                                          {"ema", 0.99},
                                          {"lr_decay", 0.5},
-                                         {"w_level", 1.0}});
+                                         {"w_level", 1.0},
+                                         {"w_makeup", 50.0}});
   // face_api is read (a folder of this machine) but never written into a run's configuration.
   const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
   EXPECT_EQ(with_folder.face_api, "/tmp/face-api");
@@ -405,6 +406,20 @@ TEST(BareSkinNet, DiffAndLightLossesMatchAHandComputedCase) {
   EXPECT_NEAR(light_loss(lit, before, mask).item<double>(), expected_light, 1e-12);
   // An empty region gives 0, not NaN.
   EXPECT_EQ(light_loss(lit, before, torch::zeros_like(mask)).item<double>(), 0.0);
+}
+
+TEST(BareSkinNet, MakeupRegionIsWhereTheMakeupChangedTheFace) {
+  // Four pixels: mean |makeup − before| over the channels 0.03 (changed), 0.01 (not), 0.5 off the face, 0.021 where
+  // one channel alone moved by 0.063 (changed: the mean, not the largest channel, is compared with 0.02).
+  auto before = torch::full({1, 3, 2, 2}, 0.5, torch::kDouble);
+  auto makeup = before.clone();
+  makeup.select(3, 0).select(2, 0) += 0.03;        // pixel (0, 0), every channel
+  makeup.select(3, 1).select(2, 0) -= 0.01;        // pixel (0, 1)
+  makeup.select(3, 0).select(2, 1) += 0.5;         // pixel (1, 0), off the face
+  makeup.select(3, 1).select(2, 1)[0][0] += 0.063;  // pixel (1, 1), the red channel alone
+  auto face = torch::tensor({1.0, 1.0, 0.0, 0.6}, torch::kDouble).view({1, 1, 2, 2});
+  auto region = makeup_region(makeup, before, face);
+  EXPECT_TRUE(torch::equal(region, torch::tensor({1.0, 0.0, 0.0, 1.0}, torch::kDouble).view({1, 1, 2, 2}))) << region;
 }
 
 TEST(BareSkinNet, SkinMetricsAndRegularisation) {

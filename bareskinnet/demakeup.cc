@@ -170,7 +170,7 @@ void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Bat
   if (!batch.tensors.count("face")) return;
   auto bare = take("bare");
   auto face = (take("face") >= 0.5).to(makeup.dtype());
-  auto changed = ((makeup - take("before")).abs().mean(1, true) > 0.02).to(makeup.dtype()) * face;
+  auto changed = makeup_region(makeup, take("before"), face);
   for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
     m["psnr_face_" + name + "bare"] = masked_psnr(x, bare, face);
     m["ssim_face_" + name + "bare"] = masked_ssim(x, bare, face);

@@ -46,6 +46,11 @@ struct Options {
   // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
   // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.
   double w_level = 0;
+  // Ours, not the paper's: weight of L_makeup, the L1 distance between G's output and its target over the region the
+  // makeup changed (mean |makeup − before| over the channels > 0.02, on face.png: the evaluation's makeup region),
+  // normalised by that region's area; 0: off. The whole-image L1 gives the lips, eyes and cheeks only their share of
+  // the pixels.
+  double w_makeup = 0;
   void check() const;  // InvalidInput for a bad value (names the key)
 };
 

@@ -28,10 +28,11 @@ void TrainBareskinOptions::check() const {
                         Flag{"--loss-weights", &weights}})
     if (!f.second->is_object()) throw InvalidInput(f.first, "is not a JSON object", "give e.g. '{}'");
   for (auto& [key, value] : weights.items()) {
-    static const std::set<std::string> kWeights{"w1", "w2", "w3", "w_coeff", "w_land", "w_diff", "w_light", "w_reg", "w_level"};
+    static const std::set<std::string> kWeights{"w1",     "w2",    "w3",      "w_coeff", "w_land",
+                                                "w_diff", "w_light", "w_reg", "w_level", "w_makeup"};
     if (!kWeights.count(key) || !value.is_number())
       throw InvalidInput("--loss-weights", "'" + key + "' is not a loss weight with a number",
-                         "use the keys w1, w2, w3, w_coeff, w_land, w_diff, w_light, w_reg, w_level");
+                         "use the keys w1, w2, w3, w_coeff, w_land, w_diff, w_light, w_reg, w_level, w_makeup");
   }
   if (steps1 < 1) throw InvalidInput("--steps1", "must be at least 1", "e.g. --steps1 1500");
   if (steps2 < 0) throw InvalidInput("--steps2", "must not be negative", "0 runs stage 1 only");
