@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <random>
 
 #include "core/error.h"
 #include "core/json_options.h"
@@ -44,6 +45,9 @@ void Options::check() const {
                         {"w_level", o.w_level}, {"w_makeup", o.w_makeup}})
     if (!(w >= 0 && std::isfinite(w)))
       throw InvalidInput(std::string("loss weight ") + key, "is negative or not finite", "give a weight ≥ 0");
+  if (!(o.makeup_hue >= 0 && o.makeup_hue <= 1))
+    throw InvalidInput("makeup_hue " + std::to_string(o.makeup_hue), "is not a probability in [0, 1]",
+                       "use e.g. 0.5, or 0 for the world's own makeup colours");
   losses::parse_gan_kind(o.gan, "gan");
 }
 
@@ -79,6 +83,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   v.unless_default("lr_decay", o.lr_decay);
   v.unless_default("w_level", o.w_level);
   v.unless_default("w_makeup", o.w_makeup);
+  v.unless_default("makeup_hue", o.makeup_hue);
   // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
   v.unwritten("face_api", o.face_api);
 };
@@ -164,6 +169,21 @@ torch::Tensor reg_loss(const torch::Tensor& coeff, const CoeffLayout& layout) {
 torch::Tensor level_loss(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
   auto m = mask.expand_as(a);
   return (((a - b) * m).sum({2, 3}) / m.sum({2, 3}).clamp_min(1)).abs().mean();
+}
+
+void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability) {
+  auto makeup = example.tensors.find("makeup"), before = example.tensors.find("before");
+  if (makeup == example.tensors.end() || before == example.tensors.end()) return;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  if (unit(rng) >= probability) return;
+  const double theta = 2 * M_PI * unit(rng), c = std::cos(theta), s = std::sin(theta), k = 1 / std::sqrt(3.0);
+  // Rodrigues: R = c·I + s·[k]× + (1 − c)·k kᵀ, k = (1, 1, 1)/√3.
+  const double a = c + (1 - c) / 3, b = (1 - c) / 3 - s * k, d = (1 - c) / 3 + s * k;
+  const auto R = torch::tensor({a, b, d, d, a, b, b, d, a}, torch::kDouble).view({3, 3}).to(makeup->second.dtype());
+  const auto& x = before->second;
+  const auto change = (makeup->second - x).reshape({3, -1});
+  makeup->second = (x + torch::mm(R, change).view_as(x)).clamp(0, 1);
 }
 
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face) {
@@ -520,6 +540,8 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   lo.batch_size = ro.batch;
   lo.seed = ro.seed;
   lo.decode_threads = ro.decode_threads;
+  if (const double p = task.options().makeup_hue; p > 0)
+    lo.transform = [p](data::Example& e, uint64_t seed) { rotate_makeup_hue(e, seed, p); };
   data::ShardLoader train_loader(dist::this_rank(lo));
   if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made
     train_loader.next();
@@ -530,6 +552,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
     data::LoaderOptions vo = lo;
     vo.dataset = ro.val_data;
     vo.shuffle_buffer = 0;
+    vo.transform = nullptr;  // validated on the world's own makeup
     val = std::make_unique<data::ShardLoader>(vo);
   }
   train::TrainerOptions to = ro.trainer;

@@ -24,6 +24,7 @@
 #include "recon/face_model.h"
 #include "training/losses.h"
 #include "training/nets/unet.h"
+#include "training/data.h"
 #include "training/trainer.h"
 
 namespace bareskin::bsn {
@@ -89,6 +90,11 @@ torch::Tensor srgb_to_linear(const torch::Tensor& x);
 
 // Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
 // SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
+// The makeup of a training example (members makeup and before, [3, H, W] sRGB in [0, 1]) in another hue: with
+// probability `probability`, makeup ← clamp(before + R(θ)·(makeup − before), 0, 1), R(θ) the rotation about the grey
+// axis by θ uniform in [0, 2π), all drawn from `seed`. Pixels the makeup left alone stay as they are; the change's
+// length and its grey part are kept. Without a before member the example is left alone.
+void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability);
 // Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
 // [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);

@@ -270,7 +270,8 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
                                          {"ema", 0.99},
                                          {"lr_decay", 0.5},
                                          {"w_level", 1.0},
-                                         {"w_makeup", 50.0}});
+                                         {"w_makeup", 50.0},
+                                         {"makeup_hue", 0.5}});
   // face_api is read (a folder of this machine) but never written into a run's configuration.
   const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
   EXPECT_EQ(with_folder.face_api, "/tmp/face-api");
@@ -422,6 +423,56 @@ TEST(BareSkinNet, MakeupRegionIsWhereTheMakeupChangedTheFace) {
   EXPECT_TRUE(torch::equal(region, torch::tensor({1.0, 0.0, 0.0, 1.0}, torch::kDouble).view({1, 1, 2, 2}))) << region;
 }
 
+TEST(BareSkinNet, MakeupHueTurnsTheMakeupsChangeAboutTheGreyAxis) {
+  data::Example e;
+  e.tensors["before"] = torch::full({3, 1, 4}, 0.5);
+  // Pixel 0 untouched, pixel 1 a red change, pixel 2 a grey change (darker), pixel 3 a change that leaves [0, 1].
+  e.tensors["makeup"] = torch::tensor({0.5f, 0.8f, 0.3f, 1.0f,   // R
+                                       0.5f, 0.5f, 0.3f, 0.1f,   // G
+                                       0.5f, 0.5f, 0.3f, 0.1f})  // B
+                            .view({3, 1, 4});
+  const auto original = e.tensors["makeup"].clone();
+  // Find seeds that turn and that do not, at probability 0.5; the same seed turns the same way.
+  int turned = 0, kept = 0;
+  for (uint64_t seed = 0; seed < 40; ++seed) {
+    data::Example t = e;
+    t.tensors["makeup"] = original.clone();
+    rotate_makeup_hue(t, seed, 0.5);
+    const auto& m = t.tensors["makeup"];
+    if (torch::equal(m, original)) {
+      ++kept;
+      continue;
+    }
+    ++turned;
+    const auto change = (m - 0.5).select(1, 0);  // [3, 4]
+    EXPECT_NEAR(change.select(1, 0).abs().max().item<double>(), 0.0, 1e-6);  // untouched stays
+    // The red change (0.3, 0, 0) keeps its length and its grey part (0.1 per channel).
+    EXPECT_NEAR(change.select(1, 1).norm().item<double>(), 0.3, 1e-5);
+    EXPECT_NEAR(change.select(1, 1).mean().item<double>(), 0.1, 1e-6);
+    // A grey change has no hue to turn.
+    EXPECT_TRUE(torch::allclose(change.select(1, 2), torch::full({3}, -0.2f), 0, 1e-6));
+    EXPECT_GE(m.min().item<float>(), 0.0f);
+    EXPECT_LE(m.max().item<float>(), 1.0f);
+    data::Example again = e;
+    again.tensors["makeup"] = original.clone();
+    rotate_makeup_hue(again, seed, 0.5);
+    EXPECT_TRUE(torch::equal(again.tensors["makeup"], m));
+  }
+  EXPECT_GT(turned, 10);
+  EXPECT_GT(kept, 10);
+  // At probability 1 every seed turns; at 0 none does; without a before member nothing happens.
+  data::Example always = e;
+  rotate_makeup_hue(always, 3, 1.0);
+  EXPECT_FALSE(torch::equal(always.tensors["makeup"], original));
+  data::Example never = e;
+  rotate_makeup_hue(never, 3, 0.0);
+  EXPECT_TRUE(torch::equal(never.tensors["makeup"], original));
+  data::Example alone;
+  alone.tensors["makeup"] = original.clone();
+  rotate_makeup_hue(alone, 3, 1.0);
+  EXPECT_TRUE(torch::equal(alone.tensors["makeup"], original));
+}
+
 TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   // A constant error of 0.1 on the skin and anything off it: PSNR exactly 20 dB.
   auto a = torch::full({2, 3, 16, 16}, 0.5, torch::kDouble);
@@ -497,6 +548,7 @@ TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
   Options bad;
   EXPECT_THROW(from_json({{"lr_decay", 1.5}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"w_level", -1}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"makeup_hue", 1.5}}, bad), InvalidInput);
 }
 
 TEST(BareSkinNet, UnwarpRecoversTheAlbedoTextureOfARenderedFace) {

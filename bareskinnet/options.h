@@ -51,6 +51,10 @@ struct Options {
   // normalised by that region's area; 0: off. The whole-image L1 gives the lips, eyes and cheeks only their share of
   // the pixels.
   double w_makeup = 0;
+  // Ours, not the paper's: the probability that a training sample's makeup gets a random hue (rotate_makeup_hue);
+  // 0: off. The world's makeup families keep to their palettes; this shows G lipsticks and shadows of every hue, so
+  // that it removes makeup by where it lies and how it covers the skin, not by its colour.
+  double makeup_hue = 0;
   void check() const;  // InvalidInput for a bad value (names the key)
 };
 

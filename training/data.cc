@@ -295,6 +295,9 @@ struct ShardLoader::Pipeline {
       if (options.augment.enabled)
         augment_example(example, options.augment,
                         mix({options.seed, uint64_t(item.epoch), uint64_t(options.rank), uint64_t(item.index), 1}));
+      if (options.transform)
+        options.transform(example,
+                          mix({options.seed, uint64_t(item.epoch), uint64_t(options.rank), uint64_t(item.index), 2}));
       std::lock_guard<std::mutex> lock(mutex);
       done.emplace(item.sequence, Done{item.epoch, item.index, std::move(example)});
       changed.notify_all();

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -63,6 +64,9 @@ struct LoaderOptions {
   int64_t shuffle_buffer = 256;  // 0: the shards' own order (evaluation)
   int decode_threads = 2;
   Augment augment;
+  // A task's own per-example augmentation, applied after `augment` on the decode threads. Its seed is a pure function
+  // of (seed, epoch, rank, the example's index), so a resumed run draws what an uninterrupted one would.
+  std::function<void(Example&, uint64_t seed)> transform;
   void check() const;  // InvalidInput naming the flag (and augment.check())
 };
 
