@@ -29,8 +29,7 @@ std::function<void()> setup_demakeup_command(CLI::App& app, const Globals& globa
   app.add_option("--detector-size", o->detector_size, "Face detector input (multiple of 32)")->capture_default_str();
   add_device_option(app, f.device);
   app.add_flag("--aligned", f.aligned, "The inputs are aligned 256² faces (texgen faces' makeup.png): no detection");
-  app.add_flag("--without-g", f.without_g, "Skip G (the baseline: F's fit and the unwrap of the input itself, through "
-               "G's resize round trip)");
+  app.add_flag("--without-g", f.without_g, "Skip G (the baseline: F's fit and the unwrap of the input itself)");
   app.add_flag("--keep-going", f.keep_going, "With a folder: skip photos that fail and list them at the end");
   app.add_flag("--timing", o->timing, "Print the median wall milliseconds per stage over the photos (read, detect, "
                "align, G, F, render, unwarp, write, total; the first photo of several is the warm-up)");

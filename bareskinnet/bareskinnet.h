@@ -205,7 +205,7 @@ struct Demakeup {
   std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
   std::string head = "image";            // how G's image comes from the U-Net (Options::head of its run)
-  bool skip_g = false;                   // "without BareSkinNet": G's resize round trip without G (the baseline)
+  bool skip_g = false;                   // "without BareSkinNet": the photo as it is (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
   torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex

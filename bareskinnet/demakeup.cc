@@ -127,20 +127,20 @@ Demakeup Demakeup::with_model(const std::string& model_path, torch::Device devic
 
 namespace {
 
-// G's image (generator_forward's) through the inference form when there is one; the result is an ordinary tensor
-// (InferenceMode only inside).
-torch::Tensor generator_image(const Demakeup& d, const torch::Tensor& x) {
+// G's U-Net output for images x in [0, 1] (before the head, as generator_forward), through the inference form when
+// there is one (InferenceMode only inside; what the head computes from it is an ordinary tensor).
+torch::Tensor generator_maps(const Demakeup& d, const torch::Tensor& x) {
   if (!d.G_inference) {
     auto G = std::dynamic_pointer_cast<nets::UNetImpl>(d.G);
     BS_CHECK(G, "Demakeup::G is not a U-Net");
-    return generator_forward(*G, x, d.head);
+    return G->forward(x * 2 - 1);
   }
-  torch::Tensor y;  // as generator_forward
+  torch::Tensor y;
   {
     c10::InferenceMode guard;
     y = d.G_inference->forward(x * 2 - 1);
   }
-  return apply_head(x, y, d.head);
+  return y;
 }
 
 }  // namespace
@@ -280,7 +280,7 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   for (int k = 0; k < 6; ++k) {
     if (eo.device.is_cuda()) torch::cuda::synchronize();
     const auto t0 = std::chrono::steady_clock::now();
-    generator_image(d, x);
+    run_generator(d, x);
     if (eo.device.is_cuda()) torch::cuda::synchronize();
     if (k) times.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
@@ -322,9 +322,14 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
 
 torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   torch::NoGradGuard no_grad;
-  auto x = resized(aligned.to(d.device), d.size, true);
-  if (d.skip_g) return resized(x, aligned.size(-1), false).clamp(0, 1);
-  return resized(generator_image(d, x), aligned.size(-1), false).clamp(0, 1);
+  auto full = aligned.to(d.device);
+  if (d.skip_g) return full.clamp(0, 1);
+  const int64_t S = full.size(-1);
+  auto y = generator_maps(d, resized(full, d.size, true));
+  // The paper's head paints the image at G's size; the residual and affine heads are maps that apply to the photo
+  // at its own size, so the photo keeps the detail finer than G's size.
+  if (d.head == "image") return resized(apply_head(y, y, d.head), S, false).clamp(0, 1);
+  return apply_head(full, resized(y, S, false), d.head).clamp(0, 1);
 }
 
 std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
