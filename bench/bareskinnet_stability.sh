@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Stability of the recovered albedo (the measure): per held-out subject, many makeup × light conditions of the
 # same face; each condition's albedo is recovered in the template UV through F's fit (`bareskin demakeup --aligned`:
-# G → F → unwrap), with BareSkinNet and without it (--without-g: the input itself through the same resize, fit and
+# G → F → unwrap), with BareSkinNet and without it (--without-g: the input itself through the same fit and
 # unwrap), and the bare truth through the same path as the floor. Per texel, the standard deviation over a subject's
 # conditions (sRGB, 0-255, mean of R, G, B) on the texels every condition sees, averaged over the face UV and over the
 # subjects. Goal: ≥ 50% lower with G.
