@@ -325,10 +325,11 @@ torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   auto full = aligned.to(d.device);
   if (d.skip_g) return full.clamp(0, 1);
   const int64_t S = full.size(-1);
-  auto y = generator_maps(d, resized(full, d.size, true));
+  auto x = resized(full, d.size, true);
+  auto y = generator_maps(d, x);
   // The paper's head paints the image at G's size; the residual and affine heads are maps that apply to the photo
   // at its own size, so the photo keeps the detail finer than G's size.
-  if (d.head == "image") return resized(apply_head(y, y, d.head), S, false).clamp(0, 1);
+  if (d.head == "image") return resized(apply_head(x, y, d.head), S, false).clamp(0, 1);
   return apply_head(full, resized(y, S, false), d.head).clamp(0, 1);
 }
 
