@@ -205,6 +205,11 @@ struct Demakeup {
   std::shared_ptr<const nets::UNetInference> G_inference;
   int64_t size = 256;                    // G's training resolution
   std::string head = "image";            // how G's image comes from the U-Net (Options::head of its run)
+  // The residual or affine head's maps applied to the photo at its own size, which keeps the photo's detail finer
+  // than G's size: for a G trained towards the before image (it keeps the photo's light). A G trained towards the
+  // bare albedo must also remove the light's fine detail (highlights, shadow edges), which its maps at its own size
+  // cannot, so its image is upsampled instead (Table 1 (b) 0.5–0.7 dB better; bench/BENCHMARKS.md).
+  bool maps_at_photo_size = false;
   bool skip_g = false;                   // "without BareSkinNet": the photo as it is (the baseline)
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;

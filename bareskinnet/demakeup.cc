@@ -76,6 +76,7 @@ Demakeup load_generator(const std::string& run, torch::Device device) {
   d.device = device;
   d.size = o.size;
   d.head = o.head;
+  d.maps_at_photo_size = o.target == "before" && o.head != "image";
   d.G = nets::find_model("unet256").make(generator_options(o.g, o.size, o.head));
   if (o.ema > 0) {  // the moving average the run kept
     GeneratorEmaImpl average(std::dynamic_pointer_cast<nets::UNetImpl>(d.G));
@@ -327,9 +328,8 @@ torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   const int64_t S = full.size(-1);
   auto x = resized(full, d.size, true);
   auto y = generator_maps(d, x);
-  // The paper's head paints the image at G's size; the residual and affine heads are maps that apply to the photo
-  // at its own size, so the photo keeps the detail finer than G's size.
-  if (d.head == "image") return resized(apply_head(x, y, d.head), S, false).clamp(0, 1);
+  // G's image at its size, upsampled; or its maps upsampled and applied to the photo (Demakeup::maps_at_photo_size).
+  if (!d.maps_at_photo_size) return resized(apply_head(x, y, d.head), S, false).clamp(0, 1);
   return apply_head(full, resized(y, S, false), d.head).clamp(0, 1);
 }
 
