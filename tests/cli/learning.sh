@@ -19,7 +19,7 @@ tiny_face_world
 
 # F: a ResNet-18 of width 8 at 64², supervised by the samples' coefficients.
 "$bin" -q --threads 2 train recon --arch resnet18 --width 8 --image-size 64 --data "$work/faces" --model "$model" -o "$work/F" \
-  --steps ${LEARNING_F_STEPS:-150} --batch 8 --checkpoint-every 1000 --eval-every 0 --sample-every 0 --log-every 50 \
+  --steps ${LEARNING_F_STEPS:-120} --batch 8 --checkpoint-every 1000 --eval-every 0 --sample-every 0 --log-every 50 \
   --supervision truth || fail "train recon"
 "$bin" -q --threads 2 recon --eval "$work/faces/test" --run "$work/F" --model "$model" -o "$work/Feval" \
   || fail "recon --eval"
