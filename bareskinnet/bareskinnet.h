@@ -88,8 +88,6 @@ struct GeneratorEmaImpl : torch::nn::Module {
 // sRGB-encoded [0, 1] → linear light (the IEC 61966-2-1 curve), differentiable.
 torch::Tensor srgb_to_linear(const torch::Tensor& x);
 
-// Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
-// SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
 // The makeup of a training example (members makeup and before, [3, H, W] sRGB in [0, 1]) in another hue: with
 // probability `probability`, makeup ← clamp(before + R(θ)·(makeup − before), 0, 1), R(θ) the rotation about the grey
 // axis by θ uniform in [0, 2π), all drawn from `seed`. Pixels the makeup left alone stay as they are; the change's
@@ -98,6 +96,8 @@ void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability
 // Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
 // [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);
+// Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
+// SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
 torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
 
