@@ -9,11 +9,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 
 #include "core/files.h"
 #include "core/error.h"
 #include "core/memory_limit.h"
+#include "core/png.h"
 
 namespace bareskin {
 namespace {
@@ -100,10 +102,31 @@ class SilencedStderr {
   bool active_;
 };
 
+// A PNG's chunk lengths checked against the file's size before OpenImageIO's libpng allocates them (core/png.h).
+void check_png_file(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char signature[8] = {};
+  if (!file.read(signature, 8) || png_sig_cmp(reinterpret_cast<png_const_bytep>(signature), 0, 8) != 0) return;
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (ec) return;  // OpenImageIO reports what it cannot read
+  check_png_chunks(
+      size,
+      [&](uint64_t at) {
+        PngChunkHeader h{};
+        file.seekg(std::streamoff(at));
+        file.read(reinterpret_cast<char*>(h.data()), std::streamsize(h.size()));
+        if (!file) throw IoError(path, "cannot read the PNG chunk at byte " + std::to_string(at), "check the disk");
+        return h;
+      },
+      path, "the file is truncated or corrupt: export it again");
+}
+
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError(path, "no such file", "check the path");
   if (std::filesystem::is_directory(path, ec)) throw IoError(path, "is a folder, not an image", "give an image file");
+  check_png_file(path);
   auto in = OIIO::ImageInput::open(path);
   if (!in) {
     const std::string why = one_line(OIIO::geterror());
