@@ -19,12 +19,20 @@ room G has. PSNRs are over the face mask at the profile's working size (area-res
 psnr_face_* metrics are, averaged per image; the interval is 95% over held-out subjects.
 
   /usr/bin/python3 bench/bareskin_ceiling.py <faces/> [--size 64] [--train 1500] [--json out.json]
+                                            [--level-oracle <faces split/> <out/>]
+
+--level-oracle writes the ceiling's images for another split (e.g. bench/bareskinnet_stability.sh's subjects): each
+sample's bare truth at full size with the level the predictor (fitted on <faces/>'s train split) reads from its
+makeup photo, as <out>/<subject>/<key>.png, the layout bareskinnet_stability.sh unwraps.
 """
 import argparse
+import io
+import json
 import os
 import sys
 
 import numpy as np
+from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from face_shards import member, split_samples  # noqa: E402
@@ -63,18 +71,39 @@ def interval(values, subjects):
     return float(np.mean(values)), float(1.96 * m.std(ddof=1) / np.sqrt(len(m))) if len(m) > 1 else float("nan")
 
 
+def write_level_oracle(W, split_dir, dst, size):
+    """The ceiling's image of every sample of split_dir: the full-size bare truth at the predicted level."""
+    faces, split = os.path.split(os.path.normpath(split_dir))
+    n = 0
+    for key, t, meta in split_samples(faces, split, "bareskin_ceiling"):
+        mask = member(t, key, "face", size) > 0.5
+        predicted = features(member(t, key, "makeup", size), mask) @ W
+        gain = np.exp(predicted - level(member(t, key, "bare", size), mask))
+        bare = np.asarray(Image.open(io.BytesIO(t.extractfile(f"{key}.bare.png").read())), np.float64) / 255
+        d = os.path.join(dst, meta["subject"].replace("/", "_"))
+        os.makedirs(d, exist_ok=True)
+        Image.fromarray(np.round(np.clip(bare * gain, 0, 1) * 255).astype(np.uint8)).save(os.path.join(d, key + ".png"))
+        n += 1
+    print(f"wrote {n} level-oracle images to {dst}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("faces")
     ap.add_argument("--size", type=int, default=64)
     ap.add_argument("--train", type=int, default=1500, help="train samples for the level predictor")
     ap.add_argument("--json")
+    ap.add_argument("--level-oracle", nargs=2, metavar=("SPLIT", "OUT"),
+                    help="write the ceiling's images of another split (bareskinnet_stability.sh's layout) and stop")
     a = ap.parse_args()
     train = samples(a.faces, "train", a.size, a.train)
-    test = samples(a.faces, "test", a.size, 10**9)
     X = np.array([features(s[0], s[3]) for s in train])
     Y = np.array([level(s[2], s[3]) for s in train])
     W = np.linalg.solve(X.T @ X + 1e-3 * np.eye(X.shape[1]), X.T @ Y)
+    if a.level_oracle:
+        write_level_oracle(W, *a.level_oracle, a.size)
+        return
+    test = samples(a.faces, "test", a.size, 10**9)
     rows = {"input": [], "global gain": [], "no makeup, gain": [], "ceiling": []}
     for photo, before, bare, mask, _, _ in test:
         predicted = features(photo, mask) @ W

@@ -7,13 +7,17 @@
 # subjects. Goal: ≥ 50% lower with G.
 #   bash bench/bareskinnet_stability.sh <bin> <faces split/> <bsn run> <out/> [uv size] [truth]
 # (truth = 1 adds two more passes: the bare truth through the same path, the floor of the fit and unwrap; and the
-# before images (light, no makeup) without G, the spread the light alone causes.)
+# before images (light, no makeup) without G, the spread the light alone causes. A 7th argument, a `texgen faces`
+# world with a train split, adds the level oracle: each bare truth at the level a predictor fitted on that world
+# reads from the makeup photo (bench/bareskin_ceiling.py), through the same path: what a G with every detail right
+# but the light's level only as well guessed as one photo tells would leave.)
 # The faces split holds the subjects (e.g. texgen faces --mm-subjects 4 --test 3 --count 120 --seed 77 with poses
 # fixed: 30 conditions per test subject; a new seed gives identities no run has trained on).
 set -euo pipefail
-bin=$1 split=$2 run=$3 out=$4 uv=${5:-256} truth=${6:-0}
+bin=$1 split=$2 run=$3 out=$4 uv=${5:-256} truth=${6:-0} level_world=${7:-}
 variants=(without with)
 [ "$truth" = 1 ] && variants+=(truth light)
+[ -n "$level_world" ] && variants+=(level)
 py=/usr/bin/python3
 mkdir -p "$out"
 "$py" - "$split" "$out/inputs" <<'PY'
@@ -34,6 +38,10 @@ for shard in sorted(glob.glob(os.path.join(split, "*.tar"))):
                 with open(os.path.join(d, key + ".png"), "wb") as f:
                     f.write(tar.extractfile(members[f"{key}.{kind}.png"]).read())
 PY
+if [ -n "$level_world" ] && [ ! -d "$out/inputs/level" ]; then
+  "$py" "$(dirname "$0")/bareskin_ceiling.py" "$level_world" --level-oracle "$split" "$out/inputs/level.tmp"
+  mv "$out/inputs/level.tmp" "$out/inputs/level"
+fi
 for subject in "$out"/inputs/makeup/*/; do
   s=$(basename "$subject")
   for variant in "${variants[@]}"; do
@@ -44,6 +52,7 @@ for subject in "$out"/inputs/makeup/*/; do
     [ "$variant" = with ] || flags=(--without-g)
     [ "$variant" = truth ] && src="$out/inputs/bare/$s"
     [ "$variant" = light ] && src="$out/inputs/before/$s"
+    [ "$variant" = level ] && src="$out/inputs/level/$s"
     "$bin" -q --threads 2 demakeup "$src" --aligned --run "$run" -o "$dst.tmp" --uv-size "$uv" "${flags[@]}"
     mv "$dst.tmp" "$dst"
   done
@@ -54,7 +63,7 @@ import numpy as np
 from skimage import io
 out = sys.argv[1]
 rows = {}
-for variant in ("without", "with", "truth", "light"):
+for variant in ("without", "with", "truth", "light", "level"):
     if not os.path.isdir(os.path.join(out, variant)):
         continue
     per_subject = {}
@@ -68,17 +77,20 @@ for variant in ("without", "with", "truth", "light"):
         per_subject[os.path.basename(d)] = (float(std[common].mean()), int(common.sum()), len(uvs))
     rows[variant] = per_subject
 subjects = sorted(set(rows["without"]) & set(rows["with"]))
-print("| subject | conditions | texels | std without G | std with G | change | light only (before, without G) | bare truth (floor) |")
-print("|---|---|---|---|---|---|---|---|")
+print("| subject | conditions | texels | std without G | std with G | change | light only (before, without G) | bare truth (floor) | level oracle |")
+print("|---|---|---|---|---|---|---|---|---|")
 for s in subjects:
     a, n, c = rows["without"][s]
     b = rows["with"][s][0]
     t = f"{rows['truth'][s][0]:.2f}" if "truth" in rows else "—"
     li = f"{rows['light'][s][0]:.2f}" if "light" in rows and s in rows["light"] else "—"
-    print(f"| {s} | {c} | {n} | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% | {li} | {t} |")
+    lv = f"{rows['level'][s][0]:.2f} ({100 * (rows['level'][s][0] - a) / a:+.0f}%)" if "level" in rows and s in rows["level"] else "—"
+    print(f"| {s} | {c} | {n} | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% | {li} | {t} | {lv} |")
 a = np.mean([rows["without"][s][0] for s in subjects])
 b = np.mean([rows["with"][s][0] for s in subjects])
 t = f"{np.mean([rows['truth'][s][0] for s in subjects]):.2f}" if "truth" in rows else "—"
 li = f"{np.mean([rows['light'][s][0] for s in subjects]):.2f}" if "light" in rows else "—"
-print(f"| mean | | | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% (goal −50%) | {li} | {t} |")
+lv = np.mean([rows["level"][s][0] for s in subjects]) if "level" in rows else None
+lv = f"{lv:.2f} ({100 * (lv - a) / a:+.0f}%)" if lv is not None else "—"
+print(f"| mean | | | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% (goal −60%) | {li} | {t} | {lv} |")
 PY
