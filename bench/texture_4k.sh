@@ -32,7 +32,7 @@ data="$out/data"
 upscalers=()
 for map in diffuse roughness specular; do
   train "$out/up_$map" train upscale --profile cpu --map "$map" --data "$data/train" --val "$data/val" --model "$model" \
-    --eval-every 200 --sample-every 600 --checkpoint-every 100 --log-every 50
+    --eval-every 600 --sample-every 2400 --checkpoint-every 300 --log-every 100
   upscalers+=("$out/up_$map")
 done
 
