@@ -4,7 +4,7 @@
 # G → F → unwrap), with BareSkinNet and without it (--without-g: the input itself through the same fit and
 # unwrap), and the bare truth through the same path as the floor. Per texel, the standard deviation over a subject's
 # conditions (sRGB, 0-255, mean of R, G, B) on the texels every condition sees, averaged over the face UV and over the
-# subjects. Goal: ≥ 50% lower with G.
+# subjects. Goal: ≥ 60% lower with G.
 #   bash bench/bareskinnet_stability.sh <bin> <faces split/> <bsn run> <out/> [uv size] [truth]
 # (truth = 1 adds two more passes: the bare truth through the same path, the floor of the fit and unwrap; and the
 # before images (light, no makeup) without G, the spread the light alone causes. A 7th argument, a `texgen faces`
@@ -84,7 +84,9 @@ for s in subjects:
     b = rows["with"][s][0]
     t = f"{rows['truth'][s][0]:.2f}" if "truth" in rows else "—"
     li = f"{rows['light'][s][0]:.2f}" if "light" in rows and s in rows["light"] else "—"
-    lv = f"{rows['level'][s][0]:.2f} ({100 * (rows['level'][s][0] - a) / a:+.0f}%)" if "level" in rows and s in rows["level"] else "—"
+    lv = "—"
+    if "level" in rows and s in rows["level"]:
+        lv = f"{rows['level'][s][0]:.2f} ({100 * (rows['level'][s][0] - a) / a:+.0f}%)"
     print(f"| {s} | {c} | {n} | {a:.2f} | {b:.2f} | {100 * (b - a) / a:+.0f}% | {li} | {t} | {lv} |")
 a = np.mean([rows["without"][s][0] for s in subjects])
 b = np.mean([rows["with"][s][0] for s in subjects])
