@@ -68,7 +68,10 @@ def main():
     a = ap.parse_args()
     rows = {}
     for path in a.maps:
-        truth = load(path)
+        try:
+            truth = load(path)
+        except OSError as e:
+            sys.exit(f"sr_ceiling: {path}: cannot read it as an image ({e.strerror or e}); give PNG maps")
         h, w, _ = truth.shape
         if h % a.factor or w % a.factor:
             sys.exit(f"sr_ceiling: {path}: {w}x{h} is not a multiple of {a.factor}; give maps whose side divides")
