@@ -43,15 +43,16 @@ const std::vector<Profile>& texture_profiles() {
 const std::vector<Profile>& upscale_profiles() {
   static const std::vector<Profile> profiles = {
       {"paper", "MSRResNet 64 features, 16 blocks; the GAN phase from a pixel-loss run (--init)", {}},
-      {"cpu", "MSRResNet 16 features, 4 blocks, the pixel-loss phase alone (MSE over the bicubic base), lr 2e-3, "
-              "2400 steps of 2 crops of 128²",
-       // 2400 steps, not 600: the held-out gain over bicubic kept growing with the steps (1K -> 4K at 600 / 2400:
-       // diffuse +0.49 / +2.67 dB, roughness -0.00 / +1.44, specular +0.40 / +0.57; 256² -> 1K diffuse +3.3 / +6.0),
-       // bench/BENCHMARKS.md, "Texture inference".
+      {"cpu", "MSRResNet 16 features, 4 blocks, the pixel-loss phase alone (MSE over the bicubic base), lr 2e-3 "
+              "falling linearly to 0, 2400 steps of 2 crops of 128²",
+       // 2400 steps, not 600, with the rate falling linearly from the first step: held out, 1K -> 4K over bicubic
+       // (diffuse / roughness / specular), 600 constant steps +0.5 / -0.0 / +0.4 dB, 2400 constant +2.7 / +1.4 / +0.6,
+       // 2400 decaying +4.2 / +3.4 / +3.1 (bench/BENCHMARKS.md, "Texture inference").
        {{"--phase", "l1"},
         {"--generator", R"({"num_feat": 16, "num_block": 4})"},
         {"--patch", "128"},
         {"--lr", "2e-3"},
+        {"--lr-decay", "0"},
         {"--batch", "2"},
         {"--steps", "2400"}}},
   };
@@ -137,6 +138,8 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   u->add_option("--lambda-gan", up_model->lambda_gan, "Adversarial weight")->capture_default_str();
   u->add_option("--lambda-perceptual", up_model->lambda_perceptual, "VGG loss weight")->capture_default_str();
   u->add_option("--lr", up_model->lr, "Adam learning rate")->capture_default_str();
+  u->add_option("--lr-decay", up_model->lr_decay, "The rate falls linearly to 0 from this fraction of the steps on (1: "
+                "constant, as SRGAN's first 10^5 steps)")->capture_default_str();
   add_profile_flag(*u, up->profile, upscale_profiles());
   u->footer("Example: bareskin train upscale --profile cpu --map diffuse --data textures/train --val textures/val "
             "-o runs/up_diffuse\n"

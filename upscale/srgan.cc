@@ -29,6 +29,8 @@ void UpscaleOptions::check() const {
                 "use bicubic (ours) or bilinear (BasicSR)");
   nets::require(patch == 128 || patch == 256, what, "patch must be 128 or 256",
                 "the SRGAN discriminator's head takes 128² or 256²");
+  nets::require(lr_decay >= 0 && lr_decay <= 1, what, "lr_decay must be a fraction of the steps in [0, 1]",
+                "use 1 for a constant rate, 0.5 to decay over the second half");
 }
 
 namespace {
@@ -47,6 +49,7 @@ const auto kUpscaleFields = [](auto& v, auto& o) {
   v("lr", o.lr);
   v("beta1", o.beta1);
   v("beta2", o.beta2);
+  v.unless_default("lr_decay", o.lr_decay);
 };
 }  // namespace
 
@@ -235,7 +238,7 @@ data::Batch PatchSource::next() {
   return out;
 }
 
-SrganTask::SrganTask(UpscaleOptions options) : options_(std::move(options)) {
+SrganTask::SrganTask(UpscaleOptions options, int64_t steps) : options_(std::move(options)), steps_(steps) {
   options_.check();
   G_ = make_upscaler(options_);
   if (options_.phase == "gan") {
@@ -255,9 +258,15 @@ std::map<std::string, std::shared_ptr<torch::nn::Module>> SrganTask::modules() {
 }
 
 std::vector<train::OptimizerSpec> SrganTask::optimizers() {
+  train::Schedule schedule;
+  if (options_.lr_decay < 1) {
+    schedule.kind = "linear";
+    schedule.decay_start = std::llround(options_.lr_decay * double(steps_));
+  }
   std::vector<train::OptimizerSpec> out;
-  out.push_back(adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, {}));
-  if (options_.phase == "gan") out.push_back(adam("D", D_->parameters(), options_.lr, options_.beta1, options_.beta2, {}));
+  out.push_back(adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule));
+  if (options_.phase == "gan")
+    out.push_back(adam("D", D_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule));
   return out;
 }
 
@@ -360,7 +369,7 @@ train::TrainResult train_upscale(const TrainRunOptions& run, UpscaleOptions mode
   std::unique_ptr<data::ShardLoader> val;
   if (!run.val.empty()) val = map_loader(run.val, run, false);
   train::seed_everything(run.seed);
-  SrganTask task(model);
+  SrganTask task(model, run.steps);
   if (!run.init.empty() && !run.resume) {
     auto [path, meta] = checkpoint_config(run.init);
     if (meta.value("task", "") != task.name())

@@ -31,6 +31,7 @@ struct UpscaleOptions {
   double lambda_perceptual = 1; // VGG loss (vgg16-random trunk); 0 = off
   double lambda_gan = 1e-3;     // SRGAN's adversarial weight
   double lr = 1e-4, beta1 = 0.9, beta2 = 0.999;
+  double lr_decay = 1;          // the rate falls linearly to 0 from this fraction of the steps on (1: constant)
   void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UpscaleOptions& o);
@@ -82,7 +83,8 @@ torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, cons
 
 class SrganTask : public train::Task {
  public:
-  explicit SrganTask(UpscaleOptions options);
+  // `steps`: the run's length, which places the learning-rate decay (UpscaleOptions::lr_decay).
+  explicit SrganTask(UpscaleOptions options, int64_t steps = 0);
   std::string name() const override { return "srgan-" + options_.map; }
   std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override;
   std::vector<train::OptimizerSpec> optimizers() override;  // "G" (and "D" in the GAN phase)
@@ -93,6 +95,7 @@ class SrganTask : public train::Task {
 
  private:
   UpscaleOptions options_;
+  int64_t steps_;
   nets::MSRResNet G_{nullptr};
   nets::VGGStyleDiscriminator D_{nullptr};
   losses::Vgg16Features vgg_{nullptr};

@@ -65,9 +65,30 @@ TEST(Srgan, OptionsRoundTripAndRefuseUnknownKeys) {
                                                 {"lambda_gan", 0.01},
                                                 {"lr", 2e-4},
                                                 {"beta1", 0.5},
-                                                {"beta2", 0.99}});
+                                                {"beta2", 0.99},
+                                                {"lr_decay", 0.5}});
   EXPECT_THROW(nlohmann::json({{"patch", 64}}).get<UpscaleOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"map", "albedo"}}).get<UpscaleOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"lr_decay", 1.5}}).get<UpscaleOptions>(), InvalidInput);
+  // A constant rate (the default) is not written: the config of a run from before lr_decay existed reads the same.
+  EXPECT_FALSE(nlohmann::json(UpscaleOptions{}).contains("lr_decay"));
+}
+
+TEST(Srgan, LrDecayPlacesTheLinearDecayInTheRun) {
+  UpscaleOptions o;
+  o.phase = "gan";
+  o.lambda_perceptual = 0;
+  o.generator_options = {{"num_feat", 4}, {"num_block", 1}};
+  o.discriminator_options = {{"num_feat", 4}};
+  for (const auto& spec : SrganTask(o, 400).optimizers()) EXPECT_EQ(spec.schedule.kind, "constant");
+  o.lr_decay = 0.25;
+  const auto specs = SrganTask(o, 400).optimizers();
+  ASSERT_EQ(specs.size(), 2u);  // G and D decay alike
+  for (const auto& spec : specs) {
+    EXPECT_EQ(spec.schedule.kind, "linear");
+    EXPECT_EQ(spec.schedule.decay_start, 100);
+    EXPECT_DOUBLE_EQ(spec.schedule.factor(250, 400), 0.5);
+  }
 }
 
 // A data source of fixed maps (sample k: every texel = k + its index / 1e6), one per batch, counting reads.
