@@ -84,7 +84,7 @@ torch::Tensor upscale_x4(nets::MSRResNetImpl& net, const torch::Tensor& lr, cons
 class SrganTask : public train::Task {
  public:
   // `steps`: the run's length, which places the learning-rate decay (UpscaleOptions::lr_decay).
-  explicit SrganTask(UpscaleOptions options, int64_t steps = 0);
+  SrganTask(UpscaleOptions options, int64_t steps);
   std::string name() const override { return "srgan-" + options_.map; }
   std::map<std::string, std::shared_ptr<torch::nn::Module>> modules() override;
   std::vector<train::OptimizerSpec> optimizers() override;  // "G" (and "D" in the GAN phase)

@@ -148,7 +148,7 @@ TEST(Srgan, BeatsBicubicOnBlockMapsAndTheGanPhaseReachesBothNets) {
   UpscaleOptions o;
   o.phase = "l1";
   o.generator_options = {{"num_feat", 16}, {"num_block", 2}};
-  SrganTask task(o);
+  SrganTask task(o, 150);
   auto& G = task.generator();
   torch::optim::Adam adam(G->parameters(), torch::optim::AdamOptions(1e-3));
   for (int step = 0; step < 150; ++step) {
@@ -171,7 +171,7 @@ TEST(Srgan, BeatsBicubicOnBlockMapsAndTheGanPhaseReachesBothNets) {
   // GAN phase: one step of each phase gives every parameter of G and D a gradient.
   UpscaleOptions g = o;
   g.phase = "gan";
-  SrganTask gan(g);
+  SrganTask gan(g, 1);
   {  // from the pre-trained G, as --init does (the untrained G's zero conv_last passes no gradient upstream)
     torch::NoGradGuard no_grad;
     auto trained = G->named_parameters();
