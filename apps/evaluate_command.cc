@@ -23,7 +23,7 @@ std::function<void()> setup_evaluate_command(CLI::App& app, const Globals& globa
   app.add_option("--faces", opt->evaluate.faces, "Held-out faces split (texgen faces: makeup, before, json)")
       ->required();
   app.add_option("--textures", opt->evaluate.textures,
-                 "Texture split of the same subjects: the true maps (column b) and the true 4K diffuse");
+                 "Texture split of the same subjects: the true maps (column b) and the true high-resolution diffuse");
   app.add_option("-o,--output", opt->evaluate.output, "Report folder: table.md, table.csv, per_sample.csv, charts")
       ->required();
   app.add_option("--model", opt->model, "Morphable model (model.safetensors)")->required();

@@ -566,11 +566,14 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     }
     spdlog::info("evaluate: sample {}/{} ({})", n, limit, b.keys[0]);
   }
-  // SRGAN vs bicubic on the true 4K diffuse: the true map box-filtered ×4 down, then up again.
+  // SRGAN vs bicubic on the true high-resolution diffuse (4K in a 4K dataset): the true map box-filtered ×4 down,
+  // then up again.
+  int64_t hr_size = 0;
   for (const auto& [subject, maps] : truth) {
     auto it = maps.find("diffuse_hr");
     if (it == maps.end()) continue;
     auto hr = it->second.slice(2, 0, it->second.size(2) / 4 * 4).slice(3, 0, it->second.size(3) / 4 * 4);
+    hr_size = hr.size(3);
     auto lr = torch::nn::functional::avg_pool2d(hr, torch::nn::functional::AvgPool2dFuncOptions(4));
     bicubic_psnr.push_back(losses::psnr(bicubic_x4(lr, "diffuse"), hr).item<double>());
     auto up = nets.upscalers.find("diffuse");
@@ -649,7 +652,7 @@ nlohmann::json evaluate_table1(const EvaluateOptions& options, const MorphableMo
     md += fmt::format("\n{} of {} true-map figures (column b) improve with BareSkinNet.\n", improved["truth"],
                       total["truth"]);
   if (!bicubic_psnr.empty())
-    md += fmt::format("\n×4 on the true 4K diffuse ({} subjects): SRGAN {:.2f} dB, bicubic {:.2f} dB.\n",
+    md += fmt::format("\n×4 on the true {}² diffuse ({} subjects): SRGAN {:.2f} dB, bicubic {:.2f} dB.\n", hr_size,
                       bicubic_psnr.size(), mean_d(sr_psnr), mean_d(bicubic_psnr));
 
   AtomicDirectory out(options.output);
