@@ -38,13 +38,13 @@ register_truth() {
   "$py" "$lib_dir/../python/truth_registered.py" "$t/face.obj" "$scans" "$out" "$@" || fail "registered from the truth"
 }
 
-# tiny_face_world: the smallest world `texgen faces` draws from, in $work: a 3000-vertex template (t/), three
-# synthetic scans (s/) registered from their truth with their diffuse, roughness and specular maps (r/), and a
-# model built from them ($model = m/model.safetensors).
+# tiny_face_world [SEED]: the smallest world `texgen faces` draws from, in $work: a 3000-vertex template (t/), three
+# synthetic scans (s/, `scan synth --seed SEED`, default 1) registered from their truth with their diffuse, roughness
+# and specular maps (r/), and a model built from them ($model = m/model.safetensors).
 tiny_face_world() {
   "$bin" template -q --vertices 3000 -o "$work/t" || fail "template"
-  "$bin" scan synth -q --template "$work/t" --count 3 --vertices 6000 --res 64 --truth-res 64 -o "$work/s" \
-    || fail "synth"
+  "$bin" scan synth -q --template "$work/t" --count 3 --seed "${1:-1}" --vertices 6000 --res 64 --truth-res 64 \
+    -o "$work/s" || fail "synth"
   register_truth "$work/t" "$work/s" "$work/r" diffuse.png roughness.png specular.png
   model="$work/m/model.safetensors"
   "$bin" mm-build -q --template "$work/t" --appearance-res 32 --registered "$work/r" -o "$model" || fail "mm-build"
