@@ -305,10 +305,7 @@ std::vector<train::OptimizerSpec> BareSkinTask::optimizers() {
   for (auto* s : {&d, &g}) {
     s->beta1 = options_.beta1;
     s->beta2 = options_.beta2;
-    if (options_.lr_decay < 1) {
-      s->schedule.kind = "linear";
-      s->schedule.decay_start = std::llround(options_.lr_decay * double(stage_steps_));
-    }
+    s->schedule = train::Schedule::linear_from(options_.lr_decay, stage_steps_);
   }
   return {d, g};
 }

@@ -21,6 +21,15 @@ double Schedule::factor(int64_t step, int64_t steps) const {
   return 1.0;
 }
 
+Schedule Schedule::linear_from(double fraction, int64_t steps) {
+  Schedule s;
+  if (fraction < 1) {
+    s.kind = "linear";
+    s.decay_start = std::llround(fraction * double(steps));
+  }
+  return s;
+}
+
 void Schedule::check() const {
   if (kind != "constant" && kind != "linear" && kind != "step")
     throw InvalidInput("schedule '" + kind + "'", "is not a schedule", "use constant, linear or step");

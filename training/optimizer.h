@@ -19,6 +19,8 @@ struct Schedule {
   double gamma = 0.2;
   double factor(int64_t step, int64_t steps) const;  // InvalidInput (check()) for an unknown kind
   void check() const;                                // InvalidInput for an unknown kind
+  // The schedule of a `--lr-decay F` flag: constant for F = 1, else linear from F × steps (F, a fraction in [0, 1]).
+  static Schedule linear_from(double fraction, int64_t steps);
 };
 void to_json(nlohmann::json& j, const Schedule& s);
 void from_json(const nlohmann::json& j, Schedule& s);

@@ -337,6 +337,13 @@ TEST(Schedule, Factors) {
   EXPECT_THROW(Schedule{"cosine"}.check(), InvalidInput);
   testing::expect_options_json<Schedule>({{"kind", "step"}, {"decay_start", 5}, {"step_every", 100}, {"gamma", 0.5}});
   EXPECT_THROW(nlohmann::json({{"kind", "cosine"}}).get<Schedule>(), InvalidInput);
+  // --lr-decay's fraction: 1 keeps the rate; 0.25 of 10 steps starts the fall at step 3 (2.5 rounded away from 0).
+  EXPECT_EQ(Schedule::linear_from(1.0, 10).kind, "constant");
+  Schedule quarter = Schedule::linear_from(0.25, 10);
+  EXPECT_EQ(quarter.kind, "linear");
+  EXPECT_EQ(quarter.decay_start, 3);
+  EXPECT_EQ(Schedule::linear_from(0.0, 10).factor(0, 10), 1.0);
+  EXPECT_DOUBLE_EQ(Schedule::linear_from(0.0, 10).factor(5, 10), 0.5);
 }
 
 // ---- two ranks (Gloo on 127.0.0.1) equal one process on the combined batch ----

@@ -258,11 +258,7 @@ std::map<std::string, std::shared_ptr<torch::nn::Module>> SrganTask::modules() {
 }
 
 std::vector<train::OptimizerSpec> SrganTask::optimizers() {
-  train::Schedule schedule;
-  if (options_.lr_decay < 1) {
-    schedule.kind = "linear";
-    schedule.decay_start = std::llround(options_.lr_decay * double(steps_));
-  }
+  const auto schedule = train::Schedule::linear_from(options_.lr_decay, steps_);
   std::vector<train::OptimizerSpec> out;
   out.push_back(adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule));
   if (options_.phase == "gan")
