@@ -41,8 +41,8 @@ std::function<void()> setup_texgen_faces(CLI::App& texgen, const Globals& global
   app->add_option("--mm-subjects", opt->mm_subjects, "3DMM identities (α, δ ~ N(0, 1)) beside the registered ones")
       ->capture_default_str();
   app->add_option("--skin-tones", opt->skin_tones,
-                  "The 3DMM identities' skin tones: model (as the model's population) or balanced (the six ITA "
-                  "groups, very light to dark, in turn)")
+                  "The 3DMM identities' skin tones: model (as the model's population), balanced (the six ITA "
+                  "groups, very light to dark, in turn) or mixed (every other identity each way)")
       ->capture_default_str();
   app->add_option("--val", opt->val, "Validation subjects: a count, or a fraction when < 1")->capture_default_str();
   app->add_option("--test", opt->test, "Test subjects: a count, or a fraction when < 1")->capture_default_str();

@@ -268,7 +268,9 @@ const char* skin_tone_group_name(int group) {
 SkinTones parse_skin_tones(const std::string& name) {
   if (name == "model") return SkinTones::Model;
   if (name == "balanced") return SkinTones::Balanced;
-  throw InvalidInput("--skin-tones", "'" + name + "' is neither model nor balanced", "use --skin-tones model|balanced");
+  if (name == "mixed") return SkinTones::Mixed;
+  throw InvalidInput("--skin-tones", "'" + name + "' is not a way to draw skin tones",
+                     "use --skin-tones model, balanced or mixed");
 }
 
 namespace {
@@ -317,14 +319,15 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
   if (R <= 0) throw InvalidInput("", "the model has no appearance part", "build it from subjects with diffuse maps");
   s.delta.resize(model.appearance_basis.rows());
   for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
-  if (tones == SkinTones::Balanced) {
+  if (tones == SkinTones::Balanced || (tones == SkinTones::Mixed && index % 2 == 1)) {
     const MeanAlbedo albedo(model);
-    const int group = index % kSkinToneGroups;
+    const int group = (tones == SkinTones::Mixed ? index / 2 : index) % kSkinToneGroups;
     // The rarest group of the demo's model takes a few dozen draws; 100,000 without one: the model lacks it.
     for (int tries = 0; skin_tone_group(typology_angle(albedo(s.delta))) != group; ++tries) {
       if (tries == 100000)
-        throw InvalidInput("--skin-tones balanced", std::string("the model's appearance within ±2σ reaches no ") +
-                                                        skin_tone_group_name(group) + " skin (ITA groups, docs/datasets.md)",
+        throw InvalidInput(tones == SkinTones::Mixed ? "--skin-tones mixed" : "--skin-tones balanced",
+                           std::string("the model's appearance within ±2σ reaches no ") + skin_tone_group_name(group) +
+                               " skin (ITA groups, docs/datasets.md)",
                            "use --skin-tones model, or build the model from subjects of that tone");
       for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
     }

@@ -76,11 +76,12 @@ double typology_angle(const Eigen::Vector3f& linear_rgb);
 int skin_tone_group(double ita_degrees);  // 0 (very light) … 5 (dark)
 const char* skin_tone_group_name(int group);
 
-// How 3DMM subjects' skin tones are drawn: as the model's population (δ ~ N(0, 1)), or the six ITA groups in turn
+// How 3DMM subjects' skin tones are drawn: as the model's population (δ ~ N(0, 1)); the six ITA groups in turn
 // (subject `index` gets group index mod 6; δ is drawn until its mean albedo falls there), so that a world holds as
-// many dark as light skins whatever the scans the model was built from.
-enum class SkinTones { Model, Balanced };
-SkinTones parse_skin_tones(const std::string& name);  // "model" | "balanced"; InvalidInput naming --skin-tones
+// many dark as light skins whatever the scans the model was built from; or mixed: the even subjects as the model's
+// population (the same draws as `model`), the odd ones balanced (subject 2k + 1 gets group k mod 6).
+enum class SkinTones { Model, Balanced, Mixed };
+SkinTones parse_skin_tones(const std::string& name);  // model | balanced | mixed; InvalidInput naming --skin-tones
 
 // The 3DMM subject number `index` of a run seeded `seed`: α, δ ~ N(0, 1) truncated at ±kSubjectTruncation, δ drawn
 // again until the skin tone is the one `tones` asks for (InvalidInput when the model's appearance within the

@@ -30,7 +30,7 @@ struct FacesOptions {
   int64_t count = 1000;           // samples over all splits
   uint64_t seed = 1;
   int mm_subjects = 90;           // 3DMM identities beside the registered ones
-  std::string skin_tones = "model";  // their skin tones: model | balanced (face_world.h, SkinTones)
+  std::string skin_tones = "model";  // their skin tones: model | balanced | mixed (face_world.h, SkinTones)
   double val = 0.1, test = 0.1;   // subjects per split: a count (>= 1) or a fraction (< 1)
   int64_t shard_size = 100;       // samples per shard
   int shard = 0, shards = 1;      // this worker of `shards`

@@ -264,6 +264,21 @@ TEST(Faces, BalancedSkinTonesGiveEachSubjectItsGroup) {
     EXPECT_EQ(group, i % 6) << "subject " << i << ": ITA " << ita;
   }
   EXPECT_EQ(model_subject(wide, none, 3, 5).delta.size(), 2);  // the model's draw is still there
+  // --skin-tones mixed: the even subjects are the model's draws, subject 2k + 1 lies in group k mod 6.
+  for (int i = 0; i < 24; ++i) {
+    const FaceSubject mixed = model_subject(wide, none, 3, i, SkinTones::Mixed);
+    if (i % 2 == 0) {
+      EXPECT_EQ(mixed.delta, model_subject(wide, none, 3, i).delta) << "subject " << i;
+      continue;
+    }
+    const std::vector<float> a = wide.appearance(mixed.delta);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (size_t t = 0; t < a.size(); t += 3) mean += Eigen::Vector3d(a[t], a[t + 1], a[t + 2]);
+    const double ita = ita_of(mean / double(a.size() / 3));
+    int group = 0;
+    while (group < 5 && ita < floors[group]) ++group;
+    EXPECT_EQ(group, (i / 2) % 6) << "subject " << i << ": ITA " << ita;
+  }
   const MorphableModel narrow = read_model(tiny_model());
   try {
     model_subject(narrow, none, 3, 5, SkinTones::Balanced);
