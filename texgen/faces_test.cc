@@ -252,32 +252,26 @@ TEST(Faces, BalancedSkinTonesGiveEachSubjectItsGroup) {
   MorphableModel wide = read_model(tiny_model());
   wide.appearance_stddev = Eigen::Vector2f(19, 6);  // about ±0.4 in red at ±2σ: dark to very light skin
   const RegisteredSubjects none;
-  const double floors[5] = {55, 41, 28, 10, -30};
-  for (int i = 0; i < 12; ++i) {
-    const FaceSubject s = model_subject(wide, none, 3, i, SkinTones::Balanced);
+  // The ITA group of a subject's mean albedo, by an ITA of our own (ita_of) and the groups' floors.
+  const auto group_of = [&wide](const FaceSubject& s) {
     const std::vector<float> a = wide.appearance(s.delta);
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (size_t t = 0; t < a.size(); t += 3) mean += Eigen::Vector3d(a[t], a[t + 1], a[t + 2]);
-    const double ita = ita_of(mean / double(a.size() / 3));
+    const double ita = ita_of(mean / double(a.size() / 3)), floors[5] = {55, 41, 28, 10, -30};
     int group = 0;
     while (group < 5 && ita < floors[group]) ++group;
-    EXPECT_EQ(group, i % 6) << "subject " << i << ": ITA " << ita;
-  }
+    return group;
+  };
+  for (int i = 0; i < 12; ++i)
+    EXPECT_EQ(group_of(model_subject(wide, none, 3, i, SkinTones::Balanced)), i % 6) << "subject " << i;
   EXPECT_EQ(model_subject(wide, none, 3, 5).delta.size(), 2);  // the model's draw is still there
   // --skin-tones mixed: the even subjects are the model's draws, subject 2k + 1 lies in group k mod 6.
   for (int i = 0; i < 24; ++i) {
     const FaceSubject mixed = model_subject(wide, none, 3, i, SkinTones::Mixed);
-    if (i % 2 == 0) {
+    if (i % 2 == 0)
       EXPECT_EQ(mixed.delta, model_subject(wide, none, 3, i).delta) << "subject " << i;
-      continue;
-    }
-    const std::vector<float> a = wide.appearance(mixed.delta);
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (size_t t = 0; t < a.size(); t += 3) mean += Eigen::Vector3d(a[t], a[t + 1], a[t + 2]);
-    const double ita = ita_of(mean / double(a.size() / 3));
-    int group = 0;
-    while (group < 5 && ita < floors[group]) ++group;
-    EXPECT_EQ(group, (i / 2) % 6) << "subject " << i << ": ITA " << ita;
+    else
+      EXPECT_EQ(group_of(mixed), (i / 2) % 6) << "subject " << i;
   }
   const MorphableModel narrow = read_model(tiny_model());
   try {
