@@ -177,9 +177,9 @@ def report(out, d, res, steps, up_steps, samples):
              f"110 s on 2 cores: the texture net is the UV net (a U-Net of width 16 that corrects the unwrap over the "
              f"3DMM albedo, a flat normal and grey roughness and specular; L1 on the UV layout, no discriminator) at "
              f"{res}² maps, {steps} steps of batch 4; SRGAN ×4 on the diffuse (MSRResNet 16 features, 4 blocks, a "
-             f"residual over bicubic that starts at bicubic) {up_steps} MSE steps at Adam 2e-3 falling linearly to 0, on 128² crops "
-             "of batch 2. The paper's pix2pixHD and SRGAN are <code>--profile paper</code>, at 1K → 4K. The validation split "
-             "holds subjects the nets never saw.</p>"]
+             f"residual over bicubic that starts at bicubic) {up_steps} MSE steps at Adam 2e-3 falling linearly to "
+             "0, on 128² crops of batch 2. The paper's pix2pixHD and SRGAN are <code>--profile paper</code>, at 1K → 4K. "
+             "The validation split holds subjects the nets never saw.</p>"]
     run_data = os.path.join(d, "run_data", "train", "manifest.json")
     if os.path.exists(run_data):
         meta = json.load(open(run_data)).get("metadata", {})

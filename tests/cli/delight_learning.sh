@@ -34,7 +34,8 @@ g=(-q --threads 2 train bareskin --profile cpu --size 64 --data "$work/faces" --
 mv "$work/G/eval.json" "$work/eval_stage1.json"
 "$bin" "${g[@]}" --steps2 60 --lr-g 1e-3 --loss-weights '{"w_diff": 100, "w_light": 100}' --resume \
   || fail "train bareskin, stage 2"
-"$py" - "$work/eval_stage1.json" "$work/G/eval.json" <<'PY' || fail "stage 2 did not de-light: $(cat "$work/G/eval.json")"
+"$py" - "$work/eval_stage1.json" "$work/G/eval.json" <<'PY' \
+  || fail "stage 2 did not de-light: $(cat "$work/G/eval.json")"
 import json, sys
 one, two = (json.load(open(p))["mean"] for p in sys.argv[1:])
 gain = two["psnr_albedo_bare"] - one["psnr_albedo_bare"]
