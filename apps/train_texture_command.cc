@@ -111,8 +111,8 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   t->add_option("--lambda-l1", tex_model->lambda_l1, "Optional L1 to the targets (not in pix2pixHD)")
       ->capture_default_str();
   t->add_option("--lr", tex_model->lr, "Adam learning rate")->capture_default_str();
-  t->add_option("--decay-start", tex_model->decay_start, "Step where the linear decay starts (-1: half the run)")
-      ->capture_default_str();
+  t->add_option("--lr-decay", tex_model->lr_decay, "The rate falls linearly to 0 from this fraction of the steps on "
+                "(0.5: pix2pixHD's niter = niter_decay; 1: constant)")->capture_default_str();
   add_profile_flag(*t, tex->profile, texture_profiles());
   t->footer("Example: bareskin train texture --profile cpu --data textures/train --val textures/val --masks "
             "textures/masks --model model.safetensors -o runs/tex\n"

@@ -149,8 +149,9 @@ train::TrainerOptions trainer_options(const TrainRunOptions& run, const nlohmann
                    {"checkpoint_every", run.checkpoint_every},         {"eval_every", run.eval_every},
                    {"sample_every", run.sample_every},                 {"resume", run.resume},
                    {"progress", run.progress}, {"device", run.device}});
-  o.resumable_keys.push_back("device");
-  o.resumable_keys.push_back("decode_threads");
+  // The profile records what was asked (its name, the flags given); what it set is compared as the options above, so
+  // a run resumes with more steps, as `train recon` and `train bareskin` do.
+  for (const char* key : {"device", "decode_threads", "profile"}) o.resumable_keys.push_back(key);
   return o;
 }
 

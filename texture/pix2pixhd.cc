@@ -110,6 +110,8 @@ void TextureNetOptions::check() const {
                 "the loss weights must not be negative", "e.g. --lambda-l1 10");
   nets::require(lambda_gan + lambda_feat + lambda_perceptual + lambda_l1 > 0, what, "every loss weight is 0",
                 "give at least one, e.g. --lambda-l1 10");
+  nets::require(lr_decay >= 0 && lr_decay <= 1, what, "lr_decay must be a fraction of the steps in [0, 1]",
+                "e.g. --lr-decay 0.5");
 }
 
 namespace {
@@ -126,13 +128,26 @@ const auto kTextureFields = [](auto& v, auto& o) {
   v("lr", o.lr);
   v("beta1", o.beta1);
   v("beta2", o.beta2);
-  v("decay_start", o.decay_start);
+  v("lr_decay", o.lr_decay);
   v("steps", o.steps);
 };
 }  // namespace
 
 void to_json(nlohmann::json& j, const TextureNetOptions& o) { json_options::write(j, o, kTextureFields); }
-void from_json(const nlohmann::json& j, TextureNetOptions& o) { json_options::read(j, o, "texture model", kTextureFields); }
+void from_json(const nlohmann::json& j, TextureNetOptions& o) {
+  if (!j.is_object() || !j.contains("decay_start"))
+    return json_options::read(j, o, "texture model", kTextureFields);
+  nlohmann::json current = j;  // a run from before lr_decay: its decay's first step as a fraction of its steps
+  const auto start = current["decay_start"];
+  current.erase("decay_start");
+  if (!start.is_number_integer() || current.contains("lr_decay"))
+    throw InvalidInput("texture model", "has a decay_start that is not a whole step, or both it and lr_decay",
+                       "give lr_decay alone, e.g. \"lr_decay\": 0.5");
+  const int64_t steps = std::max<int64_t>(1, current.value("steps", o.steps));
+  const int64_t step = start.get<int64_t>() < 0 ? steps / 2 : std::min(start.get<int64_t>(), steps);
+  current["lr_decay"] = double(step) / double(steps);
+  json_options::read(current, o, "texture model", kTextureFields);
+}
 
 torch::Tensor uv_layout(const torch::Tensor& inputs) {
   const int64_t normal = 7;  // unwrap 3, confidence 1, mm_albedo 3, then mm_normal (input_maps())
@@ -205,9 +220,7 @@ std::map<std::string, std::shared_ptr<torch::nn::Module>> Pix2PixHDTask::modules
 }
 
 std::vector<train::OptimizerSpec> Pix2PixHDTask::optimizers() {
-  train::Schedule schedule;
-  schedule.kind = "linear";
-  schedule.decay_start = options_.decay_start >= 0 ? options_.decay_start : options_.steps / 2;
+  const auto schedule = train::Schedule::linear_from(options_.lr_decay, options_.steps);
   std::vector<train::OptimizerSpec> specs = {
       adam("G", G_->parameters(), options_.lr, options_.beta1, options_.beta2, schedule)};
   // Without the adversarial and feature-matching terms nothing reads D: it is neither built nor trained.
@@ -341,7 +354,13 @@ train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions m
   train::seed_everything(run.seed);
   OcclusionSampler occlusion = run.masks.empty() ? OcclusionSampler() : OcclusionSampler::from_shards(run.masks, model.res);
   Pix2PixHDTask task(model, std::move(occlusion));
-  train::Trainer trainer(trainer_options(run, model), task, train_data, val.get());
+  auto options = trainer_options(run, model);
+  // A run from before lr_decay stored "decay_start": its model options read back in today's keys.
+  options.upgrade_config = [](nlohmann::json& stored) {
+    if (stored.contains("model") && stored["model"].contains("decay_start"))
+      stored["model"] = nlohmann::json(stored["model"].get<TextureNetOptions>());
+  };
+  train::Trainer trainer(options, task, train_data, val.get());
   return trainer.run();
 }
 

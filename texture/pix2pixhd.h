@@ -62,12 +62,14 @@ struct TextureNetOptions {
   double lambda_perceptual = 10;  // VGG loss (pix2pixHD: λ_feat as well); 0 = off
   double lambda_l1 = 0;           // optional L1 to the targets (not in pix2pixHD; off by default)
   double lr = 2e-4, beta1 = 0.5, beta2 = 0.999;
-  int64_t decay_start = -1;  // step where the linear decay starts (-1: half of the run, as niter = niter_decay)
-  int64_t steps = 1000;      // the run's length (for the default decay start)
-  void check() const;        // InvalidInput naming the option and what to do
+  double lr_decay = 0.5;  // the rate falls linearly to 0 from this fraction of the steps on (0.5: niter = niter_decay)
+  int64_t steps = 1000;   // the run's length (where the decay starts)
+  void check() const;     // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const TextureNetOptions& o);
-void from_json(const nlohmann::json& j, TextureNetOptions& o);  // InvalidInput: unknown key, wrong type, bad value
+// InvalidInput: unknown key, wrong type, bad value. Reads the configuration of runs from before lr_decay too: their
+// "decay_start" (a step, -1 for half the run) becomes the same fraction.
+void from_json(const nlohmann::json& j, TextureNetOptions& o);
 
 // The generator of a texture run, built from options: 13 input channels → 8 outputs in (−1, 1).
 std::shared_ptr<torch::nn::Module> make_texture_generator(const TextureNetOptions& options);

@@ -16,6 +16,7 @@
 #include "core/shards.h"
 #include "texture/pix2pixhd.h"
 #include "texture/uvnet.h"
+#include "training/optimizer.h"
 #include "training/ssim.h"
 
 namespace bareskin::texture {
@@ -110,10 +111,19 @@ TEST(Pix2PixHD, OptionsRoundTripAndRefuseUnknownKeys) {
                                                    {"lr", 1e-3},
                                                    {"beta1", 0.9},
                                                    {"beta2", 0.99},
-                                                   {"decay_start", 100},
+                                                   {"lr_decay", 0.25},
                                                    {"steps", 200}});
   EXPECT_THROW(nlohmann::json({{"generator", "huge"}}).get<TextureNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"res", 8}}).get<TextureNetOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"lr_decay", 1.5}}).get<TextureNetOptions>(), InvalidInput);
+  // Runs from before lr_decay stored the decay's first step (-1: half the run); they read as the same schedule.
+  auto legacy = [](const nlohmann::json& j) { return j.get<TextureNetOptions>(); };
+  EXPECT_DOUBLE_EQ(legacy({{"decay_start", 50}, {"steps", 200}}).lr_decay, 0.25);
+  EXPECT_DOUBLE_EQ(legacy({{"decay_start", -1}, {"steps", 301}}).lr_decay, 150.0 / 301);
+  const auto old = legacy({{"decay_start", -1}, {"steps", 301}});
+  EXPECT_EQ(train::Schedule::linear_from(old.lr_decay, old.steps).decay_start, 150);  // 301 / 2, as before
+  EXPECT_THROW(legacy({{"decay_start", 50}, {"lr_decay", 0.5}}), InvalidInput);
+  EXPECT_THROW(legacy({{"decay_start", "half"}}), InvalidInput);
 }
 
 TEST(Occlusion, MaskMultipliesTheUnwrapAndItsConfidenceOnly) {

@@ -136,7 +136,8 @@ Checkpoint load_checkpoint(const std::string& path, const std::string& task, con
                            const std::vector<std::string>& resumable_keys,
                            const std::map<std::string, std::shared_ptr<torch::nn::Module>>& modules,
                            const std::vector<OptimizerSpec>& specs,
-                           std::vector<std::unique_ptr<torch::optim::Optimizer>>& optimizers, int world) {
+                           std::vector<std::unique_ptr<torch::optim::Optimizer>>& optimizers, int world,
+                           const std::function<void(nlohmann::json&)>& upgrade) {
   Checkpoint c;
   {
     const nlohmann::json meta = read_metadata(SafeTensors::open(path));
@@ -147,6 +148,7 @@ Checkpoint load_checkpoint(const std::string& path, const std::string& task, con
     c.world = meta.at("world").get<int>();
     c.trainer = meta.value("trainer", nlohmann::json::object());
   }
+  if (upgrade) upgrade(c.config);
   if (c.task != task)
     throw InvalidInput(path, "is a checkpoint of '" + c.task + "', not '" + task + "'", kHint);
   const std::string diff = first_difference(c.config, config, resumable_keys);

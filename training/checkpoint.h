@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -36,12 +37,14 @@ void save_checkpoint(const std::string& path, const Checkpoint& checkpoint,
 
 // Restores modules, optimizers and generators. InvalidInput naming the file when it belongs to another task, a
 // configuration that differs outside `resumable_keys` (the first differing key is named), another world size, or
-// another net (a missing, extra or differently shaped tensor).
+// another net (a missing, extra or differently shaped tensor). `upgrade`, when given, first brings the stored
+// configuration to this version's keys (TrainerOptions::upgrade_config).
 Checkpoint load_checkpoint(const std::string& path, const std::string& task, const nlohmann::json& config,
                            const std::vector<std::string>& resumable_keys,
                            const std::map<std::string, std::shared_ptr<torch::nn::Module>>& modules,
                            const std::vector<OptimizerSpec>& specs,
-                           std::vector<std::unique_ptr<torch::optim::Optimizer>>& optimizers, int world);
+                           std::vector<std::unique_ptr<torch::optim::Optimizer>>& optimizers, int world,
+                           const std::function<void(nlohmann::json&)>& upgrade = {});
 
 int64_t read_checkpoint_step(const std::string& path);
 

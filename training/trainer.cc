@@ -238,7 +238,7 @@ TrainResult Trainer::run() {
     if (!fs::exists(checkpoint))
       throw InvalidInput(o.run_dir, "has no checkpoint.safetensors to resume from", "start without --resume");
     Checkpoint c = load_checkpoint(checkpoint, s.task.name(), o.config, o.resumable_keys, s.modules, s.specs,
-                                   s.optimizers, s.group ? s.group->world() : 1);
+                                   s.optimizers, s.group ? s.group->world() : 1, o.upgrade_config);
     s.step = c.step;
     s.train.seek(c.cursor);
     s.interval = c.trainer.value("interval", std::map<std::string, double>{});

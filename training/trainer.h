@@ -56,6 +56,9 @@ struct TrainerOptions {
   nlohmann::json config = nlohmann::json::object();
   std::vector<std::string> resumable_keys = {"steps", "log_every", "checkpoint_every", "eval_every", "eval_batches",
                                              "sample_every", "resume", "progress", "threads"};
+  // Brings the configuration a checkpoint stored, written by an earlier version, to this version's keys before the
+  // comparison (a renamed option); empty: compared as stored.
+  std::function<void(nlohmann::json&)> upgrade_config;
   void check() const;  // InvalidInput naming the flag
 };
 

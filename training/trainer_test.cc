@@ -306,6 +306,23 @@ TEST(Trainer, RefusesAnotherConfigAnotherNetAndAnExistingRun) {
   EXPECT_EQ(read_file(checkpoint_path(dir)), before);  // nothing overwritten
 }
 
+// A run whose stored configuration an earlier version wrote (an option renamed since) resumes once upgrade_config
+// brings it to today's keys; without it, the renamed key is refused as another configuration.
+TEST(Trainer, ResumesAConfigurationUpgradedToTodaysKeys) {
+  const std::string dir = testing::temp_dir() + "/upgrade";
+  TwoNetTask task;
+  StreamSource source(2, 0, 1);
+  Trainer(options(dir, 4), task, source, nullptr).run();
+  auto renamed = options(dir, 8);
+  renamed.resume = true;
+  renamed.config["model"] = {{"channels", 8}};
+  EXPECT_THROW(Trainer(renamed, task, source, nullptr).run(), InvalidInput);
+  renamed.upgrade_config = [](nlohmann::json& stored) {
+    stored["model"] = {{"channels", stored["model"]["width"]}};
+  };
+  EXPECT_EQ(Trainer(renamed, task, source, nullptr).run().steps, 8);
+}
+
 TEST(Trainer, ExportsAModuleUnderItsOwnNames) {
   const std::string dir = testing::temp_dir() + "/export";
   TwoNetTask task;
