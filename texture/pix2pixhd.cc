@@ -137,15 +137,18 @@ void to_json(nlohmann::json& j, const TextureNetOptions& o) { json_options::writ
 void from_json(const nlohmann::json& j, TextureNetOptions& o) {
   if (!j.is_object() || !j.contains("decay_start"))
     return json_options::read(j, o, "texture model", kTextureFields);
-  nlohmann::json current = j;  // a run from before lr_decay: its decay's first step as a fraction of its steps
+  // A run from before lr_decay: its decay's first step as a fraction of its steps. Its default, -1 (half the run), is
+  // today's default, 0.5, so such a run resumes with the flags it was started with (with an odd number of steps the
+  // decay now starts one step later: 0.5 × steps is rounded up, where the step was rounded down).
+  nlohmann::json current = j;
   const auto start = current["decay_start"];
   current.erase("decay_start");
   if (!start.is_number_integer() || current.contains("lr_decay"))
     throw InvalidInput("texture model", "has a decay_start that is not a whole step, or both it and lr_decay",
                        "give lr_decay alone, e.g. \"lr_decay\": 0.5");
   const int64_t steps = std::max<int64_t>(1, current.value("steps", o.steps));
-  const int64_t step = start.get<int64_t>() < 0 ? steps / 2 : std::min(start.get<int64_t>(), steps);
-  current["lr_decay"] = double(step) / double(steps);
+  const int64_t step = start.get<int64_t>();
+  current["lr_decay"] = step < 0 ? 0.5 : double(std::min(step, steps)) / double(steps);
   json_options::read(current, o, "texture model", kTextureFields);
 }
 

