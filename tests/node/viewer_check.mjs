@@ -63,7 +63,16 @@ try {
   errors.push('driver: ' + e.message);
 }
 console.log(JSON.stringify(report, null, 1));
+// Browser.close lets Chromium stop its helper processes and flush the profile before it exits (a bare kill left them
+// writing into it while it was removed, under load); the kill is the fallback. The profile is a temporary folder: one
+// that still cannot be removed is reported, not counted against the viewer.
 const exited = new Promise(r => proc.on('exit', r));
+send('Browser.close').catch(() => {});
+await Promise.race([exited, sleep(10000)]);
 proc.kill();
 await exited;
-rmSync(profile, { recursive: true, force: true, maxRetries: 5, retryDelay: 200 });
+try {
+  rmSync(profile, { recursive: true, force: true, maxRetries: 10, retryDelay: 200 });
+} catch (e) {
+  console.error(`viewer_check: could not remove the browser profile ${profile} (${e.code}); remove it by hand`);
+}
