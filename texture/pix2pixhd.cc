@@ -112,6 +112,8 @@ void TextureNetOptions::check() const {
                 "give at least one, e.g. --lambda-l1 10");
   nets::require(lr_decay >= 0 && lr_decay <= 1, what, "lr_decay must be a fraction of the steps in [0, 1]",
                 "e.g. --lr-decay 0.5");
+  nets::require(clip_grad_norm >= 0 && std::isfinite(clip_grad_norm), what, "clip_grad_norm must be finite and >= 0",
+                "0 is off, e.g. --clip-grad-norm 1");
 }
 
 namespace {
@@ -129,6 +131,7 @@ const auto kTextureFields = [](auto& v, auto& o) {
   v("beta1", o.beta1);
   v("beta2", o.beta2);
   v("lr_decay", o.lr_decay);
+  v("clip_grad_norm", o.clip_grad_norm);
   v("steps", o.steps);
 };
 }  // namespace
@@ -358,10 +361,11 @@ train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions m
   OcclusionSampler occlusion = run.masks.empty() ? OcclusionSampler() : OcclusionSampler::from_shards(run.masks, model.res);
   Pix2PixHDTask task(model, std::move(occlusion));
   auto options = trainer_options(run, model);
-  // A run from before lr_decay stored "decay_start": its model options read back in today's keys.
+  options.clip_grad_norm = model.clip_grad_norm;
+  // A run's stored model options read back in today's keys: "decay_start" of runs from before lr_decay, and options
+  // added since at their defaults (clip_grad_norm: off), so earlier runs resume.
   options.upgrade_config = [](nlohmann::json& stored) {
-    if (stored.contains("model") && stored["model"].contains("decay_start"))
-      stored["model"] = nlohmann::json(stored["model"].get<TextureNetOptions>());
+    if (stored.contains("model")) stored["model"] = nlohmann::json(stored["model"].get<TextureNetOptions>());
   };
   train::Trainer trainer(options, task, train_data, val.get());
   return trainer.run();

@@ -63,6 +63,7 @@ struct TextureNetOptions {
   double lambda_l1 = 0;           // optional L1 to the targets (not in pix2pixHD; off by default)
   double lr = 2e-4, beta1 = 0.5, beta2 = 0.999;
   double lr_decay = 0.5;  // the rate falls linearly to 0 from this fraction of the steps on (0.5: niter = niter_decay)
+  double clip_grad_norm = 0;  // each step's gradients scaled to at most this norm (per network); 0: off
   int64_t steps = 1000;   // the run's length (where the decay starts)
   void check() const;     // InvalidInput naming the option and what to do
 };

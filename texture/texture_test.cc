@@ -112,10 +112,14 @@ TEST(Pix2PixHD, OptionsRoundTripAndRefuseUnknownKeys) {
                                                    {"beta1", 0.9},
                                                    {"beta2", 0.99},
                                                    {"lr_decay", 0.25},
+                                                   {"clip_grad_norm", 2.0},
                                                    {"steps", 200}});
   EXPECT_THROW(nlohmann::json({{"generator", "huge"}}).get<TextureNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"res", 8}}).get<TextureNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"lr_decay", 1.5}}).get<TextureNetOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"clip_grad_norm", -1.0}}).get<TextureNetOptions>(), InvalidInput);
+  // Runs from before clip_grad_norm read with it off.
+  EXPECT_EQ(nlohmann::json({{"lr", 1e-3}}).get<TextureNetOptions>().clip_grad_norm, 0.0);
   // Runs from before lr_decay stored the decay's first step (-1: half the run); they read as the same schedule.
   auto legacy = [](const nlohmann::json& j) { return j.get<TextureNetOptions>(); };
   EXPECT_DOUBLE_EQ(legacy({{"decay_start", 50}, {"steps", 200}}).lr_decay, 0.25);

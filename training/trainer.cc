@@ -149,7 +149,11 @@ struct Trainer::State {
       }
       group->average(grads);
     }
-    if (options.clip_grad_norm > 0) torch::nn::utils::clip_grad_norm_(params, options.clip_grad_norm);
+    if (options.clip_grad_norm > 0) {  // the norm before clipping is logged: how often and how hard the clip bites
+      const double norm = torch::nn::utils::clip_grad_norm_(params, options.clip_grad_norm);
+      if (!std::isfinite(norm)) diverged(specs[o].name + "/grad_norm", norm);
+      logged[specs[o].name + "/grad_norm"] = norm;
+    }
     optimizer.step();
     return logged;
   }
