@@ -2,8 +2,9 @@
 # The CPU reference training: what `--profile cpu` reaches on a 2-core machine in about two hours, scored on
 # held-out subjects and a held-out makeup family, with its learning curves.
 #   1. its own `texgen faces` world from the demo's registered subjects and model (run `make demo` first):
-#      4,000 samples of 10 registered + 110 3DMM identities, 256²; 10% of the subjects for val, 10% for test, the
-#      `dramatic` makeup family in test only;
+#      5,200 samples of 10 registered + 220 3DMM identities, 256², half of the 3DMM identities drawn from the
+#      population and half balanced over the six skin-tone (ITA) groups (`--skin-tones mixed`); 10% of the subjects
+#      for val, 10% for test, the `dramatic` makeup family in test only;
 #   2. F: `train recon --profile cpu`, scored by `recon --eval` on the test split (against the mean face);
 #   3. G + E: `train bareskin --profile cpu` with that F, three seeds, each scored on the test split after stage 1
 #      and after stage 2 (eval_stage1.json, eval_stage2.json: against the unchanged input and each other);
@@ -14,7 +15,7 @@
 #   [CPU_REFERENCE_SEEDS="0 1 2"] bash bench/cpu_reference.sh <bin/> <demo out/> <out/> [samples]
 # CPU_REFERENCE_SEEDS: G's seeds (one seed saves about 40 CPU-minutes when only stage 2 or what follows changed).
 set -euo pipefail
-bin=$1 demo=$2 out=$3 samples=${4:-4000}
+bin=$1 demo=$2 out=$3 samples=${4:-5200}
 bareskin="$bin/bareskin"
 py=/usr/bin/python3
 model="$demo/model/model.safetensors"
@@ -30,7 +31,7 @@ cpu() {  # cpu NAME command...: runs it, appends NAME and its CPU seconds (user 
 if [ ! -f "$out/faces/test/manifest.json" ]; then
   echo "cpu_reference: texgen faces ($samples samples)" >&2
   cpu faces "$bareskin" -q --threads 2 texgen faces --registered "$demo/registered" --model "$model" \
-    --count "$samples" --mm-subjects 110 --val 0.1 --test 0.1 --exclude-styles dramatic --seed 11 --align truth \
+    --count "$samples" --mm-subjects 220 --skin-tones mixed --val 0.1 --test 0.1 --exclude-styles dramatic --seed 11 --align truth \
     -o "$out/faces"
 fi
 
