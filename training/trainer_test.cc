@@ -323,6 +323,32 @@ TEST(Trainer, ResumesAConfigurationUpgradedToTodaysKeys) {
   EXPECT_EQ(Trainer(renamed, task, source, nullptr).run().steps, 8);
 }
 
+// Clipping: on, each optimizer's norm before it is logged; a bound the gradients never reach changes nothing, bit for
+// bit; a bound they always exceed changes the run.
+TEST(Trainer, ClipLogsTheNormBeforeItAndBoundsTheGradients) {
+  auto run = [](const std::string& name, double clip) {
+    seed_everything(3);
+    TwoNetTask task;
+    StreamSource source(2, 0, 1);
+    auto o = options(testing::temp_dir() + "/clip_" + name, 6);
+    o.log_every = 1;
+    o.clip_grad_norm = clip;
+    const auto result = Trainer(o, task, source, nullptr).run();
+    return std::make_pair(result.last_losses, weights(task));
+  };
+  const auto [off, off_weights] = run("off", 0);
+  EXPECT_FALSE(off.count("A/grad_norm"));
+  const auto [loose, loose_weights] = run("loose", 1e9);
+  ASSERT_TRUE(loose.count("A/grad_norm") && loose.count("B/grad_norm"));
+  EXPECT_GT(loose.at("A/grad_norm"), 1e-3);
+  expect_identical(off_weights, loose_weights);
+  const auto [tight, tight_weights] = run("tight", 1e-4);
+  EXPECT_GT(tight.at("A/grad_norm"), 1e-4);
+  bool differs = false;
+  for (const auto& [name, t] : off_weights) differs = differs || !torch::equal(t, tight_weights.at(name));
+  EXPECT_TRUE(differs) << "clipping at 1e-4 left every weight as it was";
+}
+
 TEST(Trainer, ExportsAModuleUnderItsOwnNames) {
   const std::string dir = testing::temp_dir() + "/export";
   TwoNetTask task;
