@@ -31,8 +31,8 @@ cpu() {  # cpu NAME command...: runs it, appends NAME and its CPU seconds (user 
 if [ ! -f "$out/faces/test/manifest.json" ]; then
   echo "cpu_reference: texgen faces ($samples samples)" >&2
   cpu faces "$bareskin" -q --threads 2 texgen faces --registered "$demo/registered" --model "$model" \
-    --count "$samples" --mm-subjects 220 --skin-tones mixed --val 0.1 --test 0.1 --exclude-styles dramatic --seed 11 --align truth \
-    -o "$out/faces"
+    --count "$samples" --mm-subjects 220 --skin-tones mixed --val 0.1 --test 0.1 --exclude-styles dramatic --seed 11 \
+    --align truth -o "$out/faces"
 fi
 
 if [ ! -f "$out/F/eval/metrics.json" ]; then
