@@ -118,7 +118,7 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   t->add_option("--lr-decay", tex_model->lr_decay, "The rate falls linearly to 0 from this fraction of the steps on "
                 "(0.5: pix2pixHD's niter = niter_decay; 1: constant)")->capture_default_str();
   t->add_option("--clip-grad-norm", tex_model->clip_grad_norm, "Scale each step's gradients to at most this norm "
-                "(0: off); keeps one bad batch from throwing the net off")->capture_default_str();
+                "(0: off); keeps a gradient spike from throwing the net off")->capture_default_str();
   add_profile_flag(*t, tex->profile, texture_profiles());
   t->footer("Example: bareskin train texture --profile cpu --data textures/train --val textures/val --masks "
             "textures/masks --model model.safetensors -o runs/tex\n"
