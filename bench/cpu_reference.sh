@@ -66,13 +66,16 @@ done
 
 # G trained as the paper's stage 1 (towards the before-makeup photo: it removes makeup and keeps the light), for
 # column (a) of Table 1, whose reference keeps the light too; with L_makeup at 100 (ours: the L1 where the makeup
-# is, which the whole-image L1 gives only its share of the pixels; Table 1 (a) diffuse +1.9 -> +3.1 dB).
+# is, which the whole-image L1 gives only its share of the pixels; Table 1 (a) diffuse +1.9 -> +3.1 dB), and for
+# twice the profile's steps (on this world of 230 identities 1500 steps leave makeup behind: Table 1 (a) diffuse
+# +2.3 dB at 1500 steps, +3.0 at 3000; bench/BENCHMARKS.md, "CPU profile").
 if [ ! -f "$out/G_before/eval.json" ]; then
   echo "cpu_reference: train bareskin --profile cpu --target before, stage 1" >&2
   resume=()
   [ -f "$out/G_before/stage1/checkpoint.safetensors" ] && resume=(--resume)
-  cpu G_before "$bareskin" -q --threads 2 train bareskin --profile cpu --target before --steps2 0 --data "$out/faces" \
-    --loss-weights '{"w_makeup": 100}' -o "$out/G_before" --eval-every 500 --sample-every 0 --checkpoint-every 100 --log-every 50 "${resume[@]}"
+  cpu G_before "$bareskin" -q --threads 2 train bareskin --profile cpu --target before --steps1 3000 --steps2 0 \
+    --data "$out/faces" --loss-weights '{"w_makeup": 100}' -o "$out/G_before" --eval-every 500 --sample-every 0 \
+    --checkpoint-every 100 --log-every 50 "${resume[@]}"
 fi
 
 $py "$(dirname "$0")/cpu_reference.py" "$out"
