@@ -148,9 +148,9 @@ Checkpoint load_checkpoint(const std::string& path, const std::string& task, con
     c.world = meta.at("world").get<int>();
     c.trainer = meta.value("trainer", nlohmann::json::object());
   }
-  if (upgrade) upgrade(c.config);
-  if (c.task != task)
+  if (c.task != task)  // before the upgrade, which reads the configuration as this task's
     throw InvalidInput(path, "is a checkpoint of '" + c.task + "', not '" + task + "'", kHint);
+  if (upgrade) upgrade(c.config);
   const std::string diff = first_difference(c.config, config, resumable_keys);
   if (!diff.empty()) {
     const nlohmann::json::json_pointer pointer("/" + std::regex_replace(diff, std::regex("\\."), "/"));

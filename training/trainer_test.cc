@@ -321,6 +321,17 @@ TEST(Trainer, ResumesAConfigurationUpgradedToTodaysKeys) {
     stored["model"] = {{"channels", stored["model"]["width"]}};
   };
   EXPECT_EQ(Trainer(renamed, task, source, nullptr).run().steps, 8);
+  // Another task's checkpoint is refused by its task's name before the hook reads its configuration as this task's.
+  std::vector<std::unique_ptr<torch::optim::Optimizer>> none;
+  bool hook_ran = false;
+  try {
+    load_checkpoint(checkpoint_path(dir), "texture", renamed.config, {}, task.modules(), {}, none, 1,
+                    [&](nlohmann::json&) { hook_ran = true; });
+    FAIL();
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("is a checkpoint of 'two-net', not 'texture'"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(hook_ran);
 }
 
 // Clipping: on, each optimizer's norm before it is logged; a bound the gradients never reach changes nothing, bit for
