@@ -68,7 +68,9 @@ done
 # column (a) of Table 1, whose reference keeps the light too; with L_makeup at 100 (ours: the L1 where the makeup
 # is, which the whole-image L1 gives only its share of the pixels; Table 1 (a) diffuse +1.9 -> +3.1 dB), and for
 # twice the profile's steps (on this world of 230 identities 1500 steps leave makeup behind: Table 1 (a) diffuse
-# +2.3 dB at 1500 steps, +3.0 at 3000; bench/BENCHMARKS.md, "CPU profile").
+# +2.3 dB at 1500 steps, +3.0 at 3000; bench/BENCHMARKS.md, "CPU profile"). An out/ of the 1500-step recipe keeps
+# its G_before (finished stages are skipped): delete <out>/G_before/eval.json and <out>/texture/*G_before* to continue
+# it to 3000 steps (--resume) and score Table 1 with it again.
 if [ ! -f "$out/G_before/eval.json" ]; then
   echo "cpu_reference: train bareskin --profile cpu --target before, stage 1" >&2
   resume=()
