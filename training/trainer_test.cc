@@ -57,7 +57,7 @@ struct TwoNetTask : Task {
   torch::nn::Sequential a{torch::nn::Conv2d(torch::nn::Conv2dOptions(2, 8, 3).padding(1)), torch::nn::ReLU(),
                           torch::nn::Dropout(0.2), torch::nn::Conv2d(torch::nn::Conv2dOptions(8, 2, 3).padding(1))};
   torch::nn::Sequential b{torch::nn::Conv2d(torch::nn::Conv2dOptions(2, 2, 1))};
-  int64_t nan_at = -1, signal_at = -1, calls = 0;
+  int64_t nan_at = -1, nan_grad_at = -1, signal_at = -1, calls = 0;  // nan_grad_at: a finite loss, NaN gradients
   std::string kind = "adam";
   int64_t step_every = 7;  // A's step schedule (0: constant)
 
@@ -81,6 +81,7 @@ struct TwoNetTask : Task {
     if (phase == 0) {
       auto l1 = (out - batch.at("target")).abs().mean();
       if (nan_at == calls) l1 = l1 * std::nan("");
+      if (nan_grad_at == calls) l1 = l1 + (out * 0).sum().sqrt();  // 0, whose gradient is inf · 0
       return {{"l1", l1}, {"l2", 0.5 * (out - batch.at("target")).pow(2).mean()}};
     }
     auto residual = (batch.at("target") - out).detach();
@@ -358,6 +359,19 @@ TEST(Trainer, ClipLogsTheNormBeforeItAndBoundsTheGradients) {
   bool differs = false;
   for (const auto& [name, t] : off_weights) differs = differs || !torch::equal(t, tight_weights.at(name));
   EXPECT_TRUE(differs) << "clipping at 1e-4 left every weight as it was";
+  // A finite loss with NaN gradients: the clip's norm stops the run at that step.
+  TwoNetTask task;
+  task.nan_grad_at = 2 * 5 + 1;  // step 6, phase A
+  StreamSource source(2, 0, 1);
+  auto o = options(testing::temp_dir() + "/clip_nan", 20);
+  o.clip_grad_norm = 1e9;
+  try {
+    Trainer(o, task, source, nullptr).run();
+    FAIL() << "training continued on a NaN gradient";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("A/grad_norm"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("step 6"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Trainer, ExportsAModuleUnderItsOwnNames) {
