@@ -193,6 +193,13 @@ torch::Tensor FaceModel::shape(const torch::Tensor& alpha, const torch::Tensor& 
   return s.reshape({B, -1, 3});
 }
 
+torch::Tensor FaceModel::displacement(const torch::Tensor& alpha, const torch::Tensor& beta) const {
+  torch::Tensor d = layout_.id ? torch::mm(alpha.to(mean_.dtype()), id_basis_)
+                               : torch::zeros({alpha.size(0), mean_.numel()}, mean_.options());
+  if (layout_.exp) d = d + torch::mm(beta.to(mean_.dtype()), exp_basis_);
+  return d.reshape({alpha.size(0), -1, 3});
+}
+
 torch::Tensor FaceModel::posed(const FaceCoefficients& c) const {
   const torch::Tensor S = shape(c.alpha, c.beta);
   const torch::Tensor R = euler_rotation(c.rotation.to(S.dtype()));

@@ -81,6 +81,8 @@ class FaceModel {
   torch::Tensor join(const FaceCoefficients& c) const;  // the inverse (γ columns where c.gamma is defined)
 
   torch::Tensor shape(const torch::Tensor& alpha, const torch::Tensor& beta) const;  // [B, V, 3] model frame, mm
+  // shape(α, β) less the mean shape: [B, V, 3] mm (shape(α̂, β̂) − shape(α, β) = displacement(α̂ − α, β̂ − β)).
+  torch::Tensor displacement(const torch::Tensor& alpha, const torch::Tensor& beta) const;
   torch::Tensor posed(const FaceCoefficients& c) const;                             // [B, V, 3]: R S + t
   torch::Tensor albedo_texture(const torch::Tensor& delta) const;                   // [B, 3, R, R], row 0 = v 1
   // Area-weighted unit vertex normals of [B, V, 3] vertices (core/mesh.h's vertex_normals).

@@ -117,6 +117,7 @@ const auto kLossFields = [](auto& v, auto& o) {
   v("rotation_unit", o.rotation_unit);
   v("translation_unit", o.translation_unit);
   v("gamma_unit", o.gamma_unit);
+  v("shape", o.shape);
   v("photo", o.photo);
   v("landmark", o.landmark);
   v("reg", o.reg);
@@ -229,6 +230,16 @@ torch::Tensor coefficient_loss(const torch::Tensor& predicted, const torch::Tens
   return total;
 }
 
+torch::Tensor shape_loss(const FaceModel& model, const torch::Tensor& predicted, const torch::Tensor& truth,
+                         const torch::Tensor& has_truth) {
+  const FaceCoefficients p = model.split(predicted), q = model.split(truth.to(predicted.options()));
+  // The model is linear: one product with the bases instead of two shapes. ε keeps the distance's gradient finite
+  // where a vertex is exact.
+  const torch::Tensor d = (model.displacement(p.alpha - q.alpha, p.beta - q.beta).pow(2).sum(2) + 1e-8).sqrt();
+  const torch::Tensor rows = has_truth.to(predicted.options());
+  return (d.mean(1) * rows).sum() / std::max(1.0, has_truth.sum().item<double>());
+}
+
 namespace {
 
 // The light of a prediction: its own γ, else the truth's (and the samples without truth are masked out).
@@ -247,6 +258,7 @@ train::Losses recon_losses(const FaceModel& model, const torch::Tensor& predicte
   const bool truth = o.supervision != Supervision::Self, self = o.supervision != Supervision::Truth;
   const CoefficientLayout layout = model.layout(true);
   if (truth && o.truth > 0) L["truth"] = o.truth * coefficient_loss(predicted, t.truth.to(predicted.device()), t.has_truth, layout, o);
+  if (truth && o.shape > 0) L["shape"] = o.shape * shape_loss(model, predicted, t.truth, t.has_truth);
   if (!self) return L;
   FaceCoefficients c = model.split(predicted);
   const int64_t B = predicted.size(0);

@@ -65,6 +65,7 @@ struct LossOptions {
   double truth = 1.0;  // the coefficient loss: Σ_g w_g mean((ĉ_g − c_g)² / unit_g²)
   double w_alpha = 1, w_beta = 1, w_delta = 1, w_rotation = 1, w_translation = 1, w_gamma = 1;
   double rotation_unit = 0.05, translation_unit = 5, gamma_unit = 0.1;
+  double shape = 0;          // mean per-vertex distance (mm) of S(α̂, β̂) from the true S(α, β): shape_mm, trained
   double photo = 1.92;       // per-pixel Euclidean colour distance over the skin the face covers
   double landmark = 1.6e-3;  // squared px at 224² (our 256² landmarks are scaled), weight 20 on 28–30 and 60–67
   double reg = 3e-4, reg_alpha = 1.0, reg_beta = 0.8, reg_delta = 1.7e-2;
@@ -100,7 +101,11 @@ torch::Tensor gamma_loss(const torch::Tensor& gamma);  // [B, 27]
 torch::Tensor coefficient_loss(const torch::Tensor& predicted, const torch::Tensor& truth,
                                const torch::Tensor& has_truth, const CoefficientLayout& layout, const LossOptions& o);
 
-// Every weighted term of `predicted` [B, K] (named "truth", "photo", "landmark", "reg", "gamma", "identity"; only
+// The shape term: mean over the samples with truth and the vertices of |S(α̂, β̂) − S(α, β)| in mm (the model frame).
+torch::Tensor shape_loss(const FaceModel& model, const torch::Tensor& predicted, const torch::Tensor& truth,
+                         const torch::Tensor& has_truth);
+
+// Every weighted term of `predicted` [B, K] (named "truth", "shape", "photo", "landmark", "reg", "gamma", "identity"; only
 // those the supervision and weights switch on). `light` [B, 27] lights a prediction without γ (else the truth's γ).
 // `identity_net` may be null when o.identity is 0.
 train::Losses recon_losses(const FaceModel& model, const torch::Tensor& predicted, const ReconTargets& targets,

@@ -87,6 +87,10 @@ TEST(FaceModel, SplitJoinAndCoefficientFiles) {
   const nlohmann::json j = coefficients_to_json(c[1], l);
   EXPECT_TRUE(torch::allclose(coefficients_from_json(j, l), c[1]));
   EXPECT_EQ(j.at("gamma").size(), 27u);
+  // The model is linear: the difference of two shapes is the displacement of the coefficients' difference.
+  const FaceCoefficients a = m.split(c.narrow(0, 0, 1)), b = m.split(c.narrow(0, 1, 1));
+  EXPECT_TRUE(torch::allclose(m.shape(a.alpha, a.beta) - m.shape(b.alpha, b.beta),
+                              m.displacement(a.alpha - b.alpha, a.beta - b.beta), 1e-4, 1e-4));
   // A shorter file pads with zeros and the ambient light; a longer one is refused naming the file.
   const torch::Tensor padded = coefficients_from_json({{"alpha", {1.0}}}, l);
   EXPECT_EQ(padded[0].item<float>(), 1.0f);
@@ -103,14 +107,12 @@ TEST(FaceModel, SplitJoinAndCoefficientFiles) {
 }
 
 
-// The self-supervised terms' gradient (photometric over an interior skin region, landmarks, regularisation, γ) in
-// double against central differences, for one coefficient of every group.
 // The options through core/json_options.h: non-default values round-trip, unknown keys and bad values are refused.
 TEST(ReconOptions, RoundTripAndRefuseUnknownKeys) {
   testing::expect_options_json<ReconNetOptions>(
       {{"arch", "resnet18"}, {"width", 16}, {"gamma", false}, {"translation_scale", 5.0}});
   testing::expect_options_json<LossOptions>({{"supervision", "self"}, {"truth", 0.5}, {"w_alpha", 2.0},
-                                             {"rotation_unit", 0.1}, {"photo", 1.0}, {"identity", 0.0}});
+                                             {"rotation_unit", 0.1}, {"shape", 3.0}, {"photo", 1.0}, {"identity", 0.0}});
   EXPECT_THROW(nlohmann::json({{"arch", "vgg"}}).get<ReconNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"width", 64.5}}).get<ReconNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"photo", -1}}).get<LossOptions>(), InvalidInput);
@@ -159,6 +161,8 @@ TEST(ReconOptions, CheckRefusesBadValues) {
   EXPECT_THROW(losses::ssim(a, a, ssim), InvalidInput);
 }
 
+// The summed terms' gradient (the truth and shape terms, photometric over an interior skin region, landmarks,
+// regularisation, γ) in double against central differences, for one coefficient of every group.
 TEST(ReconLosses, GradientMatchesFiniteDifferences) {
   const FaceModel m = FaceModel::load(toy_model_path()).to(torch::kCPU, torch::kDouble);
   const int64_t size = 48;
@@ -178,6 +182,7 @@ TEST(ReconLosses, GradientMatchesFiniteDifferences) {
   o.supervision = Supervision::Both;
   o.identity = 0;
   o.reg = 1e-2;  // large enough to matter in the sum
+  o.shape = 0.5;
   const torch::Tensor x0 = random_coefficients(l, 2, 22, 0.7);
   // Start near the truth so the disc stays on the face.
   const torch::Tensor start = truth + 0.1 * (x0 - truth);
@@ -188,7 +193,7 @@ TEST(ReconLosses, GradientMatchesFiniteDifferences) {
   };
   torch::Tensor x = start.clone().requires_grad_(true);
   const torch::Tensor loss = total(x);
-  ASSERT_EQ(recon_losses(m, x, t, o, nullptr, size).size(), 5u);  // truth, photo, landmark, reg, gamma
+  ASSERT_EQ(recon_losses(m, x, t, o, nullptr, size).size(), 6u);  // truth, shape, photo, landmark, reg, gamma
   loss.backward();
   const torch::Tensor grad = x.grad();
   const int64_t probes[] = {0, l.id, l.id + l.exp, l.rotation_offset() + 1, l.translation_offset(), l.gamma_offset() + 2,

@@ -107,6 +107,10 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
                  {"eval_batches", o.eval_batches}, {"sample_every", o.trainer.sample_every}, {"device", o.trainer.device}};
   topt.config["profile"] = o.profile;
   topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
+  // A run's stored loss weights read back in today's keys, so runs from before a term existed (shape) resume.
+  topt.upgrade_config = [](nlohmann::json& stored) {
+    if (stored.contains("loss")) stored["loss"] = nlohmann::json(stored["loss"].get<LossOptions>());
+  };
   train::Trainer trainer(topt, task, loader, val.get());
   const train::TrainResult result = trainer.run();
   return {task.module_name(), result.steps, result.last_eval};
