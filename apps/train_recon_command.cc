@@ -47,6 +47,9 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
       ->check(CLI::IsMember({"resnet50", "resnet18", "resnet34"}))->capture_default_str();
   app->add_option("--width", o->run.width, "Channels of conv1/layer1 (64: torchvision; 8-16: tiny nets for tests, CPU demo)")
       ->capture_default_str()->check(CLI::Range(1, 1024));
+  app->add_option("--pool-grid", o->run.pool_grid, "The heads read layer4 averaged over N × N cells, flattened (1: the "
+                  "global average of torchvision and Deep3DFaceRecon; 2-4 keep where features are)")
+      ->capture_default_str()->check(CLI::Range(1, 16));
   app->add_option("--gamma", o->run.gamma, "Regress the light γ: on, off, auto (on for resnet50, off otherwise)")
       ->check(CLI::IsMember({"on", "off", "auto"}))->capture_default_str();
   app->add_option("--supervision", o->run.supervision, "truth (the samples' coefficients), self (Deep3DFaceRecon's terms: "

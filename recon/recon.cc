@@ -48,6 +48,7 @@ void ReconNetOptions::check() const {
   }
   if (width < 1 || width > 1024) throw InvalidInput("", "width must be 1 to 1024", "");
   if (!(translation_scale > 0)) throw InvalidInput("", "translation_scale must be > 0", "");
+  if (pool_grid < 1 || pool_grid > 16) throw InvalidInput("", "pool_grid must be 1 to 16", "");
 }
 
 namespace {
@@ -57,6 +58,7 @@ const auto kNetFields = [](auto& v, auto& o) {
   v("width", o.width);
   v("gamma", o.gamma);
   v("translation_scale", o.translation_scale);
+  v("pool_grid", o.pool_grid);
 };
 }  // namespace
 
@@ -72,7 +74,7 @@ ReconNetImpl::ReconNetImpl(const ReconNetOptions& options, const CoefficientLayo
   r.width = options_.width;
   r.num_classes = 0;
   backbone_ = register_module("backbone", nets::ResNet(r));
-  const int64_t c = backbone_->feature_channels();
+  const int64_t c = backbone_->feature_channels() * options_.pool_grid * options_.pool_grid;
   alpha_ = register_module("alpha", zero_linear(c, layout_.id));
   beta_ = register_module("beta", zero_linear(c, layout_.exp));
   delta_ = register_module("delta", zero_linear(c, layout_.app));
@@ -82,7 +84,9 @@ ReconNetImpl::ReconNetImpl(const ReconNetOptions& options, const CoefficientLayo
 }
 
 torch::Tensor ReconNetImpl::forward(const torch::Tensor& image) {
-  const torch::Tensor f = backbone_->features(image);
+  const int64_t g = options_.pool_grid;
+  const torch::Tensor f = g == 1 ? backbone_->features(image)
+                                 : torch::adaptive_avg_pool2d(backbone_->trunk(image), {g, g}).flatten(1);
   std::vector<torch::Tensor> out = {alpha_(f), beta_(f), delta_(f), rotation_(f),
                                     translation_(f) * options_.translation_scale};
   if (gamma_) out.push_back(gamma_(f) + ambient_gamma(f.options()));

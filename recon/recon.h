@@ -26,12 +26,14 @@ struct ReconNetOptions {
   int width = 64;                 // conv1 / layer1 channels (torchvision: 64); small values make tiny nets
   bool gamma = true;              // regress the light (F); E does not
   double translation_scale = 10;  // mm per unit of the translation head's output
+  int pool_grid = 1;  // the heads read layer4 averaged over pool_grid² cells (1: torchvision's global average)
   void check() const;             // InvalidInput for an unknown arch or a bad value
 };
 void to_json(nlohmann::json& j, const ReconNetOptions& o);
 void from_json(const nlohmann::json& j, ReconNetOptions& o);  // InvalidInput: unknown key, wrong type, bad value
 
-// Backbone (torchvision ResNet without its fc), global average pooling, one zero-initialised linear head per group
+// Backbone (torchvision ResNet without its fc), global average pooling (or, with pool_grid g > 1, the average over
+// each cell of a g × g grid, flattened: where a feature is, not only how strong), one zero-initialised linear head per group
 // (so an untrained net answers the mean face, frontal, at the origin, under Deep3DFaceRecon's ambient light):
 // α K_id, β K_exp, δ K_app, rotation 3 (radians), translation 3 (× translation_scale mm), γ 27 (+0.8 on each channel's
 // first coefficient). The output is a row of the coefficient vector (face_model.h), in the coefficient file's units.

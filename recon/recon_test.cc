@@ -110,11 +110,12 @@ TEST(FaceModel, SplitJoinAndCoefficientFiles) {
 // The options through core/json_options.h: non-default values round-trip, unknown keys and bad values are refused.
 TEST(ReconOptions, RoundTripAndRefuseUnknownKeys) {
   testing::expect_options_json<ReconNetOptions>(
-      {{"arch", "resnet18"}, {"width", 16}, {"gamma", false}, {"translation_scale", 5.0}});
+      {{"arch", "resnet18"}, {"width", 16}, {"gamma", false}, {"translation_scale", 5.0}, {"pool_grid", 2}});
   testing::expect_options_json<LossOptions>({{"supervision", "self"}, {"truth", 0.5}, {"w_alpha", 2.0},
                                              {"rotation_unit", 0.1}, {"shape", 3.0}, {"photo", 1.0}, {"identity", 0.0}});
   EXPECT_THROW(nlohmann::json({{"arch", "vgg"}}).get<ReconNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"width", 64.5}}).get<ReconNetOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"pool_grid", 0}}).get<ReconNetOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"photo", -1}}).get<LossOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"supervision", "some"}}).get<LossOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"supervision", 1}}).get<LossOptions>(), InvalidInput);
@@ -252,6 +253,25 @@ TEST(ReconTask, SelfSupervisedLossFallsOnAFixedBatch) {
   }
   std::printf("loss %.4f -> %.4f\n", first, last);
   EXPECT_LT(last, 0.5 * first) << "first " << first << " last " << last;
+}
+
+// Heads on a pooling grid read every cell of layer4 and start, like the global average's, at the mean face under the
+// ambient light.
+TEST(ReconNet, PoolGridHeadsStartAtTheMeanFace) {
+  const FaceModel m = FaceModel::load(toy_model_path());
+  ReconNetOptions o;
+  o.arch = "resnet18";
+  o.width = 8;
+  torch::manual_seed(3);
+  ReconNet global(o, m.layout());
+  o.pool_grid = 2;
+  ReconNet grid(o, m.layout());
+  const torch::Tensor image = torch::rand({2, 3, 64, 64});
+  global->eval();
+  grid->eval();
+  EXPECT_TRUE(torch::equal(grid->forward(image), global->forward(image)));
+  const auto params = grid->named_parameters();
+  EXPECT_EQ(params["alpha.weight"].size(1), 4 * params["backbone.layer4.1.bn2.weight"].size(0));
 }
 
 // Supervised training on the Trainer recovers the coefficients of a tiny rendered set (error in σ well below that of

@@ -28,6 +28,7 @@ void TrainReconOptions::check() const {
   ReconNetOptions net;
   net.arch = arch;
   net.width = width;
+  net.pool_grid = pool_grid;
   net.check();
   ReconTaskOptions task;
   task.input = input;
@@ -44,6 +45,7 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
   ReconTaskOptions to;
   to.net.arch = o.arch;
   to.net.width = o.width;
+  to.net.pool_grid = o.pool_grid;
   to.net.gamma = o.gamma == "auto" ? o.arch == "resnet50" : o.gamma == "on";
   to.net.check();
   to.loss.supervision = parse_supervision(o.supervision);
@@ -107,8 +109,10 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
                  {"eval_batches", o.eval_batches}, {"sample_every", o.trainer.sample_every}, {"device", o.trainer.device}};
   topt.config["profile"] = o.profile;
   topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
-  // A run's stored loss weights read back in today's keys, so runs from before a term existed (shape) resume.
+  // A run's stored net options and loss weights read back in today's keys, so runs from before a key existed
+  // (pool_grid, shape) resume.
   topt.upgrade_config = [](nlohmann::json& stored) {
+    if (stored.contains("net")) stored["net"] = nlohmann::json(stored["net"].get<ReconNetOptions>());
     if (stored.contains("loss")) stored["loss"] = nlohmann::json(stored["loss"].get<LossOptions>());
   };
   train::Trainer trainer(topt, task, loader, val.get());

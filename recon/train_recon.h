@@ -19,6 +19,7 @@ struct TrainReconOptions {
   std::string gamma = "auto";                      // on, off or auto (on for resnet50)
   nlohmann::json loss = nlohmann::json::object();  // loss weights over the defaults
   int width = 64, image_size = 0;                  // image_size 0: the samples'
+  int pool_grid = 1;                               // the heads' grid over layer4 (1: global average)
   int64_t decay_every = 0;                         // 0: half the steps; -1: never
   int64_t eval_batches = 8;
   double lr = 1e-4;

@@ -113,11 +113,15 @@ ResNetImpl::ResNetImpl(const ResNetOptions& o) : options_(o) {
   });
 }
 
-torch::Tensor ResNetImpl::features(torch::Tensor x) {
+torch::Tensor ResNetImpl::trunk(torch::Tensor x) {
   x = torch::relu(bn1_(conv1_(x)));
   x = torch::max_pool2d(x, 3, 2, 1);
   for (auto& layer : layers_) x = layer->forward(x);
-  return torch::adaptive_avg_pool2d(x, {1, 1}).flatten(1);  // as torchvision (same kernel, same sums)
+  return x;
+}
+
+torch::Tensor ResNetImpl::features(torch::Tensor x) {
+  return torch::adaptive_avg_pool2d(trunk(x), {1, 1}).flatten(1);  // as torchvision (same kernel, same sums)
 }
 
 torch::Tensor ResNetImpl::forward(torch::Tensor x) {

@@ -53,6 +53,8 @@ class ResNetImpl : public torch::nn::Module {
   torch::Tensor forward(torch::Tensor x);
   // [N, in_channels, H, W] → [N, feature_channels()]: global average of layer4 (what heads attach to).
   torch::Tensor features(torch::Tensor x);
+  // [N, in_channels, H, W] → layer4's map [N, feature_channels(), H/32, W/32], before the pooling.
+  torch::Tensor trunk(torch::Tensor x);
   int64_t feature_channels() const { return feature_channels_; }
   const ResNetOptions& options() const { return options_; }
 
