@@ -74,22 +74,22 @@ grep -q '"arch": "resnet18"' "$work/F/config.json" || fail "the run's config doe
 for term in F/truth F/photo F/landmark F/reg F/gamma; do
   grep -q "$term" "$work/F/metrics.csv" || fail "the losses lack $term: $(head -3 "$work/F/metrics.csv")"
 done
-# A run made before the shape term existed (its stored loss weights lack "shape") resumes; it is refused once its
-# weights differ from the ones given.
+# A run made before the shape term and the pooling grid existed (its checkpoint's configuration lacks "shape" and
+# "pool_grid") resumes; it is refused once its weights differ from the ones given.
 "$py" - "$work/F/checkpoint.safetensors" <<'PY' || fail "could not rewrite the checkpoint's configuration"
 import json, struct, sys
 raw = open(sys.argv[1], "rb").read()
 n = struct.unpack("<Q", raw[:8])[0]
 header = json.loads(raw[8:8 + n])
 meta = json.loads(header["__metadata__"]["bareskin.checkpoint"])
-del meta["config"]["loss"]["shape"]
+del meta["config"]["loss"]["shape"], meta["config"]["net"]["pool_grid"]
 header["__metadata__"]["bareskin.checkpoint"] = json.dumps(meta, separators=(",", ":"))
 text = json.dumps(header, separators=(",", ":")).encode()
 open(sys.argv[1], "wb").write(struct.pack("<Q", len(text)) + text + raw[8 + n:])  # offsets count from the data
 PY
 "$bin" -q --threads 1 train recon --arch resnet18 --width 4 --data "$work/faces" --model "$work/model.safetensors" \
   -o "$work/F" --steps 3 --batch 2 --checkpoint-every 1 --eval-every 0 --sample-every 0 --log-every 1 \
-  --gamma on --loss '{"identity": 0}' --resume || fail "a run from before the shape term did not resume"
+  --gamma on --loss '{"identity": 0}' --resume || fail "a run from before the shape term and pool_grid did not resume"
 grep -q '^3,' "$work/F/metrics.csv" || fail "the resumed run did not reach step 3: $(tail -2 "$work/F/metrics.csv")"
 expect_failure 3 "loss" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0, "shape": 1}' --resume
