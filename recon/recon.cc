@@ -84,9 +84,8 @@ ReconNetImpl::ReconNetImpl(const ReconNetOptions& options, const CoefficientLayo
 }
 
 torch::Tensor ReconNetImpl::forward(const torch::Tensor& image) {
-  const int64_t g = options_.pool_grid;
-  const torch::Tensor f = g == 1 ? backbone_->features(image)
-                                 : torch::adaptive_avg_pool2d(backbone_->trunk(image), {g, g}).flatten(1);
+  const int64_t g = options_.pool_grid;  // 1: the backbone's own global average, the same kernel
+  const torch::Tensor f = torch::adaptive_avg_pool2d(backbone_->trunk(image), {g, g}).flatten(1);
   std::vector<torch::Tensor> out = {alpha_(f), beta_(f), delta_(f), rotation_(f),
                                     translation_(f) * options_.translation_scale};
   if (gamma_) out.push_back(gamma_(f) + ambient_gamma(f.options()));

@@ -26,7 +26,7 @@ struct ReconNetOptions {
   int width = 64;                 // conv1 / layer1 channels (torchvision: 64); small values make tiny nets
   bool gamma = true;              // regress the light (F); E does not
   double translation_scale = 10;  // mm per unit of the translation head's output
-  int pool_grid = 1;  // the heads read layer4 averaged over pool_grid² cells (1: torchvision's global average)
+  int pool_grid = 1;              // the heads read layer4 averaged over pool_grid² cells (1: the global average)
   void check() const;             // InvalidInput for an unknown arch or a bad value
 };
 void to_json(nlohmann::json& j, const ReconNetOptions& o);
@@ -67,7 +67,7 @@ struct LossOptions {
   double truth = 1.0;  // the coefficient loss: Σ_g w_g mean((ĉ_g − c_g)² / unit_g²)
   double w_alpha = 1, w_beta = 1, w_delta = 1, w_rotation = 1, w_translation = 1, w_gamma = 1;
   double rotation_unit = 0.05, translation_unit = 5, gamma_unit = 0.1;
-  double shape = 0;          // mean per-vertex distance (mm) of S(α̂, β̂) from the true S(α, β): shape_mm, trained
+  double shape = 0;          // mean per-vertex distance (mm) of S(α̂, β̂) from the true S(α, β) (the metric shape_mm)
   double photo = 1.92;       // per-pixel Euclidean colour distance over the skin the face covers
   double landmark = 1.6e-3;  // squared px at 224² (our 256² landmarks are scaled), weight 20 on 28–30 and 60–67
   double reg = 3e-4, reg_alpha = 1.0, reg_beta = 0.8, reg_delta = 1.7e-2;
