@@ -172,6 +172,12 @@ void add_trainer_flags(CLI::App& app, TrainerFlags& f, bool steps) {
 #endif
 }
 
+void add_clip_grad_norm_flag(CLI::App& app, double& norm) {
+  app.add_option("--clip-grad-norm", norm, "Scale each step's gradients to at most this norm (0: off); keeps a "
+                 "gradient spike from throwing the net off. The norm before clipping is logged as <net>/grad_norm")
+      ->capture_default_str();
+}
+
 void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles) {
   chosen = profiles.front().name;
   std::string help = "Sizes and recipe to start from (flags given win):";

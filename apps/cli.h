@@ -70,6 +70,9 @@ using TrainerFlags = train::RunFlags;
 // --steps (unless `steps` is false: the command has its own), --batch, --seed, --device, --log-every,
 // --checkpoint-every, --eval-every, --sample-every, --resume.
 void add_trainer_flags(CLI::App& app, TrainerFlags& flags, bool steps = true);
+// --clip-grad-norm: each step's gradients scaled to at most this norm per optimizer (training/trainer.h; 0: off). The
+// command's library options hold it, so that the run's configuration records it.
+void add_clip_grad_norm_flag(CLI::App& app, double& norm);
 
 // A profile: a named set of flag values a training command starts from (--profile), e.g. the network sizes a 2-core
 // CPU trains in hours or the paper's for a GPU. Flags given on the command line (or in --config) win over it.

@@ -77,6 +77,7 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "(ours; 0: off, G as trained)")->capture_default_str();
   app->add_option("--lr-decay", o->run.task.lr_decay, "Learning rates fall linearly to 0 from this fraction of each stage's "
                   "steps on (ours; 1: constant, the paper)")->capture_default_str();
+  add_clip_grad_norm_flag(*app, o->run.task.clip_grad_norm);
   app->add_option("--w-level", o->run.task.w_level, "Weight of L_level: |mean colour of G's output − of its target| on the "
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
   app->add_option("--makeup-hue", o->run.task.makeup_hue, "Probability that a training sample's makeup is turned to a "

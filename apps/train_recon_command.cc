@@ -63,6 +63,7 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   add_trainer_flags(*app, o->run.trainer);
   add_profile_flag(*app, o->profile, recon_profiles());
   app->add_option("--lr", o->run.lr, "Adam's learning rate (Deep3DFaceRecon: 1e-4)")->capture_default_str();
+  add_clip_grad_norm_flag(*app, o->run.clip_grad_norm);
   app->add_option("--decay-every", o->run.decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
   app->add_option("--eval-batches", o->run.eval_batches, "Validation batches per evaluation")->capture_default_str();

@@ -117,8 +117,7 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   t->add_option("--lr", tex_model->lr, "Adam learning rate")->capture_default_str();
   t->add_option("--lr-decay", tex_model->lr_decay, "The rate falls linearly to 0 from this fraction of the steps on "
                 "(0.5: pix2pixHD's niter = niter_decay; 1: constant)")->capture_default_str();
-  t->add_option("--clip-grad-norm", tex_model->clip_grad_norm, "Scale each step's gradients to at most this norm "
-                "(0: off); keeps a gradient spike from throwing the net off")->capture_default_str();
+  add_clip_grad_norm_flag(*t, tex_model->clip_grad_norm);
   add_profile_flag(*t, tex->profile, texture_profiles());
   t->footer("Example: bareskin train texture --profile cpu --data textures/train --val textures/val --masks "
             "textures/masks --model model.safetensors -o runs/tex\n"
@@ -146,6 +145,7 @@ std::function<bool()> setup_train_texture(CLI::App& train, const Globals& global
   u->add_option("--lr", up_model->lr, "Adam learning rate")->capture_default_str();
   u->add_option("--lr-decay", up_model->lr_decay, "The rate falls linearly to 0 from this fraction of the steps on (1: "
                 "constant, as SRGAN's first 10^5 steps)")->capture_default_str();
+  add_clip_grad_norm_flag(*u, up_model->clip_grad_norm);
   add_profile_flag(*u, up->profile, upscale_profiles());
   u->footer("Example: bareskin train upscale --profile cpu --map diffuse --data textures/train --val textures/val "
             "-o runs/up_diffuse\n"

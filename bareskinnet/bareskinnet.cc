@@ -40,6 +40,9 @@ void Options::check() const {
   if (!(o.lr_decay >= 0 && o.lr_decay <= 1))
     throw InvalidInput("lr_decay " + std::to_string(o.lr_decay), "is not a fraction of the steps in [0, 1]",
                        "use e.g. 0.5 (decay over the second half of each stage), or 1 for a constant rate");
+  if (!(o.clip_grad_norm >= 0 && std::isfinite(o.clip_grad_norm)))
+    throw InvalidInput("clip_grad_norm " + std::to_string(o.clip_grad_norm), "is negative or not finite",
+                       "use e.g. 10, or 0 for no clipping");
   for (auto [key, w] : {std::pair<const char*, double>{"w1", o.w1}, {"w2", o.w2}, {"w3", o.w3}, {"w_coeff", o.w_coeff},
                         {"w_land", o.w_land}, {"w_diff", o.w_diff}, {"w_light", o.w_light}, {"w_reg", o.w_reg},
                         {"w_level", o.w_level}, {"w_makeup", o.w_makeup}})
@@ -81,6 +84,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   v("ema", o.ema);
   // Written only when set, so that the configurations of runs made before the options existed still match on resume.
   v.unless_default("lr_decay", o.lr_decay);
+  v.unless_default("clip_grad_norm", o.clip_grad_norm);
   v.unless_default("w_level", o.w_level);
   v.unless_default("w_makeup", o.w_makeup);
   v.unless_default("makeup_hue", o.makeup_hue);
@@ -555,6 +559,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   train::TrainerOptions to = ro.trainer;
   to.run_dir = dir;
   to.steps = steps;
+  to.clip_grad_norm = task.options().clip_grad_norm;
   to.config = ro;
   to.config["stage"] = task.options().stage;
   for (const char* key : {"steps1", "steps2", "val_data", "profile"}) to.resumable_keys.push_back(key);

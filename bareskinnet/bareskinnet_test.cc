@@ -276,9 +276,15 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
                                          {"beta1", 0.9},
                                          {"ema", 0.99},
                                          {"lr_decay", 0.5},
+                                         {"clip_grad_norm", 10.0},
                                          {"w_level", 1.0},
                                          {"w_makeup", 50.0},
                                          {"makeup_hue", 0.5}});
+  // The options added since the paper's are written only when set, so the configuration of a run from before one
+  // existed matches on resume.
+  const nlohmann::json defaults = Options{};
+  for (const char* key : {"lr_decay", "clip_grad_norm", "w_level", "w_makeup", "makeup_hue"})
+    EXPECT_FALSE(defaults.contains(key)) << key;
   // face_api is read (a folder of this machine) but never written into a run's configuration.
   const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
   EXPECT_EQ(with_folder.face_api, "/tmp/face-api");
@@ -509,13 +515,15 @@ TEST(BareSkinNet, SkinMetricsAndRegularisation) {
 }
 
 // --lr-decay: every group's rate is constant up to the fraction of each stage's steps, then falls linearly to 0 at
-// the stage's end (the rates the Trainer logs per step); L_level is trained (a loss of its own in the log).
+// the stage's end (the rates the Trainer logs per step); L_level is trained (a loss of its own in the log); the
+// gradient clip reaches both stages' optimizers (each logs its norm before clipping).
 TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
   const auto dir = write_faces(8, 5);
   RunOptions ro;
   ro.task = small_options(1);
   ro.task.lr_decay = 0.5;
   ro.task.w_level = 10;
+  ro.task.clip_grad_norm = 1e3;
   ro.train_data = dir;
   ro.steps1 = 4;
   ro.steps2 = 6;
@@ -552,10 +560,16 @@ TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
   }
   EXPECT_EQ(m2.at("G/level").size(), f2.size());
   EXPECT_GT(m1.at("G/level")[0], 0);
+  for (const auto* m : {&m1, &m2})
+    for (const char* norm : {"G/grad_norm", "D/grad_norm"}) {
+      ASSERT_TRUE(m->count(norm)) << norm;
+      EXPECT_GT(m->at(norm)[0], 0) << norm;
+    }
   Options bad;
   EXPECT_THROW(from_json({{"lr_decay", 1.5}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"w_level", -1}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"makeup_hue", 1.5}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"clip_grad_norm", -1}}, bad), InvalidInput);
 }
 
 TEST(BareSkinNet, UnwarpRecoversTheAlbedoTextureOfARenderedFace) {

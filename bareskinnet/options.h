@@ -42,6 +42,9 @@ struct Options {
   // Ours, not the paper's: each stage's learning rates (G, D, E, a tuned F) fall linearly to 0 from this fraction of
   // the stage's steps on (1: constant, the paper; 0.5: the second half of each stage decays).
   double lr_decay = 1;
+  // Ours, not the paper's: each step's gradients scaled to at most this norm per optimizer (D's; G's with E's and a
+  // tuned F's), the norm before clipping logged as <optimizer>/grad_norm (training/trainer.h); 0: off.
+  double clip_grad_norm = 0;
   // Ours, not the paper's: weight of L_level, the L1 distance between the mean colours (per image and channel) of
   // G's output and of its target over the face region (face.png); 0: off. It penalises the overall brightness G
   // leaves per light condition directly, which the per-pixel L1 only does through the sum of its signs.

@@ -1,6 +1,7 @@
 // `bareskin train recon`'s run (train_recon.h): the samples, the identity net, the task and the Trainer.
 #include "recon/train_recon.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
@@ -24,6 +25,8 @@ void TrainReconOptions::check() const {
   if (image_size != 0 && (image_size < 16 || image_size > 4096))
     throw InvalidInput("--image-size", std::to_string(image_size) + " is outside [16, 4096]", "0 keeps the samples' size");
   if (decay_every < -1) throw InvalidInput("--decay-every", "must be >= -1", "0: half the steps; -1: never");
+  if (!(clip_grad_norm >= 0 && std::isfinite(clip_grad_norm)))
+    throw InvalidInput("--clip-grad-norm", "must be finite and >= 0", "0 is off, e.g. --clip-grad-norm 10");
   if (eval_batches < 1) throw InvalidInput("--eval-batches", "must be at least 1", "e.g. --eval-batches 8");
   ReconNetOptions net;
   net.arch = arch;
@@ -100,18 +103,20 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
   topt.resume = o.trainer.resume;
   topt.device = device;
   topt.progress = o.progress;
+  topt.clip_grad_norm = o.clip_grad_norm;
   topt.config = {{"net", to.net}, {"loss", to.loss}, {"input", to.input}, {"image_size", to.image_size},
                  {"model", fs::absolute(o.model).string()},
                  {"layout", {{"id", model.layout().id}, {"exp", model.layout().exp}, {"app", model.layout().app}}},
-                 {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"decay_every", o.decay_every},
+                 {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"clip_grad_norm", o.clip_grad_norm}, {"decay_every", o.decay_every},
                  {"seed", o.trainer.seed}, {"steps", o.trainer.steps}, {"log_every", o.trainer.log_every},
                  {"checkpoint_every", o.trainer.checkpoint_every}, {"eval_every", topt.eval_every},
                  {"eval_batches", o.eval_batches}, {"sample_every", o.trainer.sample_every}, {"device", o.trainer.device}};
   topt.config["profile"] = o.profile;
   topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
   // A run's stored net options and loss weights read back in today's keys, so runs from before a key existed
-  // (pool_grid, shape) resume.
+  // (pool_grid, shape, clip_grad_norm: off) resume.
   topt.upgrade_config = [](nlohmann::json& stored) {
+    if (!stored.contains("clip_grad_norm")) stored["clip_grad_norm"] = 0.0;
     if (stored.contains("net")) stored["net"] = nlohmann::json(stored["net"].get<ReconNetOptions>());
     if (stored.contains("loss")) stored["loss"] = nlohmann::json(stored["loss"].get<LossOptions>());
   };

@@ -141,6 +141,7 @@ train::TrainerOptions trainer_options(const TrainRunOptions& run, const nlohmann
   o.resume = run.resume;
   o.progress = run.progress;
   o.device = torch::Device(run.device);
+  o.clip_grad_norm = model.value("clip_grad_norm", 0.0);  // the model options' (0: off), as the config records it
   o.config = run.extra;
   o.config.update({{"data", run.data},         {"val", run.val},       {"masks", run.masks},
                    {"init", run.init},         {"steps", run.steps},   {"batch", run.batch},

@@ -361,7 +361,6 @@ train::TrainResult train_texture(const TrainRunOptions& run, TextureNetOptions m
   OcclusionSampler occlusion = run.masks.empty() ? OcclusionSampler() : OcclusionSampler::from_shards(run.masks, model.res);
   Pix2PixHDTask task(model, std::move(occlusion));
   auto options = trainer_options(run, model);
-  options.clip_grad_norm = model.clip_grad_norm;
   // A run's stored model options read back in today's keys: "decay_start" of runs from before lr_decay, and options
   // added since at their defaults (clip_grad_norm: off), so earlier runs resume.
   options.upgrade_config = [](nlohmann::json& stored) {

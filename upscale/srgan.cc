@@ -31,6 +31,8 @@ void UpscaleOptions::check() const {
                 "the SRGAN discriminator's head takes 128² or 256²");
   nets::require(lr_decay >= 0 && lr_decay <= 1, what, "lr_decay must be a fraction of the steps in [0, 1]",
                 "use 1 for a constant rate, 0.5 to decay over the second half");
+  nets::require(clip_grad_norm >= 0 && std::isfinite(clip_grad_norm), what, "clip_grad_norm must be finite and >= 0",
+                "0 is off, e.g. --clip-grad-norm 10");
 }
 
 namespace {
@@ -50,6 +52,7 @@ const auto kUpscaleFields = [](auto& v, auto& o) {
   v("beta1", o.beta1);
   v("beta2", o.beta2);
   v.unless_default("lr_decay", o.lr_decay);
+  v.unless_default("clip_grad_norm", o.clip_grad_norm);
 };
 }  // namespace
 

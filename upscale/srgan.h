@@ -32,6 +32,7 @@ struct UpscaleOptions {
   double lambda_gan = 1e-3;     // SRGAN's adversarial weight
   double lr = 1e-4, beta1 = 0.9, beta2 = 0.999;
   double lr_decay = 1;          // the rate falls linearly to 0 from this fraction of the steps on (1: constant)
+  double clip_grad_norm = 0;    // each step's gradients scaled to at most this norm (per network); 0: off
   void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UpscaleOptions& o);

@@ -66,12 +66,16 @@ TEST(Srgan, OptionsRoundTripAndRefuseUnknownKeys) {
                                                 {"lr", 2e-4},
                                                 {"beta1", 0.5},
                                                 {"beta2", 0.99},
-                                                {"lr_decay", 0.5}});
+                                                {"lr_decay", 0.5},
+                                                {"clip_grad_norm", 10.0}});
   EXPECT_THROW(nlohmann::json({{"patch", 64}}).get<UpscaleOptions>(), InvalidInput);
+  EXPECT_THROW(nlohmann::json({{"clip_grad_norm", -1.0}}).get<UpscaleOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"map", "albedo"}}).get<UpscaleOptions>(), InvalidInput);
   EXPECT_THROW(nlohmann::json({{"lr_decay", 1.5}}).get<UpscaleOptions>(), InvalidInput);
-  // A constant rate (the default) is not written: the config of a run from before lr_decay existed reads the same.
+  // A constant rate and no clip (the defaults) are not written: the config of a run from before they existed reads
+  // the same.
   EXPECT_FALSE(nlohmann::json(UpscaleOptions{}).contains("lr_decay"));
+  EXPECT_FALSE(nlohmann::json(UpscaleOptions{}).contains("clip_grad_norm"));
 }
 
 TEST(Srgan, LrDecayPlacesTheLinearDecayInTheRun) {

@@ -74,15 +74,15 @@ grep -q '"arch": "resnet18"' "$work/F/config.json" || fail "the run's config doe
 for term in F/truth F/photo F/landmark F/reg F/gamma; do
   grep -q "$term" "$work/F/metrics.csv" || fail "the losses lack $term: $(head -3 "$work/F/metrics.csv")"
 done
-# A run made before the shape term and the pooling grid existed (its checkpoint's configuration lacks "shape" and
-# "pool_grid") resumes; it is refused once its weights differ from the ones given.
+# A run made before the shape term, the pooling grid and the gradient clip existed (its checkpoint's configuration
+# lacks "shape", "pool_grid" and "clip_grad_norm") resumes; it is refused once its weights differ from the ones given.
 "$py" - "$work/F/checkpoint.safetensors" <<'PY' || fail "could not rewrite the checkpoint's configuration"
 import json, struct, sys
 raw = open(sys.argv[1], "rb").read()
 n = struct.unpack("<Q", raw[:8])[0]
 header = json.loads(raw[8:8 + n])
 meta = json.loads(header["__metadata__"]["bareskin.checkpoint"])
-del meta["config"]["loss"]["shape"], meta["config"]["net"]["pool_grid"]
+del meta["config"]["loss"]["shape"], meta["config"]["net"]["pool_grid"], meta["config"]["clip_grad_norm"]
 header["__metadata__"]["bareskin.checkpoint"] = json.dumps(meta, separators=(",", ":"))
 text = json.dumps(header, separators=(",", ":")).encode()
 open(sys.argv[1], "wb").write(struct.pack("<Q", len(text)) + text + raw[8 + n:])  # offsets count from the data
@@ -93,6 +93,18 @@ PY
 grep -q '^3,' "$work/F/metrics.csv" || fail "the resumed run did not reach step 3: $(tail -2 "$work/F/metrics.csv")"
 expect_failure 3 "loss" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0, "shape": 1}' --resume
+expect_failure 3 "clip_grad_norm" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
+  --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0}' \
+  --clip-grad-norm 1 --resume
+# --clip-grad-norm: the norm before clipping is logged; a negative norm is one line, nothing written.
+"$bin" -q --threads 1 train recon --arch resnet18 --width 4 --data "$work/faces" --model "$work/model.safetensors" \
+  -o "$work/Fclip" --steps 1 --batch 2 --eval-every 0 --sample-every 0 --log-every 1 --loss '{"identity": 0}' \
+  --clip-grad-norm 0.5 || fail "train recon --clip-grad-norm failed"
+grep -q "^1,E/grad_norm," "$work/Fclip/metrics.csv" \
+  || fail "no E/grad_norm logged (resnet18: E): $(head -3 "$work/Fclip/metrics.csv")"
+grep -q '"clip_grad_norm": 0.5' "$work/Fclip/config.json" || fail "the run's config lacks its clip_grad_norm"
+expect_failure 3 "--clip-grad-norm" "$work/Fneg" -- "$bin" -q train recon --data "$work/faces" \
+  --model "$work/model.safetensors" -o "$work/Fneg" --clip-grad-norm -1
 
 # A real face photo through detect → align → the (untrained) net: every output, the confidence in the coefficients.
 photo=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
