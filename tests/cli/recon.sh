@@ -89,7 +89,8 @@ open(sys.argv[1], "wb").write(struct.pack("<Q", len(text)) + text + raw[8 + n:])
 PY
 "$bin" -q --threads 1 train recon --arch resnet18 --width 4 --data "$work/faces" --model "$work/model.safetensors" \
   -o "$work/F" --steps 3 --batch 2 --checkpoint-every 1 --eval-every 0 --sample-every 0 --log-every 1 \
-  --gamma on --loss '{"identity": 0}' --resume || fail "a run from before the shape term, pool_grid and clip_grad_norm did not resume"
+  --gamma on --loss '{"identity": 0}' --resume \
+  || fail "a run from before the shape term, pool_grid and clip_grad_norm did not resume"
 grep -q '^3,' "$work/F/metrics.csv" || fail "the resumed run did not reach step 3: $(tail -2 "$work/F/metrics.csv")"
 expect_failure 3 "loss" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0, "shape": 1}' --resume
