@@ -107,7 +107,8 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
   topt.config = {{"net", to.net}, {"loss", to.loss}, {"input", to.input}, {"image_size", to.image_size},
                  {"model", fs::absolute(o.model).string()},
                  {"layout", {{"id", model.layout().id}, {"exp", model.layout().exp}, {"app", model.layout().app}}},
-                 {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"clip_grad_norm", o.clip_grad_norm}, {"decay_every", o.decay_every},
+                 {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"clip_grad_norm", o.clip_grad_norm},
+                 {"decay_every", o.decay_every},
                  {"seed", o.trainer.seed}, {"steps", o.trainer.steps}, {"log_every", o.trainer.log_every},
                  {"checkpoint_every", o.trainer.checkpoint_every}, {"eval_every", topt.eval_every},
                  {"eval_batches", o.eval_batches}, {"sample_every", o.trainer.sample_every}, {"device", o.trainer.device}};

@@ -13,7 +13,9 @@ astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
   --lambda-perceptual 0 || fail "train texture"
 [ -f "$work/tex/checkpoint.safetensors" ] || fail "no texture checkpoint"
 "$bin" -q train upscale --map diffuse --phase l1 --data "$work/shards" -o "$work/up" --model "$work/a.safetensors" \
-  --steps 2 --batch 2 --generator '{"num_feat": 4, "num_block": 1}' || fail "train upscale"
+  --steps 2 --batch 2 --generator '{"num_feat": 4, "num_block": 1}' --clip-grad-norm 100 --log-every 1 \
+  || fail "train upscale"
+grep -q '^2,G/grad_norm,' "$work/up/metrics.csv" || fail "train upscale --clip-grad-norm logged no G/grad_norm"
 grep -q '"model_crc32"' "$work/tex/config.json" || fail "the model's CRC-32 is not recorded"
 
 # Training: a sample without a member, crops larger than the maps, an unknown map, a GAN phase from another map's run.
