@@ -163,6 +163,23 @@ TEST(NetsForward, UNetShapesRangeAndGradient) {
   }
   UNet net(UNetOptions{3, 3, 8, 6});
   EXPECT_THROW(net->forward(torch::randn({1, 3, 48, 64})), InvalidInput);  // 48 is not a multiple of 64
+  // max_mult: the widths double level by level up to ngf × max_mult (8: 64 channels at most here; 32: 256), and the
+  // default is not written into a configuration. The widest weight dimension: at 8, 128 (an up-convolution's input,
+  // 64 doubled by the skip connection); at 32, 256 (the innermost width; the level above it has 128, doubled).
+  auto widest = [](const UNet& u) {
+    int64_t w = 0;
+    for (const auto& p : u->parameters()) w = std::max(w, p.size(0));
+    return w;
+  };
+  EXPECT_EQ(widest(net), 128);
+  UNetOptions wide{3, 3, 8, 6};
+  wide.max_mult = 32;
+  UNet w(wide);
+  EXPECT_EQ(widest(w), 256);
+  EXPECT_EQ(w->forward(torch::randn({1, 3, 64, 64})).sizes(), (std::vector<int64_t>{1, 3, 64, 64}));
+  EXPECT_FALSE(nlohmann::json(UNetOptions{}).contains("max_mult"));
+  EXPECT_EQ(nlohmann::json(wide).get<UNetOptions>().max_mult, 32);
+  EXPECT_THROW(nlohmann::json({{"max_mult", 0}}).get<UNetOptions>(), InvalidInput);
 }
 
 TEST(NetsForward, UNetDropoutOnlyWhenTraining) {

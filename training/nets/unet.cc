@@ -30,6 +30,8 @@ void UNetOptions::check() const {
           "use 5 to 12 (8 for 256² inputs)");
   require(o.in_channels >= 1 && o.out_channels >= 1 && o.ngf >= 1, kUnet, "channel counts must be positive",
           "fix in_channels, out_channels or ngf");
+  require(o.max_mult >= 1 && o.max_mult <= 64, kUnet, "max_mult " + std::to_string(o.max_mult) + " is out of range",
+          "use 1 to 64 (8: pix2pix)");
 }
 
 // The keys of UNetOptions, listed once (core/json_options.h).
@@ -38,6 +40,7 @@ const auto kUNetFields = [](auto& v, auto& o) {
   v("out_channels", o.out_channels);
   v("ngf", o.ngf);
   v("num_downs", o.num_downs);
+  v.unless_default("max_mult", o.max_mult);  // written only when set: configurations from before it read the same
   v("norm", o.norm);
   v("dropout", o.dropout);
   v("upsample", o.upsample);
@@ -115,13 +118,15 @@ void zero_last_layer(UNetImpl& net) {
 UNetImpl::UNetImpl(const UNetOptions& o) : options_(o) {
   o.check();
   using Kind = UNetBlockImpl::Kind;
-  const int64_t g = o.ngf;
-  auto block = UNetBlock(Kind::innermost, g * 8, g * 8, g * 8, o, false, nn::AnyModule());
-  for (int i = 0; i < o.num_downs - 5; ++i)
-    block = UNetBlock(Kind::intermediate, g * 8, g * 8, g * 8, o, o.dropout, nn::AnyModule(block));
-  block = UNetBlock(Kind::intermediate, g * 4, g * 8, g * 4, o, false, nn::AnyModule(block));
-  block = UNetBlock(Kind::intermediate, g * 2, g * 4, g * 2, o, false, nn::AnyModule(block));
-  block = UNetBlock(Kind::intermediate, g, g * 2, g, o, false, nn::AnyModule(block));
+  // Level i (0: the outermost) has ngf × min(2^i, max_mult) channels; pix2pix's dropout is in the levels 3 to
+  // num_downs − 3, the ones between the ×8 level and the innermost.
+  const int n = o.num_downs;
+  std::vector<int64_t> c(n);
+  for (int i = 0; i < n; ++i) c[i] = int64_t(o.ngf) * std::min<int64_t>(int64_t(1) << std::min(i, 20), o.max_mult);
+  auto block = UNetBlock(Kind::innermost, c[n - 2], c[n - 1], c[n - 2], o, false, nn::AnyModule());
+  for (int i = n - 3; i >= 0; --i)
+    block = UNetBlock(Kind::intermediate, c[i], c[i + 1], c[i], o, o.dropout && i >= 3, nn::AnyModule(block));
+  const int64_t g = c[0];
   model_ = register_module(
       "model", UNetBlock(Kind::outermost, o.out_channels, g, o.in_channels, o, false, nn::AnyModule(block)));
   init_normal_002(*this);

@@ -20,11 +20,12 @@ namespace bareskin::nets {
 struct UNetOptions {
   int in_channels = 3;
   int out_channels = 3;
-  int ngf = 64;                        // channels after the first convolution; ×2 per level up to ×8
+  int ngf = 64;                        // channels after the first convolution; ×2 per level up to ×max_mult
   int num_downs = 8;                   // ≥ 5; the input's sides must be multiples of 2^num_downs (8: 256²)
   std::string norm = "batch";          // batch | instance | none
   bool dropout = true;                 // pix2pix trains with dropout in the innermost levels
   std::string upsample = "transpose";  // transpose (reference) | resize_conv (bilinear ×2 + 3×3 convolution)
+  int max_mult = 8;                    // the coarsest levels' width in ngf (8: pix2pix; 16, 32: wider coarse levels)
   void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UNetOptions& o);
