@@ -122,7 +122,7 @@ UNetImpl::UNetImpl(const UNetOptions& o) : options_(o) {
   // num_downs − 3, the ones between the ×8 level and the innermost.
   const int n = o.num_downs;
   std::vector<int64_t> c(n);
-  for (int i = 0; i < n; ++i) c[i] = int64_t(o.ngf) * std::min<int64_t>(int64_t(1) << std::min(i, 20), o.max_mult);
+  for (int i = 0; i < n; ++i) c[i] = int64_t(o.ngf) * std::min<int64_t>(int64_t(1) << i, o.max_mult);  // i < num_downs ≤ 12
   auto block = UNetBlock(Kind::innermost, c[n - 2], c[n - 1], c[n - 2], o, false, nn::AnyModule());
   for (int i = n - 3; i >= 0; --i)
     block = UNetBlock(Kind::intermediate, c[i], c[i + 1], c[i], o, o.dropout && i >= 3, nn::AnyModule(block));
