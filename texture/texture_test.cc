@@ -249,6 +249,29 @@ TEST(UVNet, StartsAtTheUnwrapOverTheModelsMaps) {
   for (const char* m : {"diffuse", "normal", "roughness", "specular"}) EXPECT_TRUE(e.count(std::string("psnr_mm_") + m));
   o.generator_options = {{"ngf", 4}, {"num_downs", 6}};
   EXPECT_THROW(Pix2PixHDTask(o, OcclusionSampler()), InvalidInput) << "32 is not a multiple of 2^6";
+  o.generator_options = {{"ngf", 4}, {"num_downs", 5}, {"fill", "mean"}};
+  EXPECT_THROW(Pix2PixHDTask(o, OcclusionSampler()), InvalidInput) << "fill is albedo or matched";
+}
+
+TEST(UVNet, MatchedFillCarriesTheUnwrapsLevelPerChannel) {
+  // Where the photo saw the face, the unwrap is the albedo at 0.5, 1 and 1.5 × per channel (one sample), and 0.8 ×
+  // (the other): the matched fill is the albedo at those gains where the photo did not see, the unwrap where it did.
+  torch::manual_seed(0);
+  const int64_t n = 16;
+  auto albedo01 = torch::rand({2, 3, n, n}) * 0.4 + 0.2;  // × 1.5 stays below 1
+  auto gains = torch::tensor({0.5f, 1.0f, 1.5f, 0.8f, 0.8f, 0.8f}).view({2, 3, 1, 1});
+  auto seen = (torch::rand({2, 1, n, n}) > 0.4).to(torch::kFloat);
+  auto inputs = torch::zeros({2, 13, n, n});
+  inputs.narrow(1, 0, 3).copy_(seen * (albedo01 * gains * 2 - 1) - (1 - seen));
+  inputs.narrow(1, 3, 1).copy_(seen * 2 - 1);
+  inputs.narrow(1, 4, 3).copy_(albedo01 * 2 - 1);
+  auto expected = seen * inputs.narrow(1, 0, 3) + (1 - seen) * (albedo01 * gains * 2 - 1);
+  EXPECT_TRUE(torch::allclose(uv_base(inputs, UVFill::matched).narrow(1, 0, 3), expected, 1e-5, 1e-5));
+  auto plain = seen * inputs.narrow(1, 0, 3) + (1 - seen) * inputs.narrow(1, 4, 3);
+  EXPECT_TRUE(torch::equal(uv_base(inputs).narrow(1, 0, 3), plain)) << "the default fill is the albedo as it is";
+  // Nothing seen: the albedo as it is.
+  inputs.narrow(1, 3, 1).fill_(-1);
+  EXPECT_TRUE(torch::equal(uv_base(inputs, UVFill::matched).narrow(1, 0, 3), inputs.narrow(1, 4, 3)));
 }
 
 TEST(Pix2PixHD, TrainsFromShardsAndLoadsForInference) {
