@@ -18,8 +18,8 @@ namespace bareskin::texture {
 
 // How the diffuse base fills the texels the photo did not see: with the 3DMM albedo as it is (the default, and what
 // runs trained before the option read), or with it scaled per sample and channel so that its mean over the seen texels
-// equals the unwrap's there (the fill then carries the photo's level and tint, and no seam shows at the edge of what
-// was seen).
+// equals the unwrap's there (the fill then carries the photo's level and tint, and the seam at the edge of what was
+// seen mostly goes).
 enum class UVFill { albedo, matched };
 
 // The base the UV net corrects, from the stacked inputs in [−1, 1] ([B, 13, H, W]): [B, 8, H, W] in [−1, 1].
