@@ -23,6 +23,7 @@ import glob
 import io
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -31,14 +32,14 @@ import numpy as np
 from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from sr_ceiling import psnr  # noqa: E402
 from table1_intervals import interval  # noqa: E402
 
 
 def bare_as_makeup(src, dst):
     """A copy of the faces split whose makeup photo is its bare truth (what a perfect G hands on)."""
     os.makedirs(dst, exist_ok=True)
-    with open(f"{src}/manifest.json") as f, open(f"{dst}/manifest.json", "w") as g:
-        g.write(f.read())
+    shutil.copy(f"{src}/manifest.json", dst)
     for shard in sorted(glob.glob(f"{src}/*.tar")):
         with tarfile.open(shard) as t, tarfile.open(f"{dst}/{os.path.basename(shard)}", "w") as out:
             for m in t.getmembers():
@@ -60,10 +61,6 @@ def samples(dataset):
                 meta = json.loads(t.extractfile(name).read())
                 if meta["style"] != "none":  # as Table 1: faces without makeup are passed over
                     yield meta["subject"], maps
-
-
-def psnr(a, b, mask):
-    return 10 * np.log10(1 / max(((a - b) ** 2)[mask].mean(), 1e-10))
 
 
 def scores(maps):

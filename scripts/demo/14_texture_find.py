@@ -198,8 +198,8 @@ def report(out, d, res, steps, up_steps, samples):
                      "(albedo, flat normal, the truth's mean roughness and specular)</th></tr>" + cells + "</table>"
                      "<p>The unwrap over the 3DMM albedo as it is (the UV net's start with the default fill; the "
                      "profile's net starts from that albedo matched to the unwrap's level) scores "
-                     f"{ev['psnr_unwrap_diffuse']:.2f} dB on the diffuse. The synthetic scans' normal maps are flat at this size, so the flat normal is "
-                     "already the truth.</p>")
+                     f"{ev['psnr_unwrap_diffuse']:.2f} dB on the diffuse. The synthetic scans' normal maps are flat "
+                     "at this size, so the flat normal is already the truth.</p>")
     grids = sorted(glob.glob(os.path.join(tex, "samples", "step_*.png")))
     parts.append(f"<figure><img src='{rel}/tex/losses.svg' style='width:420px'><figcaption>texture net loss (L1 on the "
                  "UV layout)</figcaption></figure>")
