@@ -194,6 +194,10 @@ torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& be
   return ((makeup - before).abs().mean(1, true) > 0.02).to(makeup.dtype()) * (face >= 0.5).to(makeup.dtype());
 }
 
+torch::Tensor whole_footprint(const torch::Tensor& resized_mask) {
+  return (resized_mask >= 0.999).to(resized_mask.dtype());
+}
+
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
   auto m = mask.expand_as(a);
   auto mse = ((a - b).pow(2) * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
@@ -314,6 +318,13 @@ std::vector<train::OptimizerSpec> BareSkinTask::optimizers() {
   return {d, g};
 }
 
+namespace {
+torch::Tensor area_resized(const torch::Tensor& t, int64_t s) {
+  if (t.size(-1) == s && t.size(-2) == s) return t;
+  return F::interpolate(t, F::InterpolateFuncOptions().size(std::vector<int64_t>{s, s}).mode(torch::kArea));
+}
+}  // namespace
+
 torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& name) const {
   const torch::Tensor& t = batch.at(name);
   const int64_t s = options_.size;
@@ -321,8 +332,7 @@ torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& 
     const double scale = double(s) / double(batch.at("makeup").size(-1));
     return t * scale;
   }
-  if (t.size(-1) == s && t.size(-2) == s) return t;
-  return F::interpolate(t, F::InterpolateFuncOptions().size(std::vector<int64_t>{s, s}).mode(torch::kArea));
+  return area_resized(t, s);
 }
 
 torch::Tensor BareSkinTask::generate(const torch::Tensor& images) {
@@ -337,8 +347,10 @@ torch::Tensor BareSkinTask::target(const data::Batch& batch) const {
   if (options_.target != "bare") return member(batch, options_.target);
   // The bare albedo is defined on the face only (black elsewhere): outside the face region (face.png: the face mesh,
   // not occluded) G is asked to keep its input, so the background does not dominate the L1.
-  auto face = member(batch, "face");
-  return face * member(batch, "bare") + (1 - face) * member(batch, "makeup");
+  // Composed at the shards' size, then resized: on the face's outline a pixel of G's size is part face, part hair or
+  // background, and so is its target (composed from the resized members, the face's coverage counted twice there).
+  const torch::Tensor& face = batch.at("face");
+  return area_resized(face * batch.at("bare") + (1 - face) * batch.at("makeup"), options_.size);
 }
 
 train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
@@ -383,7 +395,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   auto c_teacher = reference.narrow(1, 0, k), gamma = reference.narrow(1, k, 27);
   auto c_hat = (options_.recon == "E" ? student_.forward(out) : teacher_.forward(out)).narrow(1, 0, k);
   FaceRender r = renderer_(c_hat, gamma, options_.size);
-  auto region = r.mask * member(batch, "face");
+  auto region = r.mask * whole_footprint(member(batch, "face"));  // pixels whose photo is all face
   l["diff"] = options_.w_diff * diff_loss(r.unlit, srgb_to_linear(out), region);
   if (options_.w_light > 0) l["light"] = options_.w_light * light_loss(r.lit, srgb_to_linear(before), region);
   l["land"] = options_.w_land * landmark_loss(r.landmarks, member(batch, "landmarks"), 256.0 / double(options_.size));
@@ -394,7 +406,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
 
 std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
   auto out = generate_eval(member(batch, "makeup"));
-  auto skin = member(batch, "skin");
+  auto skin = whole_footprint(member(batch, "skin"));
   std::map<std::string, double> m;
   for (const char* truth : {"bare", "before"}) {
     if (!batch.tensors.count(truth)) continue;

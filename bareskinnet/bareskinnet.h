@@ -96,6 +96,11 @@ void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability
 // Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
 // [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);
+// The pixels of an area-resized mask ([B, 1, H, W]) whose whole footprint lay in the mask at the shards' size:
+// [B, 1, H, W] of 0 and 1. The regions every metric is taken over. A pixel on the face's outline at G's size is
+// partly hair or background in the photo, while the bare truth (black off the face) is darkened there: no G could
+// match it. At the shards' own size the masks are already whole pixels and nothing changes.
+torch::Tensor whole_footprint(const torch::Tensor& resized_mask);
 // Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
 // SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
@@ -284,7 +289,7 @@ struct EvalResult {
 };
 void to_json(nlohmann::json& j, const EvalResult& r);
 // G of a trained Demakeup (its model and F are not needed) on every sample of `split` (a folder with manifest.json),
-// at G's training resolution (the samples area-resized to it; skin where the resized mask is ≥ 0.5).
+// at G's training resolution (the samples area-resized to it; skin where the whole footprint is: whole_footprint).
 EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const EvalOptions& options);
 // G alone from a run (stage2, else stage1; G_ema where the run kept one): the Demakeup evaluate_generator takes.
 Demakeup load_generator(const std::string& run, torch::Device device = torch::kCPU);

@@ -26,7 +26,7 @@ constexpr int64_t kSize = 32;
 const CoeffLayout kLayout{6, 4, 3, false};  // the toy model's sizes: K = 19
 
 // Tiny shards in the face-sample layout (texgen faces): smooth random pictures, masks, 68 landmarks.
-std::string write_faces(int count, uint64_t seed) {
+std::string write_faces(int count, uint64_t seed, int64_t size = kSize) {
   const std::string dir = testing::temp_dir() + "/faces";
   fs::create_directories(dir);
   shards::ShardWriter writer(dir, "faces", 4);
@@ -37,19 +37,19 @@ std::string write_faces(int count, uint64_t seed) {
     std::memcpy(im.pixels.data(), hwc.data_ptr<float>(), im.pixels.size() * sizeof(float));
     return encode_png(im);
   };
-  auto smooth = [](int64_t c) {
+  auto smooth = [size](int64_t c) {
     return torch::nn::functional::interpolate(
                torch::rand({1, c, 4, 4}),
-               torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{kSize, kSize}).mode(torch::kBilinear).align_corners(false))[0];
+               torch::nn::functional::InterpolateFuncOptions().size(std::vector<int64_t>{size, size}).mode(torch::kBilinear).align_corners(false))[0];
   };
   for (int i = 0; i < count; ++i) {
     auto bare = smooth(3) * 0.6 + 0.2;
     auto before = (bare * (0.7 + 0.5 * smooth(1))).clamp(0, 1);
     auto makeup = (before * 0.6 + 0.4 * torch::tensor({0.8f, 0.2f, 0.3f}).view({3, 1, 1}) * smooth(1)).clamp(0, 1);
-    auto disc = (torch::linspace(-1, 1, kSize).view({1, kSize}).pow(2) + torch::linspace(-1, 1, kSize).view({kSize, 1}).pow(2) < 0.6)
+    auto disc = (torch::linspace(-1, 1, size).view({1, size}).pow(2) + torch::linspace(-1, 1, size).view({size, 1}).pow(2) < 0.6)
                     .to(torch::kFloat).unsqueeze(0);
     nlohmann::json meta = {{"subject", "mm/" + std::to_string(i)}, {"split", "train"}, {"style", "natural"}, {"has_truth", true}};
-    auto lm = torch::rand({68, 2}) * kSize;
+    auto lm = torch::rand({68, 2}) * size;
     for (int64_t k = 0; k < 68; ++k) meta["landmarks"].push_back({lm[k][0].item<float>(), lm[k][1].item<float>()});
     char key[16];
     std::snprintf(key, sizeof key, "%08d", i);
@@ -343,6 +343,31 @@ TEST(BareSkinNet, BareTargetIsTheAlbedoOnTheFaceAndTheInputElsewhere) {
   EXPECT_TRUE(torch::allclose(t.masked_select((~face).expand_as(t)), makeup.masked_select((~face).expand_as(t)), 0, 1e-6));
   // the unmasked bare image differs off the face: the check can fail
   EXPECT_GT((bare - makeup).abs().masked_select((~face).expand_as(t)).mean().item<double>(), 0.05);
+}
+
+TEST(BareSkinNet, BelowTheShardsSizeTheTargetAndTheSkinMetricAgreeOnTheFacesOutline) {
+  const auto dir = write_faces(4, 6, 2 * kSize);
+  Options o = small_options(1);
+  o.target = "bare";
+  BareSkinTask task(o);
+  data::Batch batch = load_batch(dir, o, 4);
+  const auto face = batch.at("face"), makeup = batch.at("makeup");
+  batch.tensors["bare"] = batch.at("bare") * face;  // black off the face, as texgen faces writes it
+  const auto bare = batch.at("bare");
+  namespace F = torch::nn::functional;
+  auto half = [](const torch::Tensor& t) { return F::avg_pool2d(t, F::AvgPool2dFuncOptions(2)); };
+  const auto t = task.target(batch);
+  EXPECT_TRUE(torch::allclose(t, half(face * bare + (1 - face) * makeup), 0, 1e-6));
+  // A G that gives this target is perfect on the skin: where a pixel's whole footprint is skin, target = bare truth.
+  const auto skin = whole_footprint(half(batch.at("skin")));
+  EXPECT_GT(masked_psnr(t, half(bare), skin).min().item<double>(), 100);
+  // On the outline (half covered or more, not whole) the bare truth is darkened: there the check can fail.
+  const auto outline = (half(batch.at("skin")) >= 0.5).to(skin.dtype()) - skin;
+  ASSERT_GT(outline.sum().item<double>(), 0);
+  EXPECT_GT(((t - half(bare)).abs() * outline).sum().item<double>() / (3 * outline.sum().item<double>()), 0.05);
+  // Resizing the members first, as before, gave the outline's face part its coverage twice.
+  const auto old = half(face) * half(bare) + (1 - half(face)) * half(makeup);
+  EXPECT_GT((old - t).abs().max().item<double>(), 0.05);
 }
 
 std::map<std::string, torch::Tensor> weights(const std::string& checkpoint, const std::string& module, BareSkinTask& task) {

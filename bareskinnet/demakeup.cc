@@ -170,7 +170,7 @@ void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Bat
                         const Demakeup& d, const torch::Tensor& makeup, const torch::Tensor& out, const Take& take) {
   if (!batch.tensors.count("face")) return;
   auto bare = take("bare");
-  auto face = (take("face") >= 0.5).to(makeup.dtype());
+  auto face = whole_footprint(take("face"));
   auto changed = makeup_region(makeup, take("before"), face);
   for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
     m["psnr_face_" + name + "bare"] = masked_psnr(x, bare, face);
@@ -236,10 +236,10 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
   while (r.samples < total) {
     data::Batch batch = loader.next();
     const int64_t n = std::min(batch.size(), total - r.samples);
-    // At G's own resolution (the shards' images area-resized; the skin mask kept where at least half covered).
+    // At G's own resolution (the shards' images area-resized; the skin where a pixel's whole footprint is skin).
     auto take = [&](const std::string& name) { return resized(batch.at(name).narrow(0, 0, n).to(eo.device), d.size, true); };
     auto makeup = take("makeup");
-    auto skin = (take("skin") >= 0.5).to(makeup.dtype());
+    auto skin = whole_footprint(take("skin"));
     auto out = run_generator(d, makeup);
     std::map<std::string, torch::Tensor> m;  // per image [n]; NaN where an image has none of a region
     for (const char* truth : {"bare", "before"}) {

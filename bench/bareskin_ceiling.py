@@ -35,7 +35,7 @@ import numpy as np
 from PIL import Image
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from face_shards import member, split_samples  # noqa: E402
+from face_shards import member, split_samples, whole_footprint  # noqa: E402
 
 
 def samples(faces, split, size, limit):
@@ -43,7 +43,7 @@ def samples(faces, split, size, limit):
     out = []
     for key, t, meta in split_samples(faces, split, "bareskin_ceiling"):
         get = lambda name: member(t, key, name, size)
-        out.append((get("makeup"), get("before"), get("bare"), get("face") > 0.5, meta["subject"], meta["style"]))
+        out.append((get("makeup"), get("before"), get("bare"), whole_footprint(get("face")), meta["subject"], meta["style"]))
         if len(out) >= limit:
             break
     return out
@@ -76,7 +76,7 @@ def write_level_oracle(W, split_dir, dst, size):
     faces, split = os.path.split(os.path.normpath(split_dir))
     n = 0
     for key, t, meta in split_samples(faces, split, "bareskin_ceiling"):
-        mask = member(t, key, "face", size) > 0.5
+        mask = whole_footprint(member(t, key, "face", size))
         predicted = features(member(t, key, "makeup", size), mask) @ W
         gain = np.exp(predicted - level(member(t, key, "bare", size), mask))
         bare = np.asarray(Image.open(io.BytesIO(t.extractfile(f"{key}.bare.png").read())), np.float64) / 255

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from face_shards import member, png, split_samples  # noqa: E402
+from face_shards import member, png, split_samples, whole_footprint  # noqa: E402
 
 
 def box_mean(a, r):
@@ -49,7 +49,7 @@ def main():
         truth = member(t, key, "bare", a.size)[..., :3]
         photo = member(t, key, "makeup", a.size)[..., :3]
         face = member(t, key, "face", a.size)
-        mask = (face if face.ndim == 2 else face[..., 0]) > 0.5
+        mask = whole_footprint(face if face.ndim == 2 else face[..., 0])
         g = png(open(out, "rb").read(), a.size)[..., :3]
 
         def psnr(img):

@@ -21,7 +21,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from face_shards import member, png, split_samples  # noqa: E402
+from face_shards import member, png, split_samples, whole_footprint  # noqa: E402
 
 # (name, lowest ITA°, highest): the outer groups take every angle beyond their bound.
 GROUPS = [("very light", 55, float("inf")), ("light", 41, 55), ("intermediate", 28, 41), ("tan", 10, 28),
@@ -72,7 +72,7 @@ def report(a):
         if not os.path.exists(out):
             sys.exit(f"bareskin_skin_tone: {out} is missing; run `bareskin demakeup --aligned` on the extracted photos")
         get = lambda name: member(t, key, name, a.size)
-        truth, photo, skin = get("bare"), get("makeup"), get("skin") > 0.5
+        truth, photo, skin = get("bare"), get("makeup"), whole_footprint(get("skin"))
         with open(out, "rb") as f:
             g = png(f.read(), a.size)
         if skin.sum() < 16:

@@ -27,6 +27,13 @@ def png(data, size):
     return a.reshape(size, f, size, f, *a.shape[2:]).mean((1, 3))
 
 
+def whole_footprint(mask):
+    """The pixels of an area-resized mask whose whole footprint lay in it (as `train bareskin`'s metrics take them):
+    on the face's outline a resized pixel is part hair or background, and the bare truth, black off the face, is
+    darkened there."""
+    return mask >= 0.999
+
+
 def member(t, key, name, size):
     """Sample key's <name>.png from tar t, area-resized to size²."""
     return png(t.extractfile(f"{key}.{name}.png").read(), size)
