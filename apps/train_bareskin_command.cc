@@ -14,7 +14,8 @@ const std::vector<Profile>& bareskin_profiles() {
   static const std::vector<Profile> profiles = {
       {"paper", "G ngf 64 at 256², 10k + 30k steps of 4, lr 2e-5 (a GPU's days)", {}},
       {"cpu", "G ngf 16 with the affine head at 128², D ndf 16, 1500 + 300 steps of 8, lr 2e-4, the bare target, LPIPS "
-              "on face-api's net; stage 2 through F itself (E width 16 with --recon E), L_diff and L_light at 20",
+              "on face-api's net; stage 2 through F itself (E width 16 with --recon E), L_diff up to a gain and "
+              "L_light at 20",
        {{"--size", "128"},
         {"--head", "affine"},
         {"--target", "bare"},
@@ -33,7 +34,11 @@ const std::vector<Profile>& bareskin_profiles() {
         // from G's output. At the paper's 100 it undid stage 1 (demo world: 24.82 → 21.54 dB in 60 steps); at 20,
         // through F: albedo +1.9 dB for G −0.6 dB, better on both than E at 10 (bench/BENCHMARKS.md, "CPU profile").
         {"--recon", "F"},
-        {"--loss-weights", R"({"w_diff": 20, "w_light": 20})"}}},
+        {"--loss-weights", R"({"w_diff": 20, "w_light": 20})"},
+        // The 3DMM's albedo space, built from few subjects, does not span every skin tone: with L_diff up to a gain
+        // per image and channel, stage 2 lifts G on the held-out skin (+0.2 dB over stage 1 instead of −0.3) and on
+        // every skin-tone group, for a smaller lift of F's albedo (+2.3 dB instead of +2.8; bench/BENCHMARKS.md).
+        {"--diff-gain", "true"}}},
   };
   return profiles;
 }
@@ -82,6 +87,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
   app->add_option("--makeup-hue", o->run.task.makeup_hue, "Probability that a training sample's makeup is turned to a "
                   "random hue about the grey axis (ours; 0: off, the world's colours)")->capture_default_str();
+  app->add_option("--diff-gain", o->run.task.diff_gain, "L_diff up to a gain per image and channel on the render's albedo "
+                  "(ours; false: the paper): the 3DMM's albedos need not span the skin tones G meets")->capture_default_str();
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, w_makeup, e.g. '{\"w2\": 0.5}'");
   add_trainer_flags(*app, o->run.trainer, false);

@@ -88,6 +88,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   v.unless_default("w_level", o.w_level);
   v.unless_default("w_makeup", o.w_makeup);
   v.unless_default("makeup_hue", o.makeup_hue);
+  v.unless_default("diff_gain", o.diff_gain);
   // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
   v.unwritten("face_api", o.face_api);
 };
@@ -149,8 +150,12 @@ torch::Tensor srgb_to_linear(const torch::Tensor& x) {
   return torch::where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055).clamp_min(1e-6).pow(2.4));
 }
 
-torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask) {
-  return losses::masked_l1(unlit, g_out_linear, mask);
+torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask,
+                        bool gain) {
+  if (!gain) return losses::masked_l1(unlit, g_out_linear, mask);
+  auto m = mask.expand_as(unlit);
+  auto k = ((unlit * g_out_linear * m).sum({2, 3}, true) / (unlit.pow(2) * m).sum({2, 3}, true).clamp_min(1e-8)).detach();
+  return losses::masked_l1(unlit * k, g_out_linear, mask);
 }
 
 torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_linear, const torch::Tensor& mask) {
@@ -396,7 +401,7 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
   auto c_hat = (options_.recon == "E" ? student_.forward(out) : teacher_.forward(out)).narrow(1, 0, k);
   FaceRender r = renderer_(c_hat, gamma, options_.size);
   auto region = r.mask * whole_footprint(member(batch, "face"));  // pixels whose photo is all face
-  l["diff"] = options_.w_diff * diff_loss(r.unlit, srgb_to_linear(out), region);
+  l["diff"] = options_.w_diff * diff_loss(r.unlit, srgb_to_linear(out), region, options_.diff_gain);
   if (options_.w_light > 0) l["light"] = options_.w_light * light_loss(r.lit, srgb_to_linear(before), region);
   l["land"] = options_.w_land * landmark_loss(r.landmarks, member(batch, "landmarks"), 256.0 / double(options_.size));
   if (options_.recon == "E") l["coeff"] = options_.w_coeff * coeff_loss(c_hat, c_teacher);

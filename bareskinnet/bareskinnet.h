@@ -55,8 +55,10 @@ using FaceRenderer = std::function<FaceRender(const torch::Tensor& coeff, const 
 FaceRenderer model_renderer(std::shared_ptr<const recon::FaceModel> model);
 
 // The loss terms of L_FR, unweighted, on tensors (exposed for tests). Images in linear light.
-// L_diff: Σ m·|unlit − g_out| / Σ m over the rendered region m; L_light: the same for lit against the before image.
-torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask);
+// L_diff: Σ m·|unlit − g_out| / Σ m over the rendered region m (with `gain`, Options::diff_gain: unlit times its
+// least-squares gain to g_out per image and channel, detached); L_light: the same for lit against the before image.
+torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_linear, const torch::Tensor& mask,
+                        bool gain = false);
 torch::Tensor light_loss(const torch::Tensor& lit, const torch::Tensor& before_linear, const torch::Tensor& mask);
 // L_land: mean over landmarks and batch of the squared distance in pixels of the 256² canonical frame (`scale` =
 // 256 / S converts S×S pixels); L_coeff: mean squared difference of the coefficients; L_reg: per face Σα² + Σβ² +

@@ -438,6 +438,13 @@ TEST(BareSkinNet, DiffAndLightLossesMatchAHandComputedCase) {
   const double lin_half = std::pow((0.5 + 0.055) / 1.055, 2.4), lin_004 = 0.04 / 12.92;
   const double expected_diff = (1.0 * std::abs(0.2 - lin_half) + 0.5 * std::abs(0.4 - lin_004)) / 1.5;
   EXPECT_NEAR(diff_loss(unlit, srgb_to_linear(g_srgb), mask).item<double>(), expected_diff, 1e-9);
+  // With the gain: k = Σ m·unlit·g / Σ m·unlit² over the region, then the same L1 of k·unlit.
+  const double k = (1.0 * 0.2 * lin_half + 0.5 * 0.4 * lin_004) / (1.0 * 0.04 + 0.5 * 0.16);
+  const double expected_gain = (1.0 * std::abs(k * 0.2 - lin_half) + 0.5 * std::abs(k * 0.4 - lin_004)) / 1.5;
+  EXPECT_NEAR(diff_loss(unlit, srgb_to_linear(g_srgb), mask, true).item<double>(), expected_gain, 1e-9);
+  // A render that is G's output at another level costs nothing with the gain, and without it does.
+  EXPECT_NEAR(diff_loss(srgb_to_linear(g_srgb) * 0.6, srgb_to_linear(g_srgb), mask, true).item<double>(), 0, 1e-12);
+  EXPECT_GT(diff_loss(srgb_to_linear(g_srgb) * 0.6, srgb_to_linear(g_srgb), mask).item<double>(), 0.01);
   // lit = unlit × (Y00 · γ0) with γ0 = 0.8·2√π → a factor 0.8; the before image is linear 0.1 and 0.3.
   auto before = torch::tensor({0.1, 0.3, 0.0, 0.0}, torch::kDouble).view({1, 1, 2, 2}).expand({1, 3, 2, 2});
   auto lit = unlit * 0.8;
