@@ -8,9 +8,9 @@ dir="$out/bareskinnet"
 mkdir -p "$dir"
 # Sizes (2 cores, ≈ 3 min for both stages, the evaluation and the photo): `--profile cpu` (docs/training.md,
 # "Profiles": G a U-Net of width 16 with the affine head at 128², the 256² samples area-resized; PatchGAN ndf 16 with 2
-# layers; stage 2 through F itself at L_diff and L_light 20; batch 8; LPIPS on face-api's recognition net; G and D at
-# pix2pix's 2e-4; the bare albedo as G's target; the moving average of G's weights for evaluation and inference),
-# shortened to STEPS1 + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
+# layers; stage 2 through F itself at L_diff (up to a gain) and L_light 20; batch 8; LPIPS on face-api's recognition
+# net; G and D at pix2pix's 2e-4; the bare albedo as G's target; the moving average of G's weights for evaluation
+# and inference), shortened to STEPS1 + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
 STEPS1=${DEMO_BSN_STEPS1:-300}
 STEPS2=${DEMO_BSN_STEPS2:-60}
 faces=${DEMO_BSN_FACES:-$out/faces}
