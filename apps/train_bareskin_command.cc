@@ -87,8 +87,9 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
   app->add_option("--makeup-hue", o->run.task.makeup_hue, "Probability that a training sample's makeup is turned to a "
                   "random hue about the grey axis (ours; 0: off, the world's colours)")->capture_default_str();
-  app->add_option("--diff-gain", o->run.task.diff_gain, "L_diff up to a gain per image and channel on the render's albedo "
-                  "(ours; false: the paper): the 3DMM's albedos need not span the skin tones G meets")->capture_default_str();
+  app->add_option("--diff-gain", o->run.task.diff_gain, "L_diff up to a gain per image and channel on the render's "
+                  "albedo (ours; false: the paper): the 3DMM's albedos need not span the skin tones G meets")
+      ->capture_default_str();
   app->add_option("--loss-weights", o->weights, "Loss weights over the paper's, JSON with keys w1 (L1), w2 (GAN), w3 "
                   "(LPIPS), w_coeff, w_land, w_diff, w_light, w_reg, w_level, w_makeup, e.g. '{\"w2\": 0.5}'");
   add_trainer_flags(*app, o->run.trainer, false);

@@ -15,8 +15,8 @@ have to guess the face's overall level and colour. This script measures that cei
 The predictor is a ridge regression from statistics of the photo's face pixels (per-channel mean, spread and
 quantiles of the log colour) to the log of the truth's per-channel mean, fitted on the train split. A network can
 use more cues than these statistics, so "ceiling" is an estimate, not a proof; the gap between it and "input" is the
-room G has. PSNRs are over the face mask at the profile's working size (area-resized), as `train bareskin`'s
-psnr_face_* metrics are, averaged per image; the interval is 95% over held-out subjects.
+room G has. PSNRs are over the face mask's whole pixels at the profile's working size (area-resized), as `train
+bareskin`'s psnr_face_* metrics are, averaged per image; the interval is 95% over held-out subjects.
 
   /usr/bin/python3 bench/bareskin_ceiling.py <faces/> [--size 64] [--train 1500] [--json out.json]
                                             [--level-oracle <faces split/> <out/>]
@@ -43,7 +43,8 @@ def samples(faces, split, size, limit):
     out = []
     for key, t, meta in split_samples(faces, split, "bareskin_ceiling"):
         get = lambda name: member(t, key, name, size)
-        out.append((get("makeup"), get("before"), get("bare"), whole_footprint(get("face")), meta["subject"], meta["style"]))
+        face = whole_footprint(get("face"))
+        out.append((get("makeup"), get("before"), get("bare"), face, meta["subject"], meta["style"]))
         if len(out) >= limit:
             break
     return out
