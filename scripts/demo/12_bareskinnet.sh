@@ -69,7 +69,9 @@ through = ("the student E, a ResNet-18 of width 16, taught by F" if t2["recon"] 
            "F itself, gradients through it (<code>--recon F</code>; the paper trains a student E)")
 stage2 = (("+ %g·L<sub>coeff</sub> + " % t2["w_coeff"] if t2["recon"] == "E" else "+ ") +
           f"{t2['w_land']:g}·L<sub>land</sub> + {t2['w_diff']:g}·L<sub>diff</sub> + {t2['w_light']:g}·L<sub>light</sub> "
-          f"+ {t2['w_reg']:g}·L<sub>reg</sub> through the 3DMM render of {through}; teacher F: {teacher}")
+          f"+ {t2['w_reg']:g}·L<sub>reg</sub> through the 3DMM render of {through}; teacher F: {teacher}" +
+          ("; L<sub>diff</sub> up to a gain per image and channel on the render's albedo (<code>--diff-gain</code>, "
+           "ours: the 3DMM's albedos need not span every skin tone)" if t2.get("diff_gain") else ""))
 img = os.path.join(out, "img")
 run = os.path.join(d, "run")
 ev = json.load(open(os.path.join(run, "eval.json")))
