@@ -154,7 +154,8 @@ torch::Tensor diff_loss(const torch::Tensor& unlit, const torch::Tensor& g_out_l
                         bool gain) {
   if (!gain) return losses::masked_l1(unlit, g_out_linear, mask);
   auto m = mask.expand_as(unlit);
-  auto k = ((unlit * g_out_linear * m).sum({2, 3}, true) / (unlit.pow(2) * m).sum({2, 3}, true).clamp_min(1e-8)).detach();
+  auto k = (unlit * g_out_linear * m).sum({2, 3}, true) / (unlit.pow(2) * m).sum({2, 3}, true).clamp_min(1e-8);
+  k = k.detach();
   return losses::masked_l1(unlit * k, g_out_linear, mask);
 }
 
@@ -323,12 +324,10 @@ std::vector<train::OptimizerSpec> BareSkinTask::optimizers() {
   return {d, g};
 }
 
-namespace {
 torch::Tensor area_resized(const torch::Tensor& t, int64_t s) {
   if (t.size(-1) == s && t.size(-2) == s) return t;
   return F::interpolate(t, F::InterpolateFuncOptions().size(std::vector<int64_t>{s, s}).mode(torch::kArea));
 }
-}  // namespace
 
 torch::Tensor BareSkinTask::member(const data::Batch& batch, const std::string& name) const {
   const torch::Tensor& t = batch.at(name);

@@ -98,6 +98,9 @@ void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability
 // Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
 // [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);
+// Images [B, C, H, W] area-resized to s × s (returned as they are when already that size): how the shards' 256²
+// members reach G's training size.
+torch::Tensor area_resized(const torch::Tensor& t, int64_t s);
 // The pixels of an area-resized mask ([B, 1, H, W]) whose whole footprint lay in the mask at the shards' size:
 // [B, 1, H, W] of 0 and 1. The regions every metric is taken over. A pixel on the face's outline at G's size is
 // partly hair or background in the photo, while the bare truth (black off the face) is darkened there: no G could

@@ -41,11 +41,10 @@ nlohmann::json checkpoint_config(const std::string& path) {
   return meta.value("config", nlohmann::json::object());
 }
 
-torch::Tensor resized(const torch::Tensor& x, int64_t size, bool area) {
+torch::Tensor bilinear_resized(const torch::Tensor& x, int64_t size) {
   if (x.size(-1) == size && x.size(-2) == size) return x;
-  auto o = F::InterpolateFuncOptions().size(std::vector<int64_t>{size, size});
-  if (area) return F::interpolate(x, o.mode(torch::kArea));
-  return F::interpolate(x, o.mode(torch::kBilinear).align_corners(false));
+  return F::interpolate(x, F::InterpolateFuncOptions().size(std::vector<int64_t>{size, size}).mode(torch::kBilinear)
+                               .align_corners(false));
 }
 
 }  // namespace
@@ -237,7 +236,7 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
     data::Batch batch = loader.next();
     const int64_t n = std::min(batch.size(), total - r.samples);
     // At G's own resolution (the shards' images area-resized; the skin where a pixel's whole footprint is skin).
-    auto take = [&](const std::string& name) { return resized(batch.at(name).narrow(0, 0, n).to(eo.device), d.size, true); };
+    auto take = [&](const std::string& name) { return area_resized(batch.at(name).narrow(0, 0, n).to(eo.device), d.size); };
     auto makeup = take("makeup");
     auto skin = whole_footprint(take("skin"));
     auto out = run_generator(d, makeup);
@@ -326,11 +325,11 @@ torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   auto full = aligned.to(d.device);
   if (d.skip_g) return full.clamp(0, 1);
   const int64_t S = full.size(-1);
-  auto x = resized(full, d.size, true);
+  auto x = area_resized(full, d.size);
   auto y = generator_maps(d, x);
   // G's image at its size, upsampled; or its maps upsampled and applied to the photo (Demakeup::maps_at_photo_size).
-  if (!d.maps_at_photo_size) return resized(apply_head(x, y, d.head), S, false).clamp(0, 1);
-  return apply_head(full, resized(y, S, false), d.head).clamp(0, 1);
+  if (!d.maps_at_photo_size) return bilinear_resized(apply_head(x, y, d.head), S).clamp(0, 1);
+  return apply_head(full, bilinear_resized(y, S), d.head).clamp(0, 1);
 }
 
 std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,
