@@ -324,6 +324,27 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
   return faces;
 }
 
+// OpenMesh's OBJ reader opens the file an "mtllib" line names, relative to the OBJ's folder, and reads it whole: a
+// path such as "../dev/zero" ran it out of memory (found by tests/fuzz/fuzz_mesh), and a scan whose .mtl was not
+// copied beside it failed with a warning. Materials are not ours to read (maps come from `uvtools bake`), so their
+// lines ("mtllib", "usemtl") are blanked, the line numbers kept, before the reader sees the text.
+std::string without_materials(const std::string& bytes) {
+  std::string out = bytes;
+  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; };
+  for (size_t begin = 0; begin < out.size();) {
+    size_t eol = out.find('\n', begin);
+    if (eol == std::string::npos) eol = out.size();
+    size_t word = begin;
+    while (word < eol && is_space(out[word])) ++word;
+    size_t word_end = word;
+    while (word_end < eol && !is_space(out[word_end])) ++word_end;
+    const std::string key = out.substr(word, word_end - word);
+    if (key == "mtllib" || key == "usemtl") out.replace(begin, eol - begin, eol - begin, ' ');
+    begin = eol + 1;
+  }
+  return out;
+}
+
 // OpenMesh's OBJ reader gives the corners of a polygon with texture coordinates the wrong UVs, so polygons are split
 // in the text before it reads them: a quad along its shorter diagonal (the other one where that edge exists already:
 // a second copy would make the surface non-manifold), a larger polygon as a fan from its first corner. Each corner
@@ -401,17 +422,20 @@ Mesh read_mesh(const std::string& path) {
   }
   check_extension(path);
   const std::string bytes = read_file(path);  // IoError with a clear message when missing or unreadable
-  if (lower_extension(path) == ".ply") check_ply_header(path, bytes);
+  const bool obj = lower_extension(path) == ".obj";
+  if (!obj) check_ply_header(path, bytes);
   size_t polygons = 0, triangulated_faces = 0;
-  const size_t obj_faces = lower_extension(path) == ".obj" ? check_obj_text(path, bytes, polygons) : 0;
+  const size_t obj_faces = obj ? check_obj_text(path, bytes, polygons) : 0;
   OmMesh om;
   om.request_vertex_texcoords2D();
   om.request_halfedge_texcoords2D();
   om.request_vertex_normals();
   OpenMesh::IO::Options opt = OpenMesh::IO::Options::VertexTexCoord | OpenMesh::IO::Options::FaceTexCoord |
                               OpenMesh::IO::Options::VertexNormal;
-  const std::string triangulated =
-      polygons > 0 ? triangulate_obj_polygons(bytes, polygons, triangulated_faces) : std::string();
+  const std::string obj_text =
+      !obj ? std::string()
+           : polygons > 0 ? triangulate_obj_polygons(without_materials(bytes), polygons, triangulated_faces)
+                          : without_materials(bytes);
   if (polygons > 0) {
     spdlog::debug("{}: {} polygon(s) with more than 3 corners split into triangles", path, polygons);
   }
@@ -419,8 +443,8 @@ Mesh read_mesh(const std::string& path) {
   std::string log;
   {
     CapturedOpenMeshLog capture;
-    if (polygons > 0) {
-      std::istringstream text(triangulated);
+    if (obj) {  // from the text, which names no other file
+      std::istringstream text(obj_text);
       ok = OpenMesh::IO::read_mesh(om, text, ".obj", opt);
     } else {
       ok = OpenMesh::IO::read_mesh(om, path, opt);

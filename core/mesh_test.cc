@@ -144,6 +144,21 @@ TEST_F(MeshBadInput, Rejected) {
   EXPECT_THROW(read_mesh(dir + "/mesh.stl"), InvalidInput);
 }
 
+// Exports name a material library; the reader must not open it. "../dev/zero" beside a file in /tmp (found by
+// tests/fuzz/fuzz_mesh) ran OpenMesh's reader out of memory, and a missing .mtl made it warn and the read fail.
+TEST(Mesh, MaterialLinesAreNeitherFollowedNorRequired) {
+  const std::string dir = testing::temp_dir();
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  std::error_code ec;
+  std::filesystem::create_directories(dir + "/scan", ec);
+  testing::write_text(dir + "/scan/zero.obj", "mtllib ../../../../../../../../dev/zero\n" + tri + "usemtl skin\nf 1 2 3\n");
+  testing::write_text(dir + "/scan/missing.obj", "mtllib head.mtl\n" + tri + "usemtl skin\nf 1 2 3\n");
+  testing::write_text(dir + "/scan/quad.obj", "\tmtllib head.mtl\n" + tri + "v 1 1 0\nusemtl skin\nf 1 2 4 3\n");
+  EXPECT_EQ(read_mesh(dir + "/scan/zero.obj").F.rows(), 1);
+  EXPECT_EQ(read_mesh(dir + "/scan/missing.obj").F.rows(), 1);
+  EXPECT_EQ(read_mesh(dir + "/scan/quad.obj").F.rows(), 2);
+}
+
 // Artists' meshes come with quads: they are split on read (a quad along its shorter diagonal), UV seams kept.
 TEST(Mesh, PolygonsAreTriangulatedKeepingUvSeams) {
   const std::string dir = testing::temp_dir();
