@@ -38,7 +38,10 @@ fuzz_one() {
   local dirs=("$corpus" "tests/fuzz/seeds/$t")
   [ -d "$regressions" ] && dirs+=("$regressions")
   local log=$build/fuzz_$t.log rc execs cov ft units result=ok
-  TMPDIR=${TMPDIR:-/tmp} "$build/bin/fuzz_$t" -max_total_time="$seconds" -print_final_stats=1 -timeout=10 \
+  # Each target's scratch files in a folder of its own, the same on every machine (an OBJ's "mtllib" once named
+  # a file beside them).
+  mkdir -p "$build/tmp/$t"
+  TMPDIR=$build/tmp/$t "$build/bin/fuzz_$t" -max_total_time="$seconds" -print_final_stats=1 -timeout=10 \
     -rss_limit_mb=2048 -artifact_prefix="$crashes/" "${dirs[@]}" >"$log" 2>&1
   rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
