@@ -87,6 +87,8 @@ std::function<void()> setup_train_bareskin(CLI::App& train, const Globals& globa
                   "face region, per image and channel (ours; 0: off)")->capture_default_str();
   app->add_option("--makeup-hue", o->run.task.makeup_hue, "Probability that a training sample's makeup is turned to a "
                   "random hue about the grey axis (ours; 0: off, the world's colours)")->capture_default_str();
+  app->add_option("--makeup-paint", o->run.task.makeup_paint, "Probability that a training sample's makeup is painted "
+                  "over in opaque colours of any hue where it changed the face most (ours; 0: off)")->capture_default_str();
   app->add_option("--diff-gain", o->run.task.diff_gain, "L_diff up to a gain per image and channel on the render's "
                   "albedo (ours; false: the paper): the 3DMM's albedos need not span the skin tones G meets")
       ->capture_default_str();

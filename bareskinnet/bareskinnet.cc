@@ -51,6 +51,9 @@ void Options::check() const {
   if (!(o.makeup_hue >= 0 && o.makeup_hue <= 1))
     throw InvalidInput("makeup_hue " + std::to_string(o.makeup_hue), "is not a probability in [0, 1]",
                        "use e.g. 0.5, or 0 for the world's own makeup colours");
+  if (!(o.makeup_paint >= 0 && o.makeup_paint <= 1))
+    throw InvalidInput("makeup_paint " + std::to_string(o.makeup_paint), "is not a probability in [0, 1]",
+                       "use e.g. 0.5, or 0 for the world's own makeup");
   losses::parse_gan_kind(o.gan, "gan");
 }
 
@@ -88,6 +91,7 @@ const auto kOptionsFields = [](auto& v, auto& o) {
   v.unless_default("w_level", o.w_level);
   v.unless_default("w_makeup", o.w_makeup);
   v.unless_default("makeup_hue", o.makeup_hue);
+  v.unless_default("makeup_paint", o.makeup_paint);
   v.unless_default("diff_gain", o.diff_gain);
   // A folder of this machine (set from lpips_trunk by the command), not part of a run's configuration.
   v.unwritten("face_api", o.face_api);
@@ -194,6 +198,35 @@ void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability
   const auto& x = before->second;
   const auto change = (makeup->second - x).reshape({3, -1});
   makeup->second = (x + torch::mm(R, change).view_as(x)).clamp(0, 1);
+}
+
+void paint_makeup(data::Example& example, uint64_t seed, double probability) {
+  auto makeup = example.tensors.find("makeup"), before = example.tensors.find("before"),
+       bare = example.tensors.find("bare"), face = example.tensors.find("face");
+  const auto end = example.tensors.end();
+  if (makeup == end || before == end || bare == end) return;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  if (unit(rng) >= probability) return;
+  const double opacity = 0.5 + 0.5 * unit(rng);
+  const auto colour = [&] {  // HSV → RGB
+    const double h = 6 * unit(rng), s = 0.3 + 0.7 * unit(rng), v = 0.1 + 0.9 * unit(rng);
+    const double f = h - std::floor(h), p = v * (1 - s), q = v * (1 - s * f), t = v * (1 - s * (1 - f));
+    const double rgb[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+    const double* c = rgb[std::min(5, int(h))];
+    return torch::tensor({c[0], c[1], c[2]}, torch::kDouble).view({3, 1, 1});
+  };
+  torch::Tensor& m = makeup->second;
+  const auto& x = before->second;
+  const int64_t rows = m.size(1), split = int64_t(std::lround(0.55 * double(rows)));
+  const auto above = colour(), below = colour();
+  const auto layer = torch::cat({above.expand({3, split, m.size(2)}), below.expand({3, rows - split, m.size(2)})}, 1)
+                         .to(m.dtype());
+  auto alpha = opacity * (((m - x).abs().mean(0, true) - 0.04) / 0.06).clamp(0, 1);
+  if (face != end) alpha = alpha * (face->second.narrow(0, 0, 1) >= 0.5).to(m.dtype());
+  const auto light = (srgb_to_linear(x) / srgb_to_linear(bare->second).clamp_min(0.02)).clamp(0, 4);
+  const auto painted = (1 - alpha) * srgb_to_linear(m) + alpha * srgb_to_linear(layer) * light;
+  m = recon::linear_to_srgb(painted.clamp(0, 1));
 }
 
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face) {
@@ -557,8 +590,12 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   lo.batch_size = ro.batch;
   lo.seed = ro.seed;
   lo.decode_threads = ro.decode_threads;
-  if (const double p = task.options().makeup_hue; p > 0)
-    lo.transform = [p](data::Example& e, uint64_t seed) { rotate_makeup_hue(e, seed, p); };
+  const double hue = task.options().makeup_hue, paint = task.options().makeup_paint;
+  if (hue > 0 || paint > 0)
+    lo.transform = [hue, paint](data::Example& e, uint64_t seed) {
+      if (hue > 0) rotate_makeup_hue(e, seed, hue);
+      if (paint > 0) paint_makeup(e, seed ^ 0x5eed0fa1a7ULL, paint);
+    };
   data::ShardLoader train_loader(dist::this_rank(lo));
   if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made
     train_loader.next();

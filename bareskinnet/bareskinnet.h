@@ -95,6 +95,14 @@ torch::Tensor srgb_to_linear(const torch::Tensor& x);
 // axis by θ uniform in [0, 2π), all drawn from `seed`. Pixels the makeup left alone stay as they are; the change's
 // length and its grey part are kept. Without a before member the example is left alone.
 void rotate_makeup_hue(data::Example& example, uint64_t seed, double probability);
+// The makeup of a training example painted over in opaque colours of any hue (members makeup, before and bare,
+// [3, H, W] sRGB in [0, 1]; face [1, H, W] optional): with probability `probability`, where the makeup changed the
+// face most (mean |makeup − before| over the channels from 0.04 to 0.1: lips, eyes, cheeks; foundation stays),
+// a layer of opacity o·that ramp, o uniform in [0.5, 1], and of one colour above row 0.55·H (eyes, brows) and
+// another below (lips), each of a uniform hue, saturation in [0.3, 1] and value in [0.1, 1], is composed over the
+// makeup in linear light and lit by the photo's own light (before / bare, per pixel and channel). All drawn from
+// `seed`; an example without these members is left alone.
+void paint_makeup(data::Example& example, uint64_t seed, double probability);
 // Where the makeup changed the face: mean |makeup − before| over the channels > 0.02, on the face region (≥ 0.5);
 // [B, 1, H, W] of 0 and 1. L_makeup's region and the evaluation's makeup_* region.
 torch::Tensor makeup_region(const torch::Tensor& makeup, const torch::Tensor& before, const torch::Tensor& face);

@@ -279,11 +279,12 @@ TEST(BareSkinNet, OptionsRoundTripAndRefuseUnknownKeys) {
                                          {"clip_grad_norm", 10.0},
                                          {"w_level", 1.0},
                                          {"w_makeup", 50.0},
-                                         {"makeup_hue", 0.5}});
+                                         {"makeup_hue", 0.5},
+                                         {"makeup_paint", 0.25}});
   // The options added since the paper's are written only when set, so the configuration of a run from before one
   // existed matches on resume.
   const nlohmann::json defaults = Options{};
-  for (const char* key : {"lr_decay", "clip_grad_norm", "w_level", "w_makeup", "makeup_hue"})
+  for (const char* key : {"lr_decay", "clip_grad_norm", "w_level", "w_makeup", "makeup_hue", "makeup_paint"})
     EXPECT_FALSE(defaults.contains(key)) << key;
   // face_api is read (a folder of this machine) but never written into a run's configuration.
   const Options with_folder = nlohmann::json({{"face_api", "/tmp/face-api"}}).get<Options>();
@@ -518,6 +519,58 @@ TEST(BareSkinNet, MakeupHueTurnsTheMakeupsChangeAboutTheGreyAxis) {
   EXPECT_TRUE(torch::equal(alone.tensors["makeup"], original));
 }
 
+TEST(BareSkinNet, MakeupPaintCoversWhereTheMakeupChangedTheFaceMostLitByThePhotosLight) {
+  // Four pixels in a row above the split (row 0 of 2) and the same below: untouched, foundation (a change of
+  // 0.02), lipstick (0.3 on R), and lipstick off the face.
+  data::Example e;
+  e.tensors["before"] = torch::full({3, 2, 4}, 0.5);
+  e.tensors["bare"] = torch::full({3, 2, 4}, 0.7);  // the light darkens the albedo: before / bare < 1
+  auto makeup = torch::full({3, 2, 4}, 0.5);
+  makeup.select(1, 0).select(1, 1).fill_(0.52);
+  makeup.select(1, 1).select(1, 1).fill_(0.52);
+  for (int64_t c : {2, 3}) {
+    makeup.select(0, 0).select(0, 0)[c] = 0.8;
+    makeup.select(0, 0).select(0, 1)[c] = 0.8;
+  }
+  e.tensors["makeup"] = makeup;
+  e.tensors["face"] = torch::ones({1, 2, 4});
+  e.tensors["face"].select(2, 3).fill_(0);
+  const auto original = makeup.clone();
+  int painted = 0;
+  for (uint64_t seed = 0; seed < 40; ++seed) {
+    data::Example t = e;
+    t.tensors["makeup"] = original.clone();
+    paint_makeup(t, seed, 0.5);
+    const auto& m = t.tensors["makeup"];
+    if (torch::equal(m, original)) continue;
+    ++painted;
+    // Untouched, foundation and off the face stay; the lipstick is painted over.
+    for (int64_t c : {0, 1, 3}) EXPECT_TRUE(torch::allclose(m.select(2, c), original.select(2, c), 0, 1e-6)) << c;
+    EXPECT_GT((m.select(2, 2) - original.select(2, 2)).abs().max().item<double>(), 1e-3);
+    // The layer is lit as the photo: in linear light no brighter than its colour times before / bare (< 1),
+    // composed over the makeup (the lipstick's opacity up to 1).
+    const double light = (srgb_to_linear(torch::tensor(0.5)) / srgb_to_linear(torch::tensor(0.7))).item<double>();
+    const auto lit = srgb_to_linear(m.select(2, 2));
+    EXPECT_LE(lit.max().item<double>(),
+              std::max(srgb_to_linear(original.select(2, 2)).max().item<double>(), light) + 1e-4);
+    // The same seed paints the same.
+    data::Example again = e;
+    again.tensors["makeup"] = original.clone();
+    paint_makeup(again, seed, 0.5);
+    EXPECT_TRUE(torch::equal(again.tensors["makeup"], m));
+    // Above and below the split, two colours.
+    const auto top = m.select(1, 0).select(1, 2), bottom = m.select(1, 1).select(1, 2);
+    EXPECT_FALSE(torch::allclose(top, bottom, 0, 1e-4));
+  }
+  EXPECT_GT(painted, 10);
+  EXPECT_LT(painted, 30);
+  data::Example alone;  // without bare: nothing to light the layer with
+  alone.tensors["makeup"] = original.clone();
+  alone.tensors["before"] = e.tensors["before"];
+  paint_makeup(alone, 3, 1.0);
+  EXPECT_TRUE(torch::equal(alone.tensors["makeup"], original));
+}
+
 TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   // A constant error of 0.1 on the skin and anything off it: PSNR exactly 20 dB.
   auto a = torch::full({2, 3, 16, 16}, 0.5, torch::kDouble);
@@ -601,6 +654,7 @@ TEST(BareSkinNet, LearningRateDecaysOverTheLastPartOfEachStage) {
   EXPECT_THROW(from_json({{"lr_decay", 1.5}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"w_level", -1}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"makeup_hue", 1.5}}, bad), InvalidInput);
+  EXPECT_THROW(from_json({{"makeup_paint", -0.1}}, bad), InvalidInput);
   EXPECT_THROW(from_json({{"clip_grad_norm", -1}}, bad), InvalidInput);
 }
 

@@ -58,6 +58,10 @@ struct Options {
   // 0: off. The world's makeup families keep to their palettes; this shows G lipsticks and shadows of every hue, so
   // that it removes makeup by where it lies and how it covers the skin, not by its colour.
   double makeup_hue = 0;
+  // Ours, not the paper's: the probability that a training sample's makeup is painted over in opaque colours of any
+  // hue where it changed the face most (paint_makeup); 0: off. The held-out makeup family's saturated, opaque
+  // colours (blue lips, green lids) lie outside the world's palettes, which a turn of the hue does not reach.
+  double makeup_paint = 0;
   // Ours, not the paper's: L_diff compares G's output with the render's albedo times the gain per image and channel
   // that fits it best (least squares over the region, no gradient through the gain). The 3DMM's albedo space does
   // not span every skin tone; with the gain, stage 2 teaches G the shading it removes and leaves its level and colour
