@@ -8,7 +8,8 @@ dir="$out/bareskinnet"
 mkdir -p "$dir"
 # Sizes (2 cores, ≈ 3 min for both stages, the evaluation and the photo): `--profile cpu` (docs/training.md,
 # "Profiles": G a U-Net of width 16 with the affine head at 128², the 256² samples area-resized; PatchGAN ndf 16 with 2
-# layers; stage 2 through F itself at L_diff (up to a gain) and L_light 20; batch 8; LPIPS on face-api's recognition
+# layers; stage 2 through F itself at L_diff (up to a gain) and L_light 20; half the samples' makeup painted over in
+# colours of any hue; batch 8; LPIPS on face-api's recognition
 # net; G and D at pix2pix's 2e-4; the bare albedo as G's target; the moving average of G's weights for evaluation
 # and inference), shortened to STEPS1 + STEPS2 steps (the profile: 1500 + 300; the paper: 10k + 30k at 256², ngf 64).
 STEPS1=${DEMO_BSN_STEPS1:-300}
@@ -88,6 +89,9 @@ print(f"<p><code>bareskin train bareskin --profile cpu</code>: G (pix2pix U-Net,
        "without makeup, leaves the de-lighting to stage 2 alone and scored 1.7 dB lower against the bare truth at "
        "these sizes, bench/BENCHMARKS.md). " if target == "bare" else
        "G's target is the before image (the paper's: lit, no makeup). ") +
+      (f"A share of {task['makeup_paint']:g} of the training samples has its makeup painted over in opaque colours "
+       "of any hue, lit by the photo's light (<code>--makeup-paint</code>, ours: the held-out family's colours lie "
+       "outside the world's palettes). " if task.get("makeup_paint") else "") +
       (f"Evaluation, grids and <code>demakeup</code> use the moving average of G's weights (<code>--ema-g {ema}</code>, "
        "ours: steadier across makeup and light at these steps, bench/BENCHMARKS.md). " if float(ema) > 0 else "") +
       "The paper trains 10k + 30k steps at 256² with ngf 64 on a GPU; the demo trains the CPU profile for a fifth "

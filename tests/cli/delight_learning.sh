@@ -17,6 +17,9 @@
 #   6000 steps): at the profile's rate and weights it moved +0.03 dB in 40 steps (+0.22 in 150); the rate alone gave
 #   +0.11 in 60, the weights alone +0.23 (these three at 128²). At this weight stage 2 costs G's own image
 #   (21.5 -> 19.3 dB against the bare truth), the trade the paper's weights make and bench/BENCHMARKS.md measures;
+# - the world's own makeup (`--makeup-paint 0`, the profile: 0.5): painted makeup at 64² and 80 steps left stage 1
+#   barely above the input (21.9 against 21.6 dB) and the albedo's gain at +0.34 dB; on the reference's world stage 2
+#   lifts the albedo as much with the paint as without (bench/BENCHMARKS.md, "Makeup painted over");
 # - no LPIPS term in either stage (`"w3": 0`): it is about 40% of a step, and the test took 83-93 s with it (68 s
 #   without; the albedo's gain +2.46 dB with it on seed 0).
 source "$(dirname "$0")/lib.sh" "$@"
@@ -32,7 +35,7 @@ tiny_face_world 6
 
 # G: stage 1 of the CPU profile at 64², scored with F's albedo; then stage 2 through F, continued from it.
 g=(-q --threads 2 train bareskin --profile cpu --size 64 --data "$work/faces" --teacher "$work/F" --model "$model"
-  --steps1 80 --ema-g 0 --log-every 50 --checkpoint-every 1000 --eval-every 0 --sample-every 0 -o "$work/G")
+  --steps1 80 --ema-g 0 --makeup-paint 0 --log-every 50 --checkpoint-every 1000 --eval-every 0 --sample-every 0 -o "$work/G")
 "$bin" "${g[@]}" --steps2 0 --loss-weights '{"w3": 0}' || fail "train bareskin, stage 1"
 mv "$work/G/eval.json" "$work/eval_stage1.json"
 "$bin" "${g[@]}" --steps2 60 --lr-g 1e-3 --loss-weights '{"w_diff": 100, "w_light": 100, "w3": 0}' --resume \
