@@ -40,7 +40,7 @@ const std::vector<Profile>& bareskin_profiles() {
         // every skin-tone group, for a smaller lift of F's albedo (+2.3 dB instead of +2.8; bench/BENCHMARKS.md).
         {"--diff-gain", "true"},
         // The held-out makeup family's saturated, opaque colours lie outside the world's palettes: painting half the
-        // samples' makeup over in colours of any hue lifts G there by 1.1–1.2 dB (three seeds) for 0.1–0.2 dB on
+        // samples' makeup over in colours of any hue lifts G there by 1.1–1.2 dB (three seeds) for up to 0.3 dB on
         // the families it was trained on (bench/BENCHMARKS.md, "CPU profile").
         {"--makeup-paint", "0.5"}}},
   };

@@ -558,7 +558,9 @@ ReconNet make_student(const recon::FaceModel& model, const nlohmann::json& optio
 std::vector<std::string> required_members(const Options& o) {
   std::vector<std::string> r{"makeup.png", o.target + ".png", "skin.png", "json"};
   if (o.target != "before") r.push_back("before.png");
-  if (o.stage == 2 || o.target == "bare" || o.w_level > 0 || o.w_makeup > 0) r.push_back("face.png");
+  if (o.stage == 2 || o.target == "bare" || o.w_level > 0 || o.w_makeup > 0 || o.makeup_paint > 0)
+    r.push_back("face.png");
+  if (o.makeup_paint > 0 && o.target != "bare") r.push_back("bare.png");  // the light the paint is lit by
   return r;
 }
 

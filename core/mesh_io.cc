@@ -5,6 +5,7 @@
 #include <OpenMesh/Core/System/omstream.hh>
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -140,8 +141,36 @@ std::string first_problem(const std::string& log) {
 struct PlyElement {
   std::string name;
   unsigned long long count;
-  std::vector<bool> lists;  // per property: a list (length, then that many values) or one value
+  struct Property {
+    bool list;         // a length, then that many values; else one value
+    std::string type;  // the value's type (a list's items')
+  };
+  std::vector<Property> properties;
 };
+
+// Whether an ASCII PLY value is a number of `type` as OpenMesh's reader (a C++ stream) reads it whole: digits, sign,
+// point and exponent only (no "nan", "inf" or hex, which the stream stops at and then misreads the rest of the file),
+// within its type's range, and for an integer type an integer ("33333333333333330" as an int index sent it reading
+// a length from the wrong place: 2 GB, found by tests/fuzz/fuzz_mesh).
+bool ply_number(const std::string& token, const std::string& type) {
+  if (token.empty() || token.find_first_not_of("0123456789+-.eE") != std::string::npos) return false;
+  static const std::map<std::string, std::pair<double, double>> kIntegers = {
+      {"char", {-128, 127}},        {"int8", {-128, 127}},       {"uchar", {0, 255}},           {"uint8", {0, 255}},
+      {"short", {-32768, 32767}},   {"int16", {-32768, 32767}},  {"ushort", {0, 65535}},        {"uint16", {0, 65535}},
+      {"int", {-2147483648.0, 2147483647.0}}, {"int32", {-2147483648.0, 2147483647.0}},
+      {"uint", {0, 4294967295.0}},  {"uint32", {0, 4294967295.0}}};
+  char* stop = nullptr;
+  errno = 0;  // out of range for its type: the stream fails there as well (it converts with strtof / strtod)
+  const auto range = kIntegers.find(type);
+  if (range == kIntegers.end()) {
+    const bool single = type == "float" || type == "float32";
+    const double value = single ? double(std::strtof(token.c_str(), &stop)) : std::strtod(token.c_str(), &stop);
+    return *stop == '\0' && errno != ERANGE && std::isfinite(value);
+  }
+  const long long value = std::strtoll(token.c_str(), &stop, 10);
+  return *stop == '\0' && errno != ERANGE && double(value) >= range->second.first &&
+         double(value) <= range->second.second;
+}
 
 // An ASCII PLY body against its header: one line per item, each with exactly its properties' values, list lengths
 // below 65536. OpenMesh reads on through a malformed body (a length taken from a vertex's coordinate), so it is checked
@@ -163,16 +192,20 @@ void check_ply_ascii_body(const std::string& path, const std::string& body, cons
       std::vector<std::string> w;
       for (std::string x; words >> x;) w.push_back(x);
       size_t at = 0;
-      for (bool list : e.lists) {
+      for (const PlyElement::Property& property : e.properties) {
         if (at >= w.size()) bad("too few values for element '" + e.name + "'");
-        if (!list) {
+        size_t values = 1;
+        if (property.list) {
+          char* stop = nullptr;
+          const long length = std::strtol(w[at].c_str(), &stop, 10);
+          if (*stop != '\0' || length < 0 || length > 65535) bad("list length '" + w[at] + "' is not a length");
+          values = size_t(length);
           ++at;
-          continue;
         }
-        char* stop = nullptr;
-        const long length = std::strtol(w[at].c_str(), &stop, 10);
-        if (*stop != '\0' || length < 0 || length > 65535) bad("list length '" + w[at] + "' is not a length");
-        at += size_t(length) + 1;
+        if (at + values > w.size()) bad("too few values for element '" + e.name + "'");
+        for (const size_t end_of_values = at + values; at < end_of_values; ++at)
+          if (!ply_number(w[at], property.type))
+            bad("value '" + w[at].substr(0, 30) + "' of element '" + e.name + "' is not a " + property.type);
       }
       if (at != w.size()) bad(std::to_string(w.size()) + " values where element '" + e.name + "' has " + std::to_string(at));
     }
@@ -226,7 +259,7 @@ void check_ply_header(const std::string& path, const std::string& bytes) {
       if (w[1] == "list" && kWideTypes.count(w[2]))
         throw InvalidInput(path, "PLY header line " + std::to_string(number) + ": list length type '" + w[2] +
                                      "' is wider than 16 bits", "write face lists with 'uchar' lengths");
-      elements.back().lists.push_back(w[1] == "list");
+      elements.back().properties.push_back({w[1] == "list", w[1] == "list" ? w[3] : w[1]});
     }
     if (ok && !w.empty() && w[0] == "element")  // what the reader will reserve, roughly 64 bytes an item
       check_memory(path, 64.0 * std::stod(w[2]), "PLY element '" + w[1] + "' of " + w[2] + " items");

@@ -140,6 +140,21 @@ TEST_F(MeshBadInput, Rejected) {
   expect_invalid("truncated.ply", whole.substr(0, whole.size() / 2));
   // Non-manifold: three triangles on one edge.
   expect_invalid("nonmanifold.obj", tri + "v 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
+  // An ASCII PLY whose values are not numbers of their types, which OpenMesh's stream misreads (an int index past
+  // int's range sent it reading a length from the wrong place: 2 GB, found by tests/fuzz/fuzz_mesh).
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string face = "3 0 1 2\n";
+  testing::write_text(dir + "/ok.ply", header + "0 0 0\n1 0 0\n+0 1 0.5e0\n" + face);
+  EXPECT_EQ(read_mesh(dir + "/ok.ply").F.rows(), 1);
+  for (const auto& [name, body] : std::vector<std::pair<std::string, std::string>>{
+           {"index.ply", "0 0 0\n1 0 0\n0 1 0\n3 33333333333333330 1 2\n"},
+           {"glued.ply", "0 0 0\n1 0 0\n0 1 0231-.4\n" + face},
+           {"float_range.ply", "0 0 0\n1e39 0 0\n0 1 0\n" + face},
+           {"hex.ply", "0 0 0\n0x1 0 0\n0 1 0\n" + face},
+           {"nan.ply", "0 0 0\nnan 0 0\n0 1 0\n" + face},
+           {"short_list.ply", "0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n"}})
+    EXPECT_NE(expect_invalid(name, header + body).find("PLY body line"), std::string::npos) << name;
   EXPECT_THROW(read_mesh(dir + "/missing.obj"), IoError);
   EXPECT_THROW(read_mesh(dir + "/mesh.stl"), InvalidInput);
 }
