@@ -596,7 +596,7 @@ train::TrainResult run_stage(const RunOptions& ro, BareSkinTask& task, const std
   if (hue > 0 || paint > 0)
     lo.transform = [hue, paint](data::Example& e, uint64_t seed) {
       if (hue > 0) rotate_makeup_hue(e, seed, hue);
-      if (paint > 0) paint_makeup(e, seed ^ 0x5eed0fa1a7ULL, paint);
+      if (paint > 0) paint_makeup(e, seed ^ 0x5eed0fa1a7ULL, paint);  // a draw of its own beside the hue's
     };
   data::ShardLoader train_loader(dist::this_rank(lo));
   if (!ro.trainer.resume) {  // a corrupt first batch fails before the run folder is made

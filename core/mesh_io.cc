@@ -293,6 +293,11 @@ void check_corner(const std::string& corner, const std::array<long, 3>& defined,
   }
 }
 
+// Whitespace within an OBJ line as OpenMesh's reader (a C++ stream) splits it: form feed and vertical tab included,
+// or a line such as "f\f/8c" would pass the checks as an unknown keyword and reach the reader as a face without
+// corners (its assert).
+bool obj_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
+
 // OpenMesh skips OBJ lines it cannot parse (a "nan" coordinate, a face cut short) and carries on; check the text
 // first so the user hears about the real fault with its line number. Returns the number of face lines; `polygons`:
 // those with more than 3 corners.
@@ -305,9 +310,6 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
   };
   const char* p = bytes.data();
   const char* const end = p + bytes.size();
-  // Whitespace as OpenMesh's reader (a C++ stream) splits it: form feed and vertical tab included, or a line such
-  // as "f\f/8c" would pass here as an unknown keyword and reach the reader as a face without corners (its assert).
-  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; };
   while (p < end) {
     const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
     if (!eol) eol = end;
@@ -315,9 +317,9 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
     std::pair<const char*, const char*> tokens[8];
     int n = 0;
     for (const char* q = p; q < eol && n < 8;) {
-      while (q < eol && is_space(*q)) ++q;
+      while (q < eol && obj_space(*q)) ++q;
       const char* b = q;
-      while (q < eol && !is_space(*q)) ++q;
+      while (q < eol && !obj_space(*q)) ++q;
       if (q > b) tokens[n++] = {b, q};
     }
     const auto is = [&](const char* key) {
@@ -363,14 +365,13 @@ size_t check_obj_text(const std::string& path, const std::string& bytes, size_t&
 // lines ("mtllib", "usemtl") are blanked, the line numbers kept, before the reader sees the text.
 std::string without_materials(const std::string& bytes) {
   std::string out = bytes;
-  const auto is_space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; };
   for (size_t begin = 0; begin < out.size();) {
     size_t eol = out.find('\n', begin);
     if (eol == std::string::npos) eol = out.size();
     size_t word = begin;
-    while (word < eol && is_space(out[word])) ++word;
+    while (word < eol && obj_space(out[word])) ++word;
     size_t word_end = word;
-    while (word_end < eol && !is_space(out[word_end])) ++word_end;
+    while (word_end < eol && !obj_space(out[word_end])) ++word_end;
     const std::string key = out.substr(word, word_end - word);
     if (key == "mtllib" || key == "usemtl") out.replace(begin, eol - begin, eol - begin, ' ');
     begin = eol + 1;
