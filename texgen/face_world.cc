@@ -297,6 +297,19 @@ struct MeanAlbedo {
   Eigen::Vector3f operator()(const Eigen::VectorXd& delta) const { return (mean + per_delta * delta).cast<float>(); }
 };
 
+// The share of the model's texels (its appearance mask) whose albedo at δ leaves [0, 1] in some channel. A linear
+// model of a few subjects extrapolates dark skin to a negative blue and green: clamped, a face of pure red.
+double out_of_range_share(const MorphableModel& model, const Eigen::VectorXd& delta) {
+  const std::vector<float> a = model.appearance(delta);
+  int64_t texels = 0, out = 0;
+  for (size_t t = 0; 3 * t < a.size(); ++t) {
+    if (!model.appearance_mask.empty() && !model.appearance_mask[t]) continue;
+    ++texels;
+    out += std::min({a[3 * t], a[3 * t + 1], a[3 * t + 2]}) < 0 || std::max({a[3 * t], a[3 * t + 1], a[3 * t + 2]}) > 1;
+  }
+  return texels ? double(out) / double(texels) : 0;
+}
+
 }  // namespace
 
 FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index,
@@ -319,18 +332,29 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
   if (R <= 0) throw InvalidInput("", "the model has no appearance part", "build it from subjects with diffuse maps");
   s.delta.resize(model.appearance_basis.rows());
   for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
-  if (tones == SkinTones::Balanced || (tones == SkinTones::Mixed && index % 2 == 1)) {
-    const MeanAlbedo albedo(model);
-    const int group = (tones == SkinTones::Mixed ? index / 2 : index) % kSkinToneGroups;
-    // The rarest group of the demo's model takes a few dozen draws; 100,000 without one: the model lacks it.
-    for (int tries = 0; skin_tone_group(typology_angle(albedo(s.delta))) != group; ++tries) {
-      if (tries == 100000)
-        throw InvalidInput(tones == SkinTones::Mixed ? "--skin-tones mixed" : "--skin-tones balanced",
-                           std::string("the model's appearance within ±2σ reaches no ") + skin_tone_group_name(group) +
-                               " skin (ITA groups, docs/datasets.md)",
-                           "use --skin-tones model, or build the model from subjects of that tone");
-      for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
-    }
+  // δ is drawn again until its albedo is skin (out_of_range_share) and, for a balanced subject, of its group. The
+  // rarest group of the demo's model takes a few dozen draws; 100,000 outside the group or 1,000 outside the range
+  // of skin: the model lacks it.
+  const bool balanced = tones == SkinTones::Balanced || (tones == SkinTones::Mixed && index % 2 == 1);
+  const int group = (tones == SkinTones::Mixed ? index / 2 : index) % kSkinToneGroups;
+  const MeanAlbedo albedo(model);
+  for (int other_group = 0, out_of_range = 0;;) {
+    if (balanced && skin_tone_group(typology_angle(albedo(s.delta))) != group)
+      ++other_group;
+    else if (out_of_range_share(model, s.delta) > kMaxOutOfRangeShare)
+      ++out_of_range;
+    else
+      break;
+    if (other_group == 100000 || out_of_range == 1000)
+      throw InvalidInput(balanced ? (tones == SkinTones::Mixed ? "--skin-tones mixed" : "--skin-tones balanced")
+                                  : "--model",
+                         std::string("the model's appearance within ±2σ reaches no ") +
+                             (balanced ? skin_tone_group_name(group) + std::string(" skin (ITA groups, docs/datasets.md)")
+                                       : std::string("skin")) +
+                             " whose albedo stays within [0, 1]",
+                         balanced ? "use --skin-tones model, or build the model from subjects of that tone"
+                                  : "build the model from more subjects");
+    for (int k = 0; k < s.delta.size(); ++k) s.delta[k] = draw();
   }
   s.shape = model.shape(s.alpha);
   s.frame = "model";

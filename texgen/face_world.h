@@ -84,9 +84,11 @@ enum class SkinTones { Model, Balanced, Mixed };
 SkinTones parse_skin_tones(const std::string& name);  // model | balanced | mixed; InvalidInput naming --skin-tones
 
 // The 3DMM subject number `index` of a run seeded `seed`: α, δ ~ N(0, 1) truncated at ±kSubjectTruncation, δ drawn
-// again until the skin tone is the one `tones` asks for (InvalidInput when the model's appearance within the
-// truncation reaches no skin of that group).
+// again until its albedo stays within [0, 1] on all but kMaxOutOfRangeShare of the model's texels (beyond, the clamp
+// paints a face of one colour: no skin) and its skin tone is the one `tones` asks for (InvalidInput when the model's
+// appearance within the truncation reaches no such skin).
 constexpr double kSubjectTruncation = 2.0;
+constexpr double kMaxOutOfRangeShare = 0.02;
 FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects& registered, uint64_t seed, int index,
                           SkinTones tones = SkinTones::Model);
 

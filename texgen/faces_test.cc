@@ -286,5 +286,29 @@ TEST(Faces, BalancedSkinTonesGiveEachSubjectItsGroup) {
   EXPECT_FALSE(fs::exists(o.output));
 }
 
+// Every 3DMM subject's albedo is skin, whatever the tones: within [0, 1] on all but 2% of the model's texels, on a
+// model whose ±2σ tails leave that range (clamped, such a face would be painted in one colour).
+TEST(Faces, SubjectsAlbedoStaysWithinTheRangeOfSkin) {
+  MorphableModel wide = read_model(tiny_model());
+  wide.appearance_stddev = Eigen::Vector2f(19, 6);
+  const auto out_of_range = [&wide](const Eigen::VectorXd& delta) {
+    const std::vector<float> a = wide.appearance(delta);
+    int texels = 0, out = 0;
+    for (size_t t = 0; t < a.size() / 3; ++t) {
+      if (!wide.appearance_mask.empty() && !wide.appearance_mask[t]) continue;
+      ++texels;
+      bool outside = false;
+      for (int c = 0; c < 3; ++c) outside |= a[3 * t + c] < 0 || a[3 * t + c] > 1;
+      out += outside;
+    }
+    return double(out) / texels;
+  };
+  EXPECT_GT(std::max(out_of_range(Eigen::Vector2d(2, 0)), out_of_range(Eigen::Vector2d(-2, 0))), 0.5);
+  const RegisteredSubjects none;
+  for (const SkinTones tones : {SkinTones::Model, SkinTones::Balanced, SkinTones::Mixed})
+    for (int i = 0; i < 24; ++i)
+      EXPECT_LE(out_of_range(model_subject(wide, none, 3, i, tones).delta), 0.02) << "subject " << i;
+}
+
 }  // namespace
 }  // namespace bareskin::texgen
