@@ -229,6 +229,9 @@ struct Demakeup {
   // cannot, so its image is upsampled instead (Table 1 (b) 0.5–0.7 dB better; bench/BENCHMARKS.md).
   bool maps_at_photo_size = false;
   bool skip_g = false;                   // "without BareSkinNet": the photo as it is (the baseline)
+  // G's image averaged with the mirror image of G's image of the mirrored photo (an aligned face is near-symmetric,
+  // G's errors are not): twice G's time, +0.25 dB on the reference's held-out faces (bench/BENCHMARKS.md).
+  bool flip_average = true;
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
   torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex
@@ -255,7 +258,7 @@ struct DemakeupResult {
 };
 
 // G on aligned faces [B, 3, 256, 256] sRGB → bare-skin images (G runs at its training size, the output is resized
-// back).
+// back; with Demakeup::flip_average, the mean of G's image and the mirror of G's image of the mirrored faces).
 torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned);
 
 // Photo (an sRGB-encoded RGB image, values in [0, 1]) → detect (the best face) → align (detect/align.h) → G → F →

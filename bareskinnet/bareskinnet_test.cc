@@ -188,6 +188,32 @@ class FixedSource : public data::DataSource {
   data::Batch batch_;
 };
 
+// Demakeup::flip_average: G's image is the mean of its pass on the faces and the mirror of its pass on the mirrored
+// faces, so mirroring the photo mirrors the result (G alone, moved off its start, does not).
+TEST(BareSkinNet, FlipAverageIsTheMeanOfGAndItsMirrorPassAndMirrorsWithThePhoto) {
+  torch::manual_seed(0);
+  Options o = small_options(1);
+  o.head = "affine";
+  BareSkinTask task(o);
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : task.generator()->parameters()) p.add_(torch::randn_like(p) * 0.05);
+  }
+  Demakeup d;
+  d.G = task.generator();
+  d.size = kSize;
+  d.head = o.head;
+  d.G->eval();
+  auto x = torch::rand({2, 3, kSize, kSize});
+  d.flip_average = false;
+  auto once = run_generator(d, x), mirrored = run_generator(d, x.flip(-1)).flip(-1);
+  ASSERT_GT((once - mirrored).abs().max().item<double>(), 1e-2);
+  d.flip_average = true;
+  auto both = run_generator(d, x);
+  EXPECT_TRUE(torch::allclose(both, (once + mirrored) * 0.5, 1e-6, 1e-6));
+  EXPECT_TRUE(torch::allclose(run_generator(d, x.flip(-1)), both.flip(-1), 1e-6, 1e-6));
+}
+
 // Both of our heads: G starts as its input bit for bit, and learns from there.
 TEST(BareSkinNet, ResidualAndAffineGStartAsTheIdentityAndLearn) {
   ASSERT_EQ(small_options(1).head, "residual");  // ours is the default

@@ -320,16 +320,26 @@ void evaluate_run(const std::string& run, const std::string& data, const RunEval
                              r.mean.at("ssim_input_bare"), r.mean.at("psnr_before"), r.ms_per_image);
 }
 
+namespace {
+
+// One pass of G: its image at its size, upsampled; or its maps upsampled and applied to the photo
+// (Demakeup::maps_at_photo_size).
+torch::Tensor generator_image(const Demakeup& d, const torch::Tensor& full) {
+  const int64_t S = full.size(-1);
+  auto x = area_resized(full, d.size);
+  auto y = generator_maps(d, x);
+  if (!d.maps_at_photo_size) return bilinear_resized(apply_head(x, y, d.head), S).clamp(0, 1);
+  return apply_head(full, bilinear_resized(y, S), d.head).clamp(0, 1);
+}
+
+}  // namespace
+
 torch::Tensor run_generator(const Demakeup& d, const torch::Tensor& aligned) {
   torch::NoGradGuard no_grad;
   auto full = aligned.to(d.device);
   if (d.skip_g) return full.clamp(0, 1);
-  const int64_t S = full.size(-1);
-  auto x = area_resized(full, d.size);
-  auto y = generator_maps(d, x);
-  // G's image at its size, upsampled; or its maps upsampled and applied to the photo (Demakeup::maps_at_photo_size).
-  if (!d.maps_at_photo_size) return bilinear_resized(apply_head(x, y, d.head), S).clamp(0, 1);
-  return apply_head(full, bilinear_resized(y, S), d.head).clamp(0, 1);
+  if (!d.flip_average) return generator_image(d, full);
+  return (generator_image(d, full) + generator_image(d, full.flip(-1)).flip(-1)) * 0.5;
 }
 
 std::pair<torch::Tensor, torch::Tensor> unwarp_to_uv(const Demakeup& d, const torch::Tensor& images,

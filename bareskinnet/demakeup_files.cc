@@ -65,6 +65,7 @@ DemakeupFilesReport demakeup_files(const DemakeupFilesOptions& o, const detect::
     throw InvalidInput(photos[0].string(), "no face was found", "give a photo with a face of at least ~80 px");
   Demakeup d = Demakeup::load(o.run, o.teacher, o.model, torch::Device(o.device));
   d.skip_g = o.without_g;
+  d.flip_average = o.flip_average;
   DemakeupFilesReport report;
   report.photos = int64_t(photos.size());
   using Clock = std::chrono::steady_clock;
