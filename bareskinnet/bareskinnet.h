@@ -230,8 +230,9 @@ struct Demakeup {
   bool maps_at_photo_size = false;
   bool skip_g = false;                   // "without BareSkinNet": the photo as it is (the baseline)
   // G's image averaged with the mirror image of G's image of the mirrored photo (an aligned face is near-symmetric,
-  // G's errors are not): twice G's time, +0.25 dB on the reference's held-out faces (bench/BENCHMARKS.md).
-  bool flip_average = true;
+  // G's errors are not): twice G's time; G's image +0.27 dB on the reference's held-out faces, but F's albedo of it
+  // −0.7 dB after stage 2 (bench/BENCHMARKS.md), so off unless asked for.
+  bool flip_average = false;
   ReconNet F;
   std::shared_ptr<recon::FaceModel> model;
   torch::Tensor uvs, uv_triangles, uv_vertex;  // the model's UV layout: [T, 2], [F, 3], model vertex per UV vertex

@@ -20,7 +20,7 @@ struct DemakeupFilesOptions {
   int64_t uv_size = 1024;   // side of the UV map
   bool aligned = false;     // inputs are aligned 256² faces: no detection
   bool without_g = false;   // the baseline: the photo itself, without G
-  bool flip_average = true; // Demakeup::flip_average
+  bool flip_average = false;  // Demakeup::flip_average
   bool keep_going = false;  // a folder: skip photos that fail and list them
   void check() const;       // InvalidInput naming the flag
 };
