@@ -297,10 +297,10 @@ struct MeanAlbedo {
   Eigen::Vector3f operator()(const Eigen::VectorXd& delta) const { return (mean + per_delta * delta).cast<float>(); }
 };
 
-// The share of the model's texels (its appearance mask) whose albedo at δ leaves [0, 1] in some channel. A linear
-// model of a few subjects extrapolates dark skin to a negative blue and green: clamped, a face of pure red.
-double out_of_range_share(const MorphableModel& model, const Eigen::VectorXd& delta) {
-  const std::vector<float> a = model.appearance(delta);
+// The share of the model's texels (its appearance mask) whose albedo `a` (the model's appearance at some δ) leaves
+// [0, 1] in some channel. A linear model of a few subjects extrapolates dark skin to a negative blue and green:
+// clamped, a face of pure red.
+double out_of_range_share(const MorphableModel& model, const std::vector<float>& a) {
   int64_t texels = 0, out = 0;
   for (size_t t = 0; 3 * t < a.size(); ++t) {
     if (!model.appearance_mask.empty() && !model.appearance_mask[t]) continue;
@@ -338,10 +338,11 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
   const bool balanced = tones == SkinTones::Balanced || (tones == SkinTones::Mixed && index % 2 == 1);
   const int group = (tones == SkinTones::Mixed ? index / 2 : index) % kSkinToneGroups;
   const MeanAlbedo albedo(model);
+  std::vector<float> appearance;  // the model's appearance at the accepted δ
   for (int other_group = 0, out_of_range = 0;;) {
     if (balanced && skin_tone_group(typology_angle(albedo(s.delta))) != group)
       ++other_group;
-    else if (out_of_range_share(model, s.delta) > kMaxOutOfRangeShare)
+    else if (appearance = model.appearance(s.delta); out_of_range_share(model, appearance) > kMaxOutOfRangeShare)
       ++out_of_range;
     else
       break;
@@ -359,7 +360,7 @@ FaceSubject model_subject(const MorphableModel& model, const RegisteredSubjects&
   s.shape = model.shape(s.alpha);
   s.frame = "model";
   auto diffuse = std::make_shared<Image>(R, R, 3, ColorSpace::Linear);
-  diffuse->pixels = model.appearance(s.delta);
+  diffuse->pixels = std::move(appearance);
   for (float& v : diffuse->pixels) v = std::clamp(v, 0.f, 1.f);
   s.diffuse = diffuse;
   s.roughness = fill_map(registered.mean_roughness, kDefaultRoughness);
