@@ -237,15 +237,22 @@ torch::Tensor whole_footprint(const torch::Tensor& resized_mask) {
   return (resized_mask >= 0.999).to(resized_mask.dtype());
 }
 
+torch::Tensor truth_domain(const std::string& truth, const torch::Tensor& resized_face) {
+  if (truth != "bare" || !resized_face.defined()) return {};
+  return whole_footprint(resized_face);
+}
+
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
   auto m = mask.expand_as(a);
   auto mse = ((a - b).pow(2) * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
   return 10 * torch::log10(1.0 / mse.clamp_min(1e-12));
 }
 
-torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask) {
+torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask,
+                          const torch::Tensor& domain) {
   losses::SsimOptions o;
-  auto map = losses::ssim_map(a, b, o).mean(1, true);  // [B, 1, H − w + 1, W − w + 1]
+  auto map = (domain.defined() ? losses::ssim_map(a, b, domain, o) : losses::ssim_map(a, b, o))
+                 .mean(1, true);  // [B, 1, H − w + 1, W − w + 1]
   const int64_t r = o.window / 2;
   auto m = mask.narrow(2, r, map.size(2)).narrow(3, r, map.size(3));
   return (map * m).sum({1, 2, 3}) / m.sum({1, 2, 3}).clamp_min(1);
@@ -444,13 +451,14 @@ train::Losses BareSkinTask::loss(size_t phase, const data::Batch& batch) {
 std::map<std::string, double> BareSkinTask::evaluate(const data::Batch& batch) {
   auto out = generate_eval(member(batch, "makeup"));
   auto skin = whole_footprint(member(batch, "skin"));
+  const auto face = batch.tensors.count("face") ? member(batch, "face") : torch::Tensor();
   std::map<std::string, double> m;
   for (const char* truth : {"bare", "before"}) {
     if (!batch.tensors.count(truth)) continue;
     auto t = member(batch, truth);
     m[std::string("psnr_") + truth] = masked_psnr(out, t, skin).mean().item<double>();
     m[std::string("psnr_input_") + truth] = masked_psnr(member(batch, "makeup"), t, skin).mean().item<double>();
-    m[std::string("ssim_") + truth] = masked_ssim(out, t, skin).mean().item<double>();
+    m[std::string("ssim_") + truth] = masked_ssim(out, t, skin, truth_domain(truth, face)).mean().item<double>();
   }
   return m;
 }

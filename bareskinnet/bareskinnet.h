@@ -115,9 +115,17 @@ torch::Tensor area_resized(const torch::Tensor& t, int64_t s);
 // match it. At the shards' own size the masks are already whole pixels and nothing changes.
 torch::Tensor whole_footprint(const torch::Tensor& resized_mask);
 // Skin-region metrics of one image pair ([B, 3, H, W] in [0, 1], mask [B, 1, H, W]): PSNR over the masked pixels,
-// SSIM averaged over the window positions whose centre is in the mask. Per image, [B].
+// SSIM averaged over the window positions whose centre is in the mask. Per image, [B]. With a `domain` ([B, 1, H, W],
+// where b is a truth at all) each window compares the pair on the domain's pixels alone (losses::ssim_map with a
+// domain): the bare truth is black off the face, and a window on the face's outline or beside an occluder would
+// otherwise score G's hair, background or sunglasses against that black.
 torch::Tensor masked_psnr(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
-torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask);
+torch::Tensor masked_ssim(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& mask,
+                          const torch::Tensor& domain = {});
+// Where the truth member `truth` is a truth, given the sample's face mask at G's size (face.png area-resized;
+// undefined for shards without one): for "bare" the face's whole pixels (the bare albedo is black off the face and
+// shows the face under occluders, which no photo does); for any other member an undefined tensor: the whole image.
+torch::Tensor truth_domain(const std::string& truth, const torch::Tensor& resized_face);
 
 class BareSkinTask : public train::Task {
  public:

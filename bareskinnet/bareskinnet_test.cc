@@ -607,6 +607,15 @@ TEST(BareSkinNet, SkinMetricsAndRegularisation) {
   EXPECT_NEAR(p[0].item<double>(), 20.0, 1e-9);
   EXPECT_NEAR(masked_ssim(a, a, mask)[1].item<double>(), 1.0, 1e-12);
   EXPECT_LT(masked_ssim(a, b + 0.05 * torch::randn_like(b), mask)[0].item<double>(), 0.9);
+  // Against a truth that exists on a domain alone (the bare albedo, black off the face), windows on the domain's edge
+  // compare the pair there: what G shows off it (hair, background) does not count.
+  auto truth = a.clone() + 0.05 * torch::randn_like(a) * mask;
+  auto g = truth * mask + (1 - mask) * 0.7;
+  auto black = truth * mask;
+  EXPECT_NEAR(masked_ssim(g, black, mask, mask)[0].item<double>(), 1.0, 1e-12);
+  EXPECT_LT(masked_ssim(g, black, mask)[0].item<double>(), 0.9);
+  EXPECT_FALSE(truth_domain("before", mask).defined());
+  EXPECT_TRUE(torch::equal(truth_domain("bare", mask * 0.9995), mask));
   // L_reg: Σα² + Σβ² + Σδ² per face, batch mean; R and t do not count.
   auto c = torch::zeros({2, kLayout.size()});
   c[0][0] = 1;

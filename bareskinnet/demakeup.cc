@@ -173,7 +173,7 @@ void add_region_metrics(std::map<std::string, torch::Tensor>& m, const data::Bat
   auto changed = makeup_region(makeup, take("before"), face);
   for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
     m["psnr_face_" + name + "bare"] = masked_psnr(x, bare, face);
-    m["ssim_face_" + name + "bare"] = masked_ssim(x, bare, face);
+    m["ssim_face_" + name + "bare"] = masked_ssim(x, bare, face, face);
     m["psnr_makeup_" + name + "bare"] = region_psnr(x, bare, changed);
     m["psnr_makeup_" + name + "before"] = region_psnr(x, take("before"), changed);
   }
@@ -239,13 +239,14 @@ EvalResult evaluate_generator(const Demakeup& d, const std::string& split, const
     auto take = [&](const std::string& name) { return area_resized(batch.at(name).narrow(0, 0, n).to(eo.device), d.size); };
     auto makeup = take("makeup");
     auto skin = whole_footprint(take("skin"));
+    const auto face_mask = batch.tensors.count("face") ? take("face") : torch::Tensor();
     auto out = run_generator(d, makeup);
     std::map<std::string, torch::Tensor> m;  // per image [n]; NaN where an image has none of a region
     for (const char* truth : {"bare", "before"}) {
       auto t = take(truth);
       for (auto [name, x] : {std::pair<std::string, torch::Tensor>{"", out}, {"input_", makeup}}) {
         m["psnr_" + name + truth] = masked_psnr(x, t, skin);
-        m["ssim_" + name + truth] = masked_ssim(x, t, skin);
+        m["ssim_" + name + truth] = masked_ssim(x, t, skin, truth_domain(truth, face_mask));
         if (lpips) m["lpips_" + name + truth] = lpips->forward(x * skin, t * skin);
         if (face && std::string(truth) == "bare") {
           auto ea = F::normalize(face->forward(x), F::NormalizeFuncOptions().dim(1));

@@ -192,6 +192,42 @@ TEST(Ssim, IdentityGradientsAndBadInput) {
   EXPECT_THROW(ssim(a, b, even), InvalidInput);
 }
 
+TEST(Ssim, DomainWindowsCompareTheDomainAlone) {
+  const auto [a, b] = image_pair(2, 3, 24, 20, 1);
+  const SsimOptions o;
+  // A domain of ones is the plain map.
+  EXPECT_TRUE(torch::allclose(ssim_map(a, b, torch::ones({2, 1, 24, 20}, torch::kDouble), o), ssim_map(a, b, o),
+                              1e-12, 1e-12));
+  // A domain: the left 12 columns and a hole; one window position checked against its weighted moments, summed here.
+  auto d = torch::zeros({2, 1, 24, 20}, torch::kDouble);
+  d.narrow(3, 0, 12).fill_(1);
+  d.narrow(2, 8, 3).narrow(3, 2, 3).zero_();
+  const torch::Tensor map = ssim_map(a, b, d, o);
+  const int64_t i0 = 3, j0 = 4, r = o.window / 2;  // the window centred on (i0 + r, j0 + r): straddles the edge
+  std::vector<double> g(size_t(o.window));
+  double gs = 0;
+  for (int u = 0; u < o.window; ++u) gs += g[size_t(u)] = std::exp(-double((u - r) * (u - r)) / (2 * o.sigma * o.sigma));
+  for (int64_t c = 0; c < 3; ++c) {
+    double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    for (int u = 0; u < o.window; ++u)
+      for (int v = 0; v < o.window; ++v) {
+        const double w = g[size_t(u)] * g[size_t(v)] / (gs * gs) * d[1][0][i0 + u][j0 + v].item<double>();
+        const double x = a[1][c][i0 + u][j0 + v].item<double>(), y = b[1][c][i0 + u][j0 + v].item<double>();
+        n += w, sx += w * x, sy += w * y, sxx += w * x * x, syy += w * y * y, sxy += w * x * y;
+      }
+    const double mx = sx / n, my = sy / n, vx = sxx / n - mx * mx, vy = syy / n - my * my, cxy = sxy / n - mx * my;
+    const double c1 = 1e-4, c2 = 9e-4;
+    const double expect = (2 * mx * my + c1) * (2 * cxy + c2) / ((mx * mx + my * my + c1) * (vx + vy + c2));
+    EXPECT_NEAR(map[1][c][i0][j0].item<double>(), expect, 1e-12);
+  }
+  // What lies off the domain does not count; a pair equal on it scores 1 at every position.
+  const torch::Tensor b_off = b + (1 - d) * torch::rand_like(b);
+  EXPECT_TRUE(torch::allclose(ssim_map(a, b_off, d, o), map, 1e-12, 1e-12));
+  EXPECT_LT(ssim_map(a, b_off, o).mean().item<double>(), ssim_map(a, b, o).mean().item<double>());
+  EXPECT_NEAR(ssim_map(a, a + (1 - d) * 0.3, d, o).min().item<double>(), 1.0, 1e-12);
+  EXPECT_THROW(ssim_map(a, b, d.narrow(3, 0, 19), o), InvalidInput);
+}
+
 TEST(Vgg16, SeededTrunkAndLpipsFormulaMatchTorchvision) {
   const auto [a, b] = image_pair(2, 3, 32, 40, 1);
   const nlohmann::json ref = oracle("lpips-vgg16-random", a, b, std::to_string(Vgg16FeaturesImpl::kRandomSeed));

@@ -19,6 +19,14 @@ struct SsimOptions {
 // InvalidInput when the images differ in shape or are smaller than the window.
 torch::Tensor ssim_map(const torch::Tensor& a, const torch::Tensor& b, const SsimOptions& options = {});
 
+// The same with each window's moments taken over the pixels of `domain` ([B, 1, H, W], weights in [0, 1]) alone:
+// μx = Σ g·d·x / Σ g·d and likewise for σ², σxy (g the window's Gaussian, d the domain). For a pair whose truth
+// exists on part of the image only (a face's bare albedo, black off the face), a window on that part's edge compares
+// the two images where the truth is, and what lies off it does not count. A domain of ones gives the map above; a
+// window with no pixel of the domain reads 1.
+torch::Tensor ssim_map(const torch::Tensor& a, const torch::Tensor& b, const torch::Tensor& domain,
+                       const SsimOptions& options = {});
+
 // Mean SSIM per image, [B]: the map's mean over channels and positions. Equals scikit-image's
 // structural_similarity(gaussian_weights=True, sigma=1.5, use_sample_covariance=False, data_range=L, channel_axis).
 // A loss is 1 − ssim(a, b).mean().
