@@ -308,6 +308,17 @@ TEST(Faces, SubjectsAlbedoStaysWithinTheRangeOfSkin) {
   for (const SkinTones tones : {SkinTones::Model, SkinTones::Balanced, SkinTones::Mixed})
     for (int i = 0; i < 24; ++i)
       EXPECT_LE(out_of_range(model_subject(wide, none, 3, i, tones).delta), 0.02) << "subject " << i;
+  // A model none of whose draws is skin (its mean albedo past white) is refused in one line that names it.
+  MorphableModel white = read_model(tiny_model());
+  white.appearance_mean.array() += 2.0f;
+  try {
+    model_subject(white, none, 3, 0);
+    ADD_FAILURE() << "a model whose albedo is never within [0, 1] was accepted";
+  } catch (const InvalidInput& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("--model"), std::string::npos) << what;
+    EXPECT_NE(what.find("reaches no skin whose albedo stays within [0, 1]"), std::string::npos) << what;
+  }
 }
 
 }  // namespace
