@@ -197,7 +197,19 @@ nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std
     CLI::Option* option = app.get_option(flag);
     if (option->count() > 0) {
       const auto given = option->results();
-      overrides[flag] = given.size() == 1 ? given.front() : CLI::detail::join(given, " ");
+      const std::string text = given.size() == 1 ? given.front() : CLI::detail::join(given, " ");
+      overrides[flag] = text;
+      // A JSON object given for a flag the profile sets to one (--g-options, --loss-weights, ...) adds its keys to
+      // the profile's and wins where both have one: the profile's other keys stay.
+      const auto profile_value = nlohmann::json::parse(value, nullptr, false);
+      const auto given_value = nlohmann::json::parse(text, nullptr, false);
+      if (profile_value.is_object() && given_value.is_object()) {
+        nlohmann::json merged = profile_value;
+        merged.update(given_value);
+        option->clear();
+        option->add_result(merged.dump());
+        option->run_callback();
+      }
       continue;
     }
     option->clear();

@@ -82,7 +82,9 @@ struct Profile {
 };
 // Registers --profile NAME on `app`; `profiles` lists them, the first is the default.
 void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles);
-// After parsing: sets each flag of the chosen profile that was not given. InvalidInput (before anything is written)
+// After parsing: sets each flag of the chosen profile that was not given; a JSON object given for a flag whose
+// profile value is one too is merged over it key by key (`--loss-weights '{"w3": 0}'` keeps the profile's other
+// weights). InvalidInput (before anything is written)
 // for an unknown profile. Returns what a run's configuration records: {"name": ..., "overrides": {flag: value given}}
 // for the profile's flags that the command line set otherwise.
 nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std::vector<Profile>& profiles);

@@ -58,6 +58,18 @@ expect_failure 3 "not a loss weight" "$work/bsnw2" -- "$bin" train bareskin --da
 import json
 t = json.load(open('$work/bsnb/stage1/config.json'))['task']
 assert t['w3'] == 0, t" || fail "--loss-weights undid the ablation row (row b with LPIPS)"
+# A JSON object beside a profile that sets the same flag adds to the profile's keys instead of replacing them: the
+# CPU profile's L_diff and L_light (20) and G's width (16) stay.
+"$bin" train bareskin --profile cpu --size 32 --batch 2 --steps1 1 --steps2 0 --eval-samples 2 --data "$work/faces" \
+  -o "$work/bsnp" --loss-weights '{"w3": 30}' --g-options '{"upsample": "resize_conv"}' --sample-every 0 \
+  --eval-every 0 -q || fail "a profile run with --loss-weights and --g-options failed"
+"$py" -c "
+import json; c = json.load(open('$work/bsnp/stage1/config.json')); t = c['task']
+assert t['w3'] == 30 and t['w_diff'] == 20 and t['w_light'] == 20, t
+assert t['g']['ngf'] == 16 and t['g']['upsample'] == 'resize_conv', t['g']
+assert c['profile']['overrides']['--loss-weights'] == '{\"w3\": 30}', c['profile']" \
+  || fail "--loss-weights or --g-options beside a profile replaced the profile's keys instead of adding to them"
+
 # An unknown profile: one line naming the profiles, nothing written (train recon's too).
 expect_failure 3 "use one of paper, cpu" "$work/bsnw2" -- "$bin" train bareskin --profile gpu --data "$work/faces" \
   -o "$work/bsnw2"
