@@ -203,7 +203,8 @@ nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std
       // the profile's and wins where both have one: the profile's other keys stay.
       const auto profile_value = nlohmann::json::parse(value, nullptr, false);
       const auto given_value = nlohmann::json::parse(text, nullptr, false);
-      if (profile_value.is_object() && given_value.is_object()) {
+      const bool replaced = std::count(found->replaced.begin(), found->replaced.end(), flag) > 0;
+      if (profile_value.is_object() && given_value.is_object() && !replaced) {
         nlohmann::json merged = profile_value;
         merged.update(given_value);
         option->clear();

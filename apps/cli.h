@@ -79,12 +79,15 @@ void add_clip_grad_norm_flag(CLI::App& app, double& norm);
 struct Profile {
   std::string name, summary;
   std::vector<std::pair<std::string, std::string>> flags;  // {"--size", "64"}, {"--g-options", "{\"ngf\": 16}"}
+  // JSON-object flags of `flags` whose keys hang on another flag (the texture net's --generator on --arch): a value
+  // given replaces the profile's whole instead of being merged over it.
+  std::vector<std::string> replaced = {};
 };
 // Registers --profile NAME on `app`; `profiles` lists them, the first is the default.
 void add_profile_flag(CLI::App& app, std::string& chosen, const std::vector<Profile>& profiles);
 // After parsing: sets each flag of the chosen profile that was not given; a JSON object given for a flag whose
 // profile value is one too is merged over it key by key (`--loss-weights '{"w3": 0}'` keeps the profile's other
-// weights). InvalidInput (before anything is written)
+// weights), unless the profile lists the flag in `replaced`. InvalidInput (before anything is written)
 // for an unknown profile. Returns what a run's configuration records: {"name": ..., "overrides": {flag: value given}}
 // for the profile's flags that the command line set otherwise.
 nlohmann::json apply_profile(CLI::App& app, const std::string& chosen, const std::vector<Profile>& profiles);

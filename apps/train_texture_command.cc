@@ -42,7 +42,10 @@ const std::vector<Profile>& texture_profiles() {
         {"--lr", "1e-3"},
         {"--clip-grad-norm", "10"},
         {"--batch", "4"},
-        {"--steps", "1500"}}},
+        {"--steps", "1500"}},
+       // The generator's keys are the UV net's ("fill"): a --generator given, e.g. beside --arch global, replaces
+       // them whole.
+       {"--generator"}},
   };
   return profiles;
 }

@@ -17,6 +17,10 @@ astronaut=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
   || fail "train upscale"
 grep -q '^2,G/grad_norm,' "$work/up/metrics.csv" || fail "train upscale --clip-grad-norm logged no G/grad_norm"
 grep -q '"model_crc32"' "$work/tex/config.json" || fail "the model's CRC-32 is not recorded"
+# Beside the CPU profile, another architecture's --generator replaces the UV net's options (its "fill") whole.
+"$bin" -q train texture --profile cpu --arch global --data "$work/shards" -o "$work/tex_p" --model "$work/a.safetensors" \
+  --res 32 --steps 1 --batch 2 --generator '{"ngf": 4, "n_downsampling": 2, "n_blocks": 1}' \
+  || fail "train texture --profile cpu --arch global with its own --generator"
 
 # Training: a sample without a member, crops larger than the maps, an unknown map, a GAN phase from another map's run.
 expect_failure 3 "mm_normal" "$work/t2" -- "$bin" -q train texture --data "$work/no_normal" -o "$work/t2" --res 32 \
