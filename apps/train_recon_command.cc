@@ -64,6 +64,9 @@ std::function<bool()> setup_train_recon(CLI::App& train, const Globals& globals)
   add_profile_flag(*app, o->profile, recon_profiles());
   app->add_option("--lr", o->run.lr, "Adam's learning rate (Deep3DFaceRecon: 1e-4)")->capture_default_str();
   add_clip_grad_norm_flag(*app, o->run.clip_grad_norm);
+  app->add_option("--colour-jitter", o->run.colour_jitter, "Each training photo's channels scaled by exp(s·u), u uniform "
+                  "in [-1, 1], in linear light, with the true light γ scaled alike, so F cannot tell a trained identity "
+                  "by its skin's colour (0: off)")->capture_default_str();
   app->add_option("--decay-every", o->run.decay_every, "Steps between ×0.2 decays (0: half the steps, as "
                                                    "Deep3DFaceRecon's 10 of 20 epochs; -1: never)")->capture_default_str();
   app->add_option("--eval-batches", o->run.eval_batches, "Validation batches per evaluation")->capture_default_str();

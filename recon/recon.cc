@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <random>
 #include <type_traits>
 
 #include "core/error.h"
@@ -179,6 +180,24 @@ ReconTargets targets_from_batch(const data::Batch& batch, const FaceModel& model
     t.landmarks = lm->second;
   }
   return t;
+}
+
+void jitter_colour(data::Example& example, const std::string& member, double strength, uint64_t seed) {
+  if (strength == 0) return;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  double gain[3];
+  for (double& g : gain) g = std::exp(strength * u(rng));
+  torch::Tensor& image = example.tensors.at(member);
+  if (image.dim() != 3 || image.size(0) != 3) throw InvalidInput("faces sample " + example.key, "member '" + member + "' is not RGB", "");
+  const torch::Tensor g = torch::tensor({gain[0], gain[1], gain[2]}, image.options()).view({3, 1, 1});
+  image = linear_to_srgb((srgb_to_linear(image) * g).clamp(0, 1));
+  if (!example.meta.contains("coefficients") || !example.meta["coefficients"].contains("gamma")) return;
+  nlohmann::json& gamma = example.meta["coefficients"]["gamma"];
+  if (!gamma.is_array() || gamma.size() != 27) return;  // targets_from_batch names the sample
+  for (const auto& v : gamma)
+    if (!v.is_number()) return;
+  for (size_t i = 0; i < 27; ++i) gamma[i] = gamma[i].get<double>() * gain[i / 9];  // channel-major
 }
 
 ReconTargets resized(const ReconTargets& t, int64_t size) {

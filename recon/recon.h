@@ -91,6 +91,12 @@ struct ReconTargets {
 // missing member or coefficients of another model.
 ReconTargets targets_from_batch(const data::Batch& batch, const FaceModel& model, const std::string& input = "before");
 
+// A per-channel colour gain, drawn per sample, so F cannot tell a trained identity by its skin's colour alone
+// (`train recon --colour-jitter s`). Each channel's gain is exp(s·u), u uniform in [-1, 1] (s 0.2: ×0.82 … ×1.22),
+// applied to `member` in linear light; the light γ of the sample's coefficients is scaled by the same gains, so
+// the pair stays exact (colour = albedo · (Y(n) · γ) + specular, each linear in the channel's light). No-op at s 0.
+void jitter_colour(data::Example& example, const std::string& member, double strength, uint64_t seed);
+
 // The targets at another square size (the nets train and answer at any size; the canonical camera scales with it):
 // images area-resampled, the skin mask re-thresholded at 0.5, landmarks scaled.
 ReconTargets resized(const ReconTargets& targets, int64_t size);

@@ -255,6 +255,48 @@ TEST(ReconTask, SelfSupervisedLossFallsOnAFixedBatch) {
   EXPECT_LT(last, 0.5 * first) << "first " << first << " last " << last;
 }
 
+// The colour jitter keeps photo and truth a pair: the jittered photo is, on the face, the model's render under the
+// sample's γ scaled by the same gains (the oracle), and no jitter (s 0) changes nothing.
+TEST(ReconData, ColourJitterKeepsPhotoAndLightAPair) {
+  const FaceModel m = FaceModel::load(toy_model_path());
+  const std::string dir = temp_dir("jitter");
+  RenderedFacesOptions ro;
+  ro.count = 3;
+  ro.size = 64;
+  write_rendered_faces(dir, m, ro);
+  data::LoaderOptions lo;
+  lo.dataset = dir;
+  lo.batch_size = 1;
+  lo.shuffle_buffer = 0;
+  lo.decode_threads = 1;
+  lo.transform = [](data::Example& e, uint64_t seed) {
+    e.tensors["plain"] = e.tensors.at("before").clone();
+    e.meta["plain_gamma"] = e.meta["coefficients"]["gamma"];
+    jitter_colour(e, "before", 0, seed);
+    EXPECT_TRUE(torch::equal(e.tensors.at("before"), e.tensors.at("plain")));
+    jitter_colour(e, "before", 0.3, seed);
+  };
+  data::ShardLoader loader(lo);
+  const CoefficientLayout l = m.layout(true);
+  for (int i = 0; i < 3; ++i) {
+    const data::Batch b = loader.next();
+    const ReconTargets t = targets_from_batch(b, m);
+    const FaceRender r = m.render(t.truth, canonical_camera(64));
+    const torch::Tensor plain = torch::tensor(b.meta[0]["plain_gamma"].get<std::vector<double>>()).view({3, 9});
+    const torch::Tensor gain = t.truth[0].narrow(0, l.gamma_offset(), 27).view({3, 9}).to(torch::kDouble) / plain;
+    EXPECT_LT((gain - gain.select(1, 0).unsqueeze(1)).abs().max().item<double>(), 1e-5) << "one gain per channel";
+    EXPECT_GT((gain.select(1, 0) - 1).abs().max().item<double>(), 0.01) << "the jitter changed nothing";
+    EXPECT_LT(gain.max().item<double>(), std::exp(0.3) + 1e-5);
+    // On the face, away from its outline and where the jitter did not clip: the render under the scaled γ.
+    const torch::Tensor inside = (r.mask > 0.999) & (linear_to_srgb(r.colour) < 0.99) & (r.colour > 0);
+    const torch::Tensor want = linear_to_srgb(r.colour.clamp(0, 1)).masked_select(inside);
+    const torch::Tensor got = b.at("before").unsqueeze(0).masked_select(inside);
+    ASSERT_GT(want.numel(), 500);
+    EXPECT_LT((got - want).abs().max().item<double>(), 4.0 / 255) << "sample " << i;  // PNG's 8 bits, twice
+    EXPECT_GT((b.at("plain") - b.at("before")).abs().max().item<double>(), 0.02);
+  }
+}
+
 // Heads on a pooling grid read every cell of layer4 and start, like the global average's, at the mean face under the
 // ambient light.
 TEST(ReconNet, PoolGridHeadsStartAtTheMeanFace) {

@@ -27,6 +27,8 @@ void TrainReconOptions::check() const {
   if (decay_every < -1) throw InvalidInput("--decay-every", "must be >= -1", "0: half the steps; -1: never");
   if (!(clip_grad_norm >= 0 && std::isfinite(clip_grad_norm)))
     throw InvalidInput("--clip-grad-norm", "must be finite and >= 0", "0 is off, e.g. --clip-grad-norm 10");
+  if (!(colour_jitter >= 0 && colour_jitter <= 1))
+    throw InvalidInput("--colour-jitter", "must lie in [0, 1]", "0 is off, e.g. --colour-jitter 0.2");
   if (eval_batches < 1) throw InvalidInput("--eval-batches", "must be at least 1", "e.g. --eval-batches 8");
   ReconNetOptions net;
   net.arch = arch;
@@ -64,6 +66,10 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
   lo.required = {o.input + ".png", "json"};
   lo.batch_size = o.trainer.batch;
   lo.seed = o.trainer.seed;
+  if (o.colour_jitter > 0)
+    lo.transform = [member = o.input, s = o.colour_jitter](data::Example& e, uint64_t seed) {
+      jitter_colour(e, member, s, seed);
+    };
   data::ShardLoader loader(dist::this_rank(lo));
   {
     // The image size from the first sample; the nets take any size, the face model renders at it.
@@ -81,6 +87,7 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
     data::LoaderOptions vo = lo;
     vo.dataset = val_dir;
     vo.shuffle_buffer = 0;
+    vo.transform = nullptr;  // validation scores the photos as they are
     val = std::make_unique<data::ShardLoader>(vo);
   }
   std::shared_ptr<detect::FaceRecognitionNet> identity;
@@ -108,6 +115,7 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
                  {"model", fs::absolute(o.model).string()},
                  {"layout", {{"id", model.layout().id}, {"exp", model.layout().exp}, {"app", model.layout().app}}},
                  {"data", o.data}, {"batch", o.trainer.batch}, {"lr", o.lr}, {"clip_grad_norm", o.clip_grad_norm},
+                 {"colour_jitter", o.colour_jitter},
                  {"decay_every", o.decay_every},
                  {"seed", o.trainer.seed}, {"steps", o.trainer.steps}, {"log_every", o.trainer.log_every},
                  {"checkpoint_every", o.trainer.checkpoint_every}, {"eval_every", topt.eval_every},
@@ -115,9 +123,10 @@ TrainReconResult train_recon(const TrainReconOptions& o) {
   topt.config["profile"] = o.profile;
   topt.resumable_keys.push_back("profile");  // runs made before profiles existed have none
   // A run's stored net options and loss weights read back in today's keys, so runs from before a key existed
-  // (pool_grid, shape, clip_grad_norm: off) resume.
+  // (pool_grid, shape, clip_grad_norm and colour_jitter: off) resume.
   topt.upgrade_config = [](nlohmann::json& stored) {
     if (!stored.contains("clip_grad_norm")) stored["clip_grad_norm"] = 0.0;
+    if (!stored.contains("colour_jitter")) stored["colour_jitter"] = 0.0;
     if (stored.contains("net")) stored["net"] = nlohmann::json(stored["net"].get<ReconNetOptions>());
     if (stored.contains("loss")) stored["loss"] = nlohmann::json(stored["loss"].get<LossOptions>());
   };

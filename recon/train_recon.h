@@ -23,6 +23,7 @@ struct TrainReconOptions {
   int64_t decay_every = 0;                         // 0: half the steps; -1: never
   int64_t eval_batches = 8;
   double lr = 1e-4;
+  double colour_jitter = 0;   // jitter_colour's strength on the training samples (recon.h); 0: off
   double clip_grad_norm = 0;  // each step's gradients scaled to at most this norm, logged as <net>/grad_norm; 0: off
   // steps, batch, seed, device, ...: Deep3DFaceRecon's 20k steps of 8
   train::RunFlags trainer = [] {

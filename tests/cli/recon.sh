@@ -83,6 +83,7 @@ n = struct.unpack("<Q", raw[:8])[0]
 header = json.loads(raw[8:8 + n])
 meta = json.loads(header["__metadata__"]["bareskin.checkpoint"])
 del meta["config"]["loss"]["shape"], meta["config"]["net"]["pool_grid"], meta["config"]["clip_grad_norm"]
+del meta["config"]["colour_jitter"]
 header["__metadata__"]["bareskin.checkpoint"] = json.dumps(meta, separators=(",", ":"))
 text = json.dumps(header, separators=(",", ":")).encode()
 open(sys.argv[1], "wb").write(struct.pack("<Q", len(text)) + text + raw[8 + n:])  # offsets count from the data
@@ -90,22 +91,26 @@ PY
 "$bin" -q --threads 1 train recon --arch resnet18 --width 4 --data "$work/faces" --model "$work/model.safetensors" \
   -o "$work/F" --steps 3 --batch 2 --checkpoint-every 1 --eval-every 0 --sample-every 0 --log-every 1 \
   --gamma on --loss '{"identity": 0}' --resume \
-  || fail "a run from before the shape term, pool_grid and clip_grad_norm did not resume"
+  || fail "a run from before the shape term, pool_grid, clip_grad_norm and colour_jitter did not resume"
 grep -q '^3,' "$work/F/metrics.csv" || fail "the resumed run did not reach step 3: $(tail -2 "$work/F/metrics.csv")"
 expect_failure 3 "loss" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0, "shape": 1}' --resume
 expect_failure 3 "clip_grad_norm" "" -- "$bin" -q train recon --arch resnet18 --width 4 --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/F" --steps 4 --batch 2 --gamma on --loss '{"identity": 0}' \
   --clip-grad-norm 1 --resume
-# --clip-grad-norm: the norm before clipping is logged; a negative norm is one line, nothing written.
+# --clip-grad-norm: the norm before clipping is logged; a negative norm is one line, nothing written. The colour
+# jitter rides along (its pairing of photo and light: recon_test's ReconData.ColourJitterKeepsPhotoAndLightAPair).
 "$bin" -q --threads 1 train recon --arch resnet18 --width 4 --data "$work/faces" --model "$work/model.safetensors" \
   -o "$work/Fclip" --steps 1 --batch 2 --eval-every 0 --sample-every 0 --log-every 1 --loss '{"identity": 0}' \
-  --clip-grad-norm 0.5 || fail "train recon --clip-grad-norm failed"
+  --clip-grad-norm 0.5 --colour-jitter 0.2 || fail "train recon --clip-grad-norm --colour-jitter failed"
+grep -q '"colour_jitter": 0.2' "$work/Fclip/config.json" || fail "the run's config lacks its colour_jitter"
 grep -q "^1,E/grad_norm," "$work/Fclip/metrics.csv" \
   || fail "no E/grad_norm logged (resnet18: E): $(head -3 "$work/Fclip/metrics.csv")"
 grep -q '"clip_grad_norm": 0.5' "$work/Fclip/config.json" || fail "the run's config lacks its clip_grad_norm"
 expect_failure 3 "--clip-grad-norm" "$work/Fneg" -- "$bin" -q train recon --data "$work/faces" \
   --model "$work/model.safetensors" -o "$work/Fneg" --clip-grad-norm -1
+expect_failure 3 "--colour-jitter" "$work/Fneg" -- "$bin" -q train recon --data "$work/faces" \
+  --model "$work/model.safetensors" -o "$work/Fneg" --colour-jitter 2
 
 # A real face photo through detect → align → the (untrained) net: every output, the confidence in the coefficients.
 photo=/usr/lib/python3/dist-packages/skimage/data/astronaut.png
