@@ -60,6 +60,22 @@ const std::string& toy_model_path() {
   return path;
 }
 
+// `count` faces of the toy model rendered at 64² into a fresh folder, and a loader over them in their order.
+data::LoaderOptions rendered_loader(const std::string& name, int64_t count, int64_t batch, uint64_t seed = 1) {
+  const std::string dir = temp_dir(name);
+  RenderedFacesOptions ro;
+  ro.count = count;
+  ro.size = 64;
+  ro.seed = seed;
+  write_rendered_faces(dir, FaceModel::load(toy_model_path()), ro);
+  data::LoaderOptions lo;
+  lo.dataset = dir;
+  lo.batch_size = batch;
+  lo.shuffle_buffer = 0;
+  lo.decode_threads = 1;
+  return lo;
+}
+
 // Random coefficients of the model's layout: α, β, δ ~ N(0, 1) × scale, a turned pose, light near the default.
 torch::Tensor random_coefficients(const CoefficientLayout& l, int64_t B, uint64_t seed, double scale = 1.0) {
   torch::manual_seed(seed);
@@ -215,17 +231,7 @@ TEST(ReconLosses, GradientMatchesFiniteDifferences) {
 // Tiny F on rendered faces: the self-supervised loss falls on a fixed batch.
 TEST(ReconTask, SelfSupervisedLossFallsOnAFixedBatch) {
   const FaceModel m = FaceModel::load(toy_model_path());
-  const std::string dir = temp_dir("fixed");
-  RenderedFacesOptions ro;
-  ro.count = 4;
-  ro.size = 64;
-  write_rendered_faces(dir, m, ro);
-  data::LoaderOptions lo;
-  lo.dataset = dir;
-  lo.batch_size = 4;
-  lo.shuffle_buffer = 0;
-  lo.decode_threads = 1;
-  data::ShardLoader loader(lo);
+  data::ShardLoader loader(rendered_loader("fixed", 4, 4));
   const data::Batch batch = loader.next();
   train::seed_everything(3);
   ReconTaskOptions to;
@@ -259,16 +265,7 @@ TEST(ReconTask, SelfSupervisedLossFallsOnAFixedBatch) {
 // sample's γ scaled by the same gains (the oracle), and no jitter (s 0) changes nothing.
 TEST(ReconData, ColourJitterKeepsPhotoAndLightAPair) {
   const FaceModel m = FaceModel::load(toy_model_path());
-  const std::string dir = temp_dir("jitter");
-  RenderedFacesOptions ro;
-  ro.count = 3;
-  ro.size = 64;
-  write_rendered_faces(dir, m, ro);
-  data::LoaderOptions lo;
-  lo.dataset = dir;
-  lo.batch_size = 1;
-  lo.shuffle_buffer = 0;
-  lo.decode_threads = 1;
+  data::LoaderOptions lo = rendered_loader("jitter", 3, 1);
   lo.transform = [](data::Example& e, uint64_t seed) {
     e.tensors["plain"] = e.tensors.at("before").clone();
     e.meta["plain_gamma"] = e.meta["coefficients"]["gamma"];
@@ -320,18 +317,7 @@ TEST(ReconNet, PoolGridHeadsStartAtTheMeanFace) {
 // the mean face), and the run folder holds a checkpoint that loads into a fresh net.
 TEST(ReconTask, SupervisedTrainingRecoversCoefficients) {
   const FaceModel m = FaceModel::load(toy_model_path());
-  const std::string dir = temp_dir("tiny");
-  RenderedFacesOptions ro;
-  ro.count = 8;
-  ro.size = 64;
-  ro.seed = 5;
-  write_rendered_faces(dir + "/train", m, ro);
-  data::LoaderOptions lo;
-  lo.dataset = dir + "/train";
-  lo.batch_size = 8;
-  lo.shuffle_buffer = 0;
-  lo.decode_threads = 1;
-  data::ShardLoader loader(lo);
+  data::ShardLoader loader(rendered_loader("tiny", 8, 8, 5));
   train::seed_everything(7);
   ReconTaskOptions to;
   to.net.arch = "resnet18";
