@@ -189,7 +189,8 @@ void jitter_colour(data::Example& example, const std::string& member, double str
   double gain[3];
   for (double& g : gain) g = std::exp(strength * u(rng));
   torch::Tensor& image = example.tensors.at(member);
-  if (image.dim() != 3 || image.size(0) != 3) throw InvalidInput("faces sample " + example.key, "member '" + member + "' is not RGB", "");
+  if (image.dim() != 3 || image.size(0) != 3)
+    throw InvalidInput("faces sample " + example.key, "member '" + member + "' is not RGB", "");
   const torch::Tensor g = torch::tensor({gain[0], gain[1], gain[2]}, image.options()).view({3, 1, 1});
   image = linear_to_srgb((srgb_to_linear(image) * g).clamp(0, 1));
   if (!example.meta.contains("coefficients") || !example.meta["coefficients"].contains("gamma")) return;
