@@ -180,6 +180,30 @@ TEST(NetsForward, UNetShapesRangeAndGradient) {
   EXPECT_FALSE(nlohmann::json(UNetOptions{}).contains("max_mult"));
   EXPECT_EQ(nlohmann::json(wide).get<UNetOptions>().max_mult, 32);
   EXPECT_THROW(nlohmann::json({{"max_mult", 0}}).get<UNetOptions>(), InvalidInput);
+  // tanh false: the same weights without the final tanh (the module and the inference path), written only when set.
+  UNetOptions linear{3, 3, 8, 6};
+  linear.tanh = false;
+  UNet lin(linear);
+  torch::manual_seed(5);
+  for (auto& p : lin->parameters()) p.data().normal_(0, 0.5);  // outputs well beyond ±1
+  UNet tanh_net(UNetOptions{3, 3, 8, 6});
+  {
+    torch::NoGradGuard no_grad;
+    auto params = tanh_net->named_parameters();
+    for (const auto& p : lin->named_parameters()) params[p.key()].copy_(p.value());
+    auto buffers = tanh_net->named_buffers();
+    for (const auto& b : lin->named_buffers()) buffers[b.key()].copy_(b.value());
+  }
+  lin->eval();
+  tanh_net->eval();
+  const torch::Tensor x = torch::randn({1, 3, 64, 64});
+  const torch::Tensor y = lin->forward(x);
+  EXPECT_GT(y.abs().max().item<double>(), 1.5);
+  EXPECT_TRUE(torch::allclose(torch::tanh(y), tanh_net->forward(x), 1e-5, 1e-5));
+  const torch::Tensor fused = UNetInference(*lin).forward(x.clone());
+  EXPECT_LT(((fused - y).abs().max() / y.abs().max()).item<double>(), 1e-5) << y.abs().max().item<double>();
+  EXPECT_FALSE(nlohmann::json(UNetOptions{}).contains("tanh"));
+  EXPECT_FALSE(nlohmann::json(linear).get<UNetOptions>().tanh);
 }
 
 TEST(NetsForward, UNetDropoutOnlyWhenTraining) {

@@ -41,6 +41,7 @@ const auto kUNetFields = [](auto& v, auto& o) {
   v("ngf", o.ngf);
   v("num_downs", o.num_downs);
   v.unless_default("max_mult", o.max_mult);  // written only when set: configurations from before it read the same
+  v.unless_default("tanh", o.tanh);          // the same
   v("norm", o.norm);
   v("dropout", o.dropout);
   v("upsample", o.upsample);
@@ -63,7 +64,7 @@ torch::Tensor ResizeConvImpl::forward(torch::Tensor x) {
 }
 
 // The reference's UnetSkipConnectionBlock, module for module (indices matter for the names):
-//   outermost:    [downconv, submodule, ReLU, upconv(2·inner → outer, bias), Tanh]
+//   outermost:    [downconv, submodule, ReLU, upconv(2·inner → outer, bias), Tanh (unless tanh is false)]
 //   intermediate: [LeakyReLU, downconv, downnorm, submodule, ReLU, upconv(2·inner → outer), upnorm, (Dropout)]
 //   innermost:    [LeakyReLU, downconv, ReLU, upconv(inner → outer), upnorm]
 UNetBlockImpl::UNetBlockImpl(Kind kind, int64_t outer, int64_t inner, int64_t input, const UNetOptions& o, bool dropout,
@@ -78,7 +79,7 @@ UNetBlockImpl::UNetBlockImpl(Kind kind, int64_t outer, int64_t inner, int64_t in
     model_->push_back(std::move(submodule));
     model_->push_back(nn::ReLU());
     model_->push_back(upsampler(o, inner * 2, outer, true));
-    model_->push_back(nn::Tanh());
+    if (o.tanh) model_->push_back(nn::Tanh());
   } else if (kind == Kind::innermost) {
     model_->push_back(leaky);
     model_->push_back(downconv);
@@ -276,7 +277,7 @@ torch::Tensor UNetInference::upsample(const Level& l, const torch::Tensor& x) co
   return l.up_norm ? l.up_norm->forward(y) : y;
 }
 
-// One level: outermost  tanh(up(relu(inner(down(x)))));
+// One level: outermost  tanh(up(relu(inner(down(x))))) (without the tanh when options.tanh is false);
 //            the others cat(x, up(relu(inner(down(leaky(x)))))) — the parent's ReLU follows the concatenation, and
 //            relu(leaky(x)) = relu(x), so x may be replaced by leaky(x) in place (as the reference's in-place
 //            LeakyReLU does).
@@ -286,7 +287,7 @@ torch::Tensor UNetInference::level_forward(size_t i, torch::Tensor x) const {
   if (l.outermost) {
     auto h = level_forward(i + 1, l.down(x));
     auto y = upsample(l, torch::relu_(h));
-    return torch::tanh_(y);
+    return options_.tanh ? torch::tanh_(y) : y;
   }
   torch::leaky_relu_(x, 0.2);
   auto h = l.down(x);

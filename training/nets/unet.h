@@ -26,6 +26,8 @@ struct UNetOptions {
   bool dropout = true;                 // pix2pix trains with dropout in the innermost levels
   std::string upsample = "transpose";  // transpose (reference) | resize_conv (bilinear ×2 + 3×3 convolution)
   int max_mult = 8;                    // the coarsest levels' width in ngf (8: pix2pix; 16, 32: wider coarse levels)
+  bool tanh = true;                    // the output through tanh (pix2pix); false: linear, for nets that add it to a
+                                       // base (a residual whose tanh saturates passes no gradient)
   void check() const;  // InvalidInput naming the option and what to do
 };
 void to_json(nlohmann::json& j, const UNetOptions& o);
